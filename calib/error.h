@@ -1,0 +1,25 @@
+// Error types shared by every module. calib is the lowest layer of hdabench,
+// so the types that cross module boundaries live here.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace hdabench {
+
+// Input from outside the program (a file, a dataset, a flag value) is unusable.
+// what() names the file (and line or field where there is one), the value and
+// what was expected. The CLI maps it to exit code 3 (README, "Exit codes").
+class InputError : public std::runtime_error {
+ public:
+  explicit InputError(const std::string& message) : std::runtime_error(message) {}
+};
+
+// A request the library cannot honour for this input by design, e.g. an OpenCV
+// conversion of a lens model OpenCV has no equivalent for. CLI exit code 3.
+class UnsupportedError : public std::runtime_error {
+ public:
+  explicit UnsupportedError(const std::string& message) : std::runtime_error(message) {}
+};
+
+}  // namespace hdabench

@@ -1,0 +1,155 @@
+// One HDA run on disk: camera model, frames, navigation, LRF, camera mount,
+// gravity, ILS and optional truth. The format is specified in
+// docs/dataset-format.md (format_version 1); frames and transforms follow
+// docs/conventions.md.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core/mat.hpp>
+
+#include "calib/camera_model.h"
+#include "calib/rigid3.h"
+#include "datasets/navigation.h"
+#include "datasets/problem.h"
+
+namespace hdabench::datasets {
+
+constexpr char kDatasetFormatName[] = "hdabench-dataset";
+constexpr int kDatasetFormatVersion = 1;
+constexpr char kManifestFileName[] = "manifest.json";
+// A quaternion is accepted when | |q| - 1 | <= this (docs/conventions.md).
+constexpr double kUnitNormTolerance = 1e-6;
+
+struct FrameRecord {
+  int index = 0;       // 0..N-1 in table order
+  double time_s = 0.0;
+  std::string image_path;  // relative to the dataset folder, '/' separated
+  // CV_8UC1 or CV_16UC1, camera imager size. Filled by LoadDataset when
+  // LoadOptions::keep_images; required by WriteDataset.
+  cv::Mat image;
+};
+
+// Truth 3D points of one frame: the local-frame point each pixel's ray hits.
+struct TruthPoints {
+  int frame = 0;     // frame index
+  std::string file;  // .npy, relative to the dataset folder
+  // CV_32FC3, camera height x width; (NaN, NaN, NaN) where the ray hits
+  // nothing. Filled by LoadDataset when LoadOptions::keep_truth; required by
+  // WriteDataset.
+  cv::Mat points_in_local_m;
+};
+
+// Truth terrain heights on a regular grid of the local x-y plane. Cell (r, c)
+// is the height (local z, metres) at x = origin.x + c * spacing_m,
+// y = origin.y - r * spacing_m: rows run from north to south, columns from west
+// to east, like a north-up map.
+struct TruthDem {
+  std::string file;  // .npy, relative to the dataset folder
+  Eigen::Vector2d origin_in_local_m = Eigen::Vector2d::Zero();  // centre of cell (0, 0)
+  double spacing_m = 1.0;                                        // > 0
+  int width_cells = 0;   // from the file (columns)
+  int height_cells = 0;  // from the file (rows)
+  // CV_32FC1, height_cells x width_cells, all finite. Filled by LoadDataset when
+  // LoadOptions::keep_truth; required by WriteDataset.
+  cv::Mat height_in_local_m;
+};
+
+struct Truth {
+  std::vector<TruthPoints> points;  // any subset of the frames, at most one each
+  std::optional<TruthDem> dem;
+
+  bool Empty() const { return points.empty() && !dem.has_value(); }
+};
+
+struct Dataset {
+  explicit Dataset(calib::CameraModel camera_model) : camera(std::move(camera_model)) {}
+
+  std::string name;
+  std::string description;
+  // Folder the dataset was loaded from; empty for one built in memory.
+  std::string dir;
+
+  // File names in the dataset folder (relative, '/' separated).
+  std::string camera_model_file = "camera.cameramodel";
+  std::string frames_file = "frames.csv";
+  std::string nav_file = "nav.csv";
+  std::string lrf_file = "lrf.csv";
+
+  calib::CameraModel camera;
+  std::vector<FrameRecord> frames;  // frames[i].index == i
+  std::vector<NavSample> nav;       // strictly increasing times
+  bool nav_has_velocity = false;    // vx_mps, vy_mps, vz_mps columns
+  bool nav_has_sigmas = false;      // sigma_* columns
+  std::vector<LrfSample> lrf;       // strictly increasing times
+
+  Rigid3d cam_from_body;                                             // camera mount
+  Eigen::Vector3d gravity_in_local_mps2 = Eigen::Vector3d(0.0, 0.0, -1.62);
+  Eigen::Vector3d ils_in_local_m = Eigen::Vector3d::Zero();          // intended landing site
+  Eigen::Vector3d lrf_origin_in_body_m = Eigen::Vector3d::Zero();    // start of the LRF beam
+
+  Truth truth;
+
+  // Poses. Frame indices must be in [0, frames.size()) and times inside the
+  // navigation span (true for every frame of a loaded dataset); otherwise these
+  // throw std::out_of_range with the index or time and the valid range.
+  //
+  // local_from_body at a time (InterpolateLocalFromBody).
+  Rigid3d LocalFromBodyAt(double time_s) const;
+  // cam_from_local = cam_from_body * inverse(local_from_body(t_frame)).
+  Rigid3d CamFromLocal(int frame) const;
+  // cam2_from_cam1 = cam_j_from_local * inverse(cam_i_from_local), i = frame1, j = frame2.
+  Rigid3d Cam2FromCam1(int frame1, int frame2) const;
+  // Distance between the two camera centres in the local frame, metres.
+  double BaselineM(int frame1, int frame2) const;
+  // LRF slant range at a time, linear between samples (InterpolateLrfRange).
+  double LrfRangeAt(double time_s) const;
+  // Camera centre of a frame in the local frame, metres.
+  Eigen::Vector3d CameraCenterInLocal(int frame) const;
+};
+
+struct LoadOptions {
+  // Decode every image to prove it is readable. When false, only the PNG chunk
+  // structure, CRCs and header (size, channels, bit depth) are checked.
+  bool decode_images = true;
+  // Keep the decoded images in Dataset::frames[i].image (implies decoding).
+  bool keep_images = false;
+  // Read every truth value to check it (finite, NaN only as whole points). When
+  // false, only the .npy headers and sizes are checked.
+  bool check_truth_values = true;
+  // Keep the truth arrays in Dataset::truth (implies reading them).
+  bool keep_truth = false;
+};
+
+struct DatasetLoadResult {
+  std::optional<Dataset> dataset;  // present exactly when problems is empty
+  std::vector<Problem> problems;   // every defect found, in file order
+
+  bool Ok() const { return problems.empty() && dataset.has_value(); }
+  // "ok: NAME, N frames" or "N problem(s)".
+  std::string Summary() const;
+};
+
+// Reads and checks the dataset in folder `dir` (docs/dataset-format.md, "What
+// the loader checks"). Every problem is reported, not only the first; the
+// dataset is returned only when there is none. Never throws for anything found
+// on disk and prints nothing. Decoding images redirects stderr (fd 2) for the
+// duration of each decode, so do not load from several threads at once.
+DatasetLoadResult LoadDataset(const std::string& dir, const LoadOptions& options = LoadOptions());
+
+// Writes `dataset` into folder `dir` in the format LoadDataset reads, using the
+// file names held in `dataset` (doubles printed so they read back identical,
+// images as PNG, truth as .npy). Everything is written into a temporary sibling
+// folder that is renamed to `dir` at the end, so `dir` either receives the
+// whole dataset or is left as it was. `dir` must not exist or be an empty
+// folder. Throws std::invalid_argument when the dataset cannot be written as is
+// (an image or truth array missing, of the wrong type or size; a bad or
+// repeated path; frame indices not 0..N-1), and InputError when `dir` is not
+// usable or a file cannot be written.
+void WriteDataset(const Dataset& dataset, const std::string& dir);
+
+}  // namespace hdabench::datasets

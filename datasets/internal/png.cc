@@ -1,0 +1,257 @@
+#include "datasets/internal/png.h"
+
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <stdexcept>
+#include <vector>
+
+#include <unistd.h>
+
+#include <opencv2/core/utils/logger.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+namespace hdabench::datasets::internal {
+
+namespace {
+
+constexpr unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+
+std::uint32_t ReadBigEndian32(const std::string& bytes, size_t offset) {
+  std::uint32_t value = 0;
+  for (size_t i = 0; i < 4; ++i) {
+    value = (value << 8) | static_cast<unsigned char>(bytes[offset + i]);
+  }
+  return value;
+}
+
+// CRC-32 as the PNG specification defines it (ISO 3309, polynomial 0xedb88320).
+std::uint32_t Crc32(const std::string& bytes, size_t begin, size_t length) {
+  static const std::array<std::uint32_t, 256> table = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t n = 0; n < 256; ++n) {
+      std::uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = (c & 1U) != 0 ? 0xedb88320U ^ (c >> 1) : c >> 1;
+      t[n] = c;
+    }
+    return t;
+  }();
+  std::uint32_t crc = 0xffffffffU;
+  for (size_t i = begin; i < begin + length; ++i) {
+    crc = table[(crc ^ static_cast<unsigned char>(bytes[i])) & 0xffU] ^ (crc >> 8);
+  }
+  return crc ^ 0xffffffffU;
+}
+
+std::string ChunkName(const std::string& bytes, size_t offset) {
+  std::string name = bytes.substr(offset, 4);
+  for (char& c : name) {
+    if (c < 32 || c > 126) c = '?';
+  }
+  return name;
+}
+
+std::string ColorTypeName(int color_type) {
+  switch (color_type) {
+    case 2:
+      return "a 3-channel RGB PNG";
+    case 3:
+      return "a palette (colour-mapped) PNG";
+    case 4:
+      return "a 2-channel grey + alpha PNG";
+    case 6:
+      return "a 4-channel RGBA PNG";
+    default:
+      return "a PNG of invalid colour type " + std::to_string(color_type);
+  }
+}
+
+// Sends what is written to file descriptor 2 into a temporary file for its
+// lifetime; Finish() restores fd 2 and returns what was captured.
+class StderrCapture {
+ public:
+  StderrCapture() {
+    std::fflush(stderr);
+    file_ = std::tmpfile();
+    saved_fd_ = ::dup(2);
+    if (file_ != nullptr && saved_fd_ >= 0) active_ = ::dup2(::fileno(file_), 2) >= 0;
+  }
+  ~StderrCapture() { Finish(); }
+  StderrCapture(const StderrCapture&) = delete;
+  StderrCapture& operator=(const StderrCapture&) = delete;
+
+  std::string Finish() {
+    std::string captured;
+    std::fflush(stderr);
+    if (active_) {
+      ::dup2(saved_fd_, 2);
+      active_ = false;
+    }
+    if (saved_fd_ >= 0) {
+      ::close(saved_fd_);
+      saved_fd_ = -1;
+    }
+    if (file_ != nullptr) {
+      std::rewind(file_);
+      char buffer[512];
+      size_t n = 0;
+      while ((n = std::fread(buffer, 1, sizeof(buffer), file_)) > 0 && captured.size() < 4096) {
+        captured.append(buffer, n);
+      }
+      std::fclose(file_);
+      file_ = nullptr;
+    }
+    return captured;
+  }
+
+ private:
+  std::FILE* file_ = nullptr;
+  int saved_fd_ = -1;
+  bool active_ = false;
+};
+
+std::string OneLine(std::string text) {
+  for (char& c : text) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
+  while (!text.empty() && text.back() == ' ') text.pop_back();
+  return text;
+}
+
+}  // namespace
+
+bool CheckPngStructure(const std::string& bytes, PngHeader* header, std::string* error) {
+  const size_t size = bytes.size();
+  if (size == 0) {
+    *error = "is empty (0 bytes); expected a PNG image";
+    return false;
+  }
+  if (size < 8 || bytes.compare(0, 8, reinterpret_cast<const char*>(kPngSignature), 8) != 0) {
+    *error = "is not a PNG file (no PNG signature); expected an 8-bit or 16-bit greyscale PNG";
+    return false;
+  }
+  size_t offset = 8;
+  bool seen_ihdr = false;
+  bool seen_idat = false;
+  while (true) {
+    if (offset == size) {
+      *error = "is truncated: the file ends after " + std::to_string(size) +
+               " bytes without the IEND chunk";
+      return false;
+    }
+    if (size - offset < 12) {
+      *error = "is truncated: the file ends inside a chunk header at byte " +
+               std::to_string(offset) + " (file size " + std::to_string(size) + " bytes)";
+      return false;
+    }
+    const std::uint32_t length = ReadBigEndian32(bytes, offset);
+    const std::string name = ChunkName(bytes, offset + 4);
+    if (length > 0x7fffffffU) {
+      *error = "is corrupt: chunk '" + name + "' at byte " + std::to_string(offset) +
+               " has an invalid length " + std::to_string(length);
+      return false;
+    }
+    if (size - offset - 12 < length) {
+      *error = "is truncated: chunk '" + name + "' at byte " + std::to_string(offset) + " needs " +
+               std::to_string(length + 12U) + " bytes but the file ends after " +
+               std::to_string(size - offset) + " (file size " + std::to_string(size) + " bytes)";
+      return false;
+    }
+    const std::uint32_t stored_crc = ReadBigEndian32(bytes, offset + 8 + length);
+    if (Crc32(bytes, offset + 4, length + 4U) != stored_crc) {
+      *error = "is corrupt: CRC mismatch in chunk '" + name + "' at byte " + std::to_string(offset);
+      return false;
+    }
+    if (!seen_ihdr) {
+      if (name != "IHDR" || length != 13) {
+        *error = "is corrupt: the first chunk is '" + name + "' of " + std::to_string(length) +
+                 " bytes; expected 'IHDR' of 13 bytes";
+        return false;
+      }
+      seen_ihdr = true;
+      const std::uint32_t width = ReadBigEndian32(bytes, offset + 8);
+      const std::uint32_t height = ReadBigEndian32(bytes, offset + 12);
+      if (width == 0 || height == 0 || width > 0x7fffffffU || height > 0x7fffffffU) {
+        *error = "is corrupt: IHDR gives an invalid size " + std::to_string(width) + " x " +
+                 std::to_string(height) + " px";
+        return false;
+      }
+      header->width_px = static_cast<int>(width);
+      header->height_px = static_cast<int>(height);
+      header->bit_depth = static_cast<unsigned char>(bytes[offset + 16]);
+      header->color_type = static_cast<unsigned char>(bytes[offset + 17]);
+    } else if (name == "IHDR") {
+      *error = "is corrupt: a second IHDR chunk at byte " + std::to_string(offset);
+      return false;
+    }
+    if (name == "IDAT") seen_idat = true;
+    offset += 12U + length;
+    if (name == "IEND") {
+      if (!seen_idat) {
+        *error = "is corrupt: no IDAT (image data) chunk before IEND";
+        return false;
+      }
+      if (offset != size) {
+        *error = "has " + std::to_string(size - offset) +
+                 " bytes after the IEND chunk; expected the file to end there";
+        return false;
+      }
+      break;
+    }
+  }
+  if (header->color_type != 0) {
+    *error = "is " + ColorTypeName(header->color_type) +
+             "; expected a single-channel greyscale PNG (colour type 0)";
+    return false;
+  }
+  if (header->bit_depth != 8 && header->bit_depth != 16) {
+    *error = "is a " + std::to_string(header->bit_depth) +
+             "-bit greyscale PNG; expected 8 or 16 bits per pixel";
+    return false;
+  }
+  return true;
+}
+
+bool DecodePngQuietly(const std::string& bytes, cv::Mat* image, std::string* error) {
+  const cv::utils::logging::LogLevel saved_level =
+      cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
+  std::string exception_text;
+  std::string captured;
+  {
+    StderrCapture capture;
+    try {
+      const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1,
+                           const_cast<char*>(bytes.data()));
+      *image = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
+    } catch (const std::exception& e) {
+      exception_text = e.what();
+      image->release();
+    }
+    captured = capture.Finish();
+  }
+  cv::utils::logging::setLogLevel(saved_level);
+
+  if (!image->empty() && image->channels() == 1 &&
+      (image->depth() == CV_8U || image->depth() == CV_16U)) {
+    return true;
+  }
+  std::string detail = OneLine(captured.empty() ? exception_text : captured);
+  if (!image->empty()) detail = "decoded to an image of OpenCV type " + std::to_string(image->type());
+  *error = "cannot be decoded as a PNG" + (detail.empty() ? std::string() : " (" + detail + ")");
+  image->release();
+  return false;
+}
+
+std::string EncodePng(const cv::Mat& image) {
+  if (image.empty() || image.channels() != 1 ||
+      (image.depth() != CV_8U && image.depth() != CV_16U)) {
+    throw std::invalid_argument("EncodePng: expected a non-empty CV_8UC1 or CV_16UC1 image");
+  }
+  std::vector<unsigned char> buffer;
+  if (!cv::imencode(".png", image, buffer)) {
+    throw std::runtime_error("EncodePng: OpenCV could not encode the image");
+  }
+  return std::string(buffer.begin(), buffer.end());
+}
+
+}  // namespace hdabench::datasets::internal

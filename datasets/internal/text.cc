@@ -1,0 +1,75 @@
+#include "datasets/internal/text.h"
+
+#include <charconv>
+#include <cmath>
+#include <system_error>
+
+namespace hdabench::datasets::internal {
+
+std::string FormatDouble(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buffer[64];
+  const std::to_chars_result result = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  return std::string(buffer, result.ptr);
+}
+
+std::string FormatVector(const Eigen::VectorXd& values) {
+  std::string text = "(";
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    if (i > 0) text += ", ";
+    text += FormatDouble(values[i]);
+  }
+  return text + ")";
+}
+
+std::string_view Trim(std::string_view text) {
+  size_t begin = 0;
+  size_t end = text.size();
+  while (begin < end && (text[begin] == ' ' || text[begin] == '\t')) ++begin;
+  while (end > begin && (text[end - 1] == ' ' || text[end - 1] == '\t')) --end;
+  return text.substr(begin, end - begin);
+}
+
+namespace {
+// Trims `text` and drops one leading '+', which from_chars does not take.
+// Returns kOk, kEmpty, or kNotNumber for a sign alone or "+-1".
+ParseStatus PrepareNumber(std::string_view* text) {
+  *text = Trim(*text);
+  if (text->empty()) return ParseStatus::kEmpty;
+  if (text->front() == '+') {
+    text->remove_prefix(1);
+    if (text->empty() || text->front() == '-' || text->front() == '+') return ParseStatus::kNotNumber;
+  }
+  return ParseStatus::kOk;
+}
+}  // namespace
+
+ParseStatus ParseDouble(std::string_view text, double* value) {
+  if (const ParseStatus status = PrepareNumber(&text); status != ParseStatus::kOk) return status;
+  const char* begin = text.data();
+  const char* end = text.data() + text.size();
+  const std::from_chars_result result = std::from_chars(begin, end, *value);
+  if (result.ec == std::errc::result_out_of_range) return ParseStatus::kOutOfRange;
+  if (result.ec != std::errc() || result.ptr != end) return ParseStatus::kNotNumber;
+  if (!std::isfinite(*value)) return ParseStatus::kNotFinite;
+  return ParseStatus::kOk;
+}
+
+ParseStatus ParseInt(std::string_view text, int* value) {
+  if (const ParseStatus status = PrepareNumber(&text); status != ParseStatus::kOk) return status;
+  const char* begin = text.data();
+  const char* end = text.data() + text.size();
+  const std::from_chars_result result = std::from_chars(begin, end, *value);
+  if (result.ec == std::errc::result_out_of_range) return ParseStatus::kOutOfRange;
+  if (result.ec == std::errc() && result.ptr == end) return ParseStatus::kOk;
+  // Tell "2.5" (a number, not whole) from "abc".
+  double as_double = 0.0;
+  const ParseStatus as_number = ParseDouble(text, &as_double);
+  if (as_number == ParseStatus::kOk || as_number == ParseStatus::kNotFinite) {
+    return ParseStatus::kNotInteger;
+  }
+  return ParseStatus::kNotNumber;
+}
+
+}  // namespace hdabench::datasets::internal

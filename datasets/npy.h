@@ -1,0 +1,39 @@
+// Float32 arrays in numpy's .npy format (version 1.0 written; 1.0, 2.0 and 3.0
+// read), the format of the dataset's truth rasters. Any numpy opens them with
+// numpy.load(path). Only little-endian float32 ('<f4') in C order is accepted.
+// https://numpy.org/doc/stable/reference/generated/numpy.lib.format.html
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hdabench::datasets {
+
+struct NpyFloat32 {
+  std::vector<std::int64_t> shape;  // numpy's shape, slowest axis first
+  std::vector<float> values;        // C order (last axis fastest)
+
+  std::int64_t NumValues() const;   // product of shape (1 for a 0-d array)
+};
+
+// Parses .npy bytes. Returns false with `error` (a message without the file
+// name) when the magic, version or header is malformed, the dtype is not '<f4',
+// fortran_order is True, or the data size does not match the shape. The shape
+// is checked against the data size before anything is allocated.
+bool ParseNpyFloat32(const std::string& bytes, NpyFloat32* array, std::string* error);
+
+// The same, reading only the header: `array->values` stays empty. Also checks
+// that the file holds exactly the bytes the shape needs.
+bool ParseNpyFloat32Header(const std::string& bytes, NpyFloat32* array, std::string* error);
+
+// Encodes a float32 array as .npy version 1.0 bytes. The header is padded so
+// the data starts at a multiple of 64 bytes, as numpy does. Throws
+// std::invalid_argument when values.size() != the product of shape.
+std::string EncodeNpyFloat32(const std::vector<std::int64_t>& shape, const float* values,
+                             std::size_t num_values);
+
+// "(256, 256, 3)", numpy's spelling of a shape.
+std::string FormatNpyShape(const std::vector<std::int64_t>& shape);
+
+}  // namespace hdabench::datasets

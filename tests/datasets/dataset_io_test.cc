@@ -1,0 +1,306 @@
+// WriteDataset / LoadDataset round trips, determinism of the example, and the
+// `hdabench dataset` commands on good input.
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "calib/error.h"
+#include "datasets/dataset.h"
+#include "datasets/example.h"
+#include "tests/support/test_support.h"
+
+namespace hdabench::datasets {
+namespace {
+
+namespace fs = std::filesystem;
+using testing_support::CurrentTestSeed;
+using testing_support::FreshTestDir;
+using testing_support::ReadText;
+using testing_support::RunHdabench;
+
+// Every regular file under `dir`, by relative path, with its bytes.
+std::map<std::string, std::string> FilesUnder(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dir)) {
+    if (entry.is_regular_file()) {
+      files[fs::relative(entry.path(), dir).generic_string()] = ReadText(entry.path());
+    }
+  }
+  return files;
+}
+
+bool SameBytes(const cv::Mat& a, const cv::Mat& b) {
+  if (a.type() != b.type() || a.size() != b.size()) return false;
+  const size_t bytes = a.total() * a.elemSize();
+  return a.isContinuous() && b.isContinuous() && std::memcmp(a.data, b.data, bytes) == 0;
+}
+
+LoadOptions KeepEverything() {
+  LoadOptions options;
+  options.keep_images = true;
+  options.keep_truth = true;
+  return options;
+}
+
+TEST(WriteDataset, LoadGivesIdenticalValues) {
+  const std::uint64_t seed = CurrentTestSeed();
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  const fs::path dir = FreshTestDir() / "dataset";
+  const Dataset written = MakeExampleDataset(seed);
+  WriteDataset(written, dir.string());
+  const DatasetLoadResult result = LoadDataset(dir.string(), KeepEverything());
+  ASSERT_TRUE(result.Ok()) << result.Summary() << ": "
+                           << (result.problems.empty() ? "" : result.problems[0].ToString());
+  const Dataset& read = *result.dataset;
+
+  EXPECT_EQ(read.name, written.name);
+  EXPECT_EQ(read.description, written.description);
+  EXPECT_EQ(read.dir, dir.string());
+  EXPECT_EQ(read.camera_model_file, written.camera_model_file);
+  EXPECT_EQ(read.camera.LensModelName(), written.camera.LensModelName());
+  EXPECT_EQ(read.camera.Intrinsics(), written.camera.Intrinsics());
+  EXPECT_EQ(read.camera.WidthPx(), written.camera.WidthPx());
+  EXPECT_EQ(read.camera.HeightPx(), written.camera.HeightPx());
+
+  EXPECT_EQ(read.cam_from_body.rotation.coeffs(), written.cam_from_body.rotation.coeffs());
+  EXPECT_EQ(read.cam_from_body.translation, written.cam_from_body.translation);
+  EXPECT_EQ(read.gravity_in_local_mps2, written.gravity_in_local_mps2);
+  EXPECT_EQ(read.ils_in_local_m, written.ils_in_local_m);
+  EXPECT_EQ(read.lrf_origin_in_body_m, written.lrf_origin_in_body_m);
+
+  ASSERT_EQ(read.frames.size(), written.frames.size());
+  for (size_t i = 0; i < read.frames.size(); ++i) {
+    EXPECT_EQ(read.frames[i].index, written.frames[i].index);
+    EXPECT_EQ(read.frames[i].time_s, written.frames[i].time_s);
+    EXPECT_EQ(read.frames[i].image_path, written.frames[i].image_path);
+    EXPECT_TRUE(SameBytes(read.frames[i].image, written.frames[i].image)) << "frame " << i;
+  }
+  ASSERT_EQ(read.nav.size(), written.nav.size());
+  EXPECT_EQ(read.nav_has_velocity, written.nav_has_velocity);
+  EXPECT_EQ(read.nav_has_sigmas, written.nav_has_sigmas);
+  for (size_t i = 0; i < read.nav.size(); ++i) {
+    const NavSample& a = read.nav[i];
+    const NavSample& b = written.nav[i];
+    EXPECT_EQ(a.time_s, b.time_s);
+    EXPECT_EQ(a.local_from_body.translation, b.local_from_body.translation);
+    EXPECT_EQ(a.local_from_body.rotation.coeffs(), b.local_from_body.rotation.coeffs());
+    EXPECT_EQ(a.velocity_in_local_mps, b.velocity_in_local_mps);
+    EXPECT_EQ(a.sigma_position_in_local_m, b.sigma_position_in_local_m);
+    EXPECT_EQ(a.sigma_attitude_in_body_rad, b.sigma_attitude_in_body_rad);
+  }
+  ASSERT_EQ(read.lrf.size(), written.lrf.size());
+  for (size_t i = 0; i < read.lrf.size(); ++i) {
+    EXPECT_EQ(read.lrf[i].time_s, written.lrf[i].time_s);
+    EXPECT_EQ(read.lrf[i].range_m, written.lrf[i].range_m);
+    EXPECT_EQ(read.lrf[i].boresight_in_body, written.lrf[i].boresight_in_body);
+  }
+  ASSERT_EQ(read.truth.points.size(), written.truth.points.size());
+  for (size_t i = 0; i < read.truth.points.size(); ++i) {
+    EXPECT_EQ(read.truth.points[i].frame, written.truth.points[i].frame);
+    EXPECT_EQ(read.truth.points[i].file, written.truth.points[i].file);
+    EXPECT_TRUE(SameBytes(read.truth.points[i].points_in_local_m,
+                          written.truth.points[i].points_in_local_m));
+  }
+  ASSERT_TRUE(read.truth.dem.has_value());
+  EXPECT_EQ(read.truth.dem->origin_in_local_m, written.truth.dem->origin_in_local_m);
+  EXPECT_EQ(read.truth.dem->spacing_m, written.truth.dem->spacing_m);
+  EXPECT_EQ(read.truth.dem->width_cells, written.truth.dem->width_cells);
+  EXPECT_EQ(read.truth.dem->height_cells, written.truth.dem->height_cells);
+  EXPECT_TRUE(SameBytes(read.truth.dem->height_in_local_m, written.truth.dem->height_in_local_m));
+
+  // Poses derived from the loaded values are the same bits too.
+  const Rigid3d a = read.Cam2FromCam1(0, 5);
+  const Rigid3d b = written.Cam2FromCam1(0, 5);
+  EXPECT_EQ(a.rotation.coeffs(), b.rotation.coeffs());
+  EXPECT_EQ(a.translation, b.translation);
+}
+
+TEST(WriteDataset, RewritingALoadedDatasetIsByteIdentical) {
+  const fs::path root = FreshTestDir();
+  WriteDataset(MakeExampleDataset(CurrentTestSeed()), (root / "first").string());
+  const DatasetLoadResult loaded = LoadDataset((root / "first").string(), KeepEverything());
+  ASSERT_TRUE(loaded.Ok());
+  WriteDataset(*loaded.dataset, (root / "second").string());
+  EXPECT_EQ(FilesUnder(root / "first"), FilesUnder(root / "second"));
+}
+
+TEST(MakeExampleDataset, SameSeedGivesByteIdenticalFiles) {
+  const std::uint64_t seed = CurrentTestSeed();
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  const fs::path root = FreshTestDir();
+  WriteDataset(MakeExampleDataset(seed), (root / "a").string());
+  WriteDataset(MakeExampleDataset(seed), (root / "b").string());
+  WriteDataset(MakeExampleDataset(seed + 1), (root / "c").string());
+  const std::map<std::string, std::string> a = FilesUnder(root / "a");
+  const std::map<std::string, std::string> b = FilesUnder(root / "b");
+  const std::map<std::string, std::string> c = FilesUnder(root / "c");
+  ASSERT_EQ(a.size(), 1U + 1U + 3U + 6U + 6U + 1U);  // manifest, camera, tables, images, truth, DEM
+  EXPECT_EQ(a, b);
+  // Another seed: other texture, so other images; same geometry and tables.
+  ASSERT_EQ(a.size(), c.size());
+  for (const auto& [path, bytes] : a) {
+    SCOPED_TRACE(path);
+    if (path.rfind("images/", 0) == 0 || path == "manifest.json") {
+      EXPECT_NE(bytes, c.at(path));
+    } else {
+      EXPECT_EQ(bytes, c.at(path));
+    }
+  }
+}
+
+TEST(WriteDataset, RefusesAFolderThatIsNotEmpty) {
+  const fs::path dir = FreshTestDir() / "dataset";
+  fs::create_directories(dir);
+  testing_support::WriteText(dir / "keep.txt", "mine");
+  try {
+    WriteDataset(MakeExampleDataset(CurrentTestSeed()), dir.string());
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              dir.string() + ": exists and is not an empty folder; the dataset needs a new folder");
+  }
+  EXPECT_EQ(FilesUnder(dir).size(), 1U);
+}
+
+TEST(WriteDataset, FillsAnEmptyFolder) {
+  const fs::path dir = FreshTestDir() / "dataset";
+  fs::create_directories(dir);
+  WriteDataset(MakeExampleDataset(CurrentTestSeed()), dir.string());
+  EXPECT_TRUE(LoadDataset(dir.string()).Ok());
+}
+
+TEST(WriteDataset, MissingImageThrowsAndLeavesNothingBehind) {
+  const fs::path root = FreshTestDir();
+  Dataset dataset = MakeExampleDataset(CurrentTestSeed());
+  dataset.frames[3].image.release();
+  try {
+    WriteDataset(dataset, (root / "dataset").string());
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "WriteDataset: frame 3 has no image in memory");
+  }
+  EXPECT_TRUE(fs::is_empty(root));
+}
+
+TEST(WriteDataset, RepeatedImagePathThrows) {
+  const fs::path root = FreshTestDir();
+  Dataset dataset = MakeExampleDataset(CurrentTestSeed());
+  dataset.frames[2].image_path = "images/./frame_000001.png";
+  try {
+    WriteDataset(dataset, (root / "dataset").string());
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(),
+                 "WriteDataset: frame 2 image path 'images/./frame_000001.png' is used twice");
+  }
+  EXPECT_TRUE(fs::is_empty(root));
+}
+
+TEST(LoadDataset, KeepsImagesAndTruthOnlyWhenAsked) {
+  const fs::path dir = FreshTestDir() / "dataset";
+  WriteDataset(MakeExampleDataset(CurrentTestSeed()), dir.string());
+  const DatasetLoadResult lean = LoadDataset(dir.string());
+  ASSERT_TRUE(lean.Ok());
+  EXPECT_EQ(lean.Summary(), "ok: " + lean.dataset->name + ", 6 frames");
+  EXPECT_TRUE(lean.dataset->frames[0].image.empty());
+  EXPECT_TRUE(lean.dataset->truth.points[0].points_in_local_m.empty());
+  EXPECT_EQ(lean.dataset->truth.dem->width_cells, lean.dataset->truth.dem->width_cells);
+  LoadOptions headers_only;
+  headers_only.decode_images = false;
+  headers_only.check_truth_values = false;
+  EXPECT_TRUE(LoadDataset(dir.string(), headers_only).Ok());
+  const DatasetLoadResult full = LoadDataset(dir.string(), KeepEverything());
+  ASSERT_TRUE(full.Ok());
+  EXPECT_EQ(full.dataset->frames[0].image.type(), CV_8UC1);
+  EXPECT_EQ(full.dataset->truth.points[0].points_in_local_m.type(), CV_32FC3);
+}
+
+TEST(LoadDataset, AcceptsSixteenBitImagesAndCrlfTables) {
+  const fs::path dir = FreshTestDir() / "dataset";
+  Dataset dataset = MakeExampleDataset(CurrentTestSeed());
+  for (FrameRecord& frame : dataset.frames) frame.image.convertTo(frame.image, CV_16UC1, 257.0);
+  WriteDataset(dataset, dir.string());
+  std::string nav = ReadText(dir / "nav.csv");
+  std::string crlf;
+  for (const char c : nav) crlf += (c == '\n' ? std::string("\r\n") : std::string(1, c));
+  testing_support::WriteText(dir / "nav.csv", crlf);
+  const DatasetLoadResult result = LoadDataset(dir.string(), KeepEverything());
+  ASSERT_TRUE(result.Ok()) << result.problems[0].ToString();
+  EXPECT_EQ(result.dataset->frames[0].image.type(), CV_16UC1);
+  EXPECT_TRUE(SameBytes(result.dataset->frames[0].image, dataset.frames[0].image));
+}
+
+TEST(RunDatasetCheck, PrintsASummaryOfAValidDataset) {
+  const fs::path root = FreshTestDir();
+  const fs::path dir = root / "dataset";
+  WriteDataset(MakeExampleDataset(CurrentTestSeed()), dir.string());
+  const testing_support::CommandResult run =
+      RunHdabench({"dataset", "check", dir.string()}, root);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.err, "");
+  EXPECT_NE(run.out.find("camera:      LENSMODEL_OPENCV8, 256 x 256 px"), std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("frames:      6, 0.100 .. 2.500 s (2.400 s)"), std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("frames 0 -> 5: dt 2.400 s, baseline 31.2"), std::string::npos)
+      << run.out;
+  EXPECT_NE(run.out.find("truth:       points for 6 of 6 frames; DEM"), std::string::npos)
+      << run.out;
+
+  const testing_support::CommandResult pair =
+      RunHdabench({"dataset", "check", dir.string(), "--frames", "1,3"}, root);
+  EXPECT_EQ(pair.exit_code, 0) << pair.err;
+  EXPECT_NE(pair.out.find("frames 1 -> 3: dt 0.960 s, baseline 12.4"), std::string::npos)
+      << pair.out;
+}
+
+TEST(RunDatasetCheck, FrameOutOfRangeIsAUsageError) {
+  const fs::path root = FreshTestDir();
+  const fs::path dir = root / "dataset";
+  WriteDataset(MakeExampleDataset(CurrentTestSeed()), dir.string());
+  const testing_support::CommandResult run =
+      RunHdabench({"dataset", "check", dir.string(), "--frames", "0,6"}, root);
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_EQ(run.err, "hdabench dataset check: --frames: frame 6 is not in " + dir.string() +
+                         ", which has frames 0..5\n");
+}
+
+TEST(RunDatasetCheck, MissingFolderIsAnInputError) {
+  const fs::path root = FreshTestDir();
+  const testing_support::CommandResult run =
+      RunHdabench({"dataset", "check", (root / "nowhere").string()}, root);
+  EXPECT_EQ(run.exit_code, 3);
+  EXPECT_EQ(run.err, "hdabench dataset check: " + (root / "nowhere").string() + ": no such folder\n");
+  testing_support::WriteText(root / "file.txt", "not a folder");
+  const testing_support::CommandResult file =
+      RunHdabench({"dataset", "check", (root / "file.txt").string()}, root);
+  EXPECT_EQ(file.exit_code, 3);
+}
+
+TEST(RunDatasetCreate, WritesTheExampleAndRefusesToOverwrite) {
+  const fs::path root = FreshTestDir();
+  const fs::path dir = root / "made";
+  const testing_support::CommandResult run =
+      RunHdabench({"dataset", "create", dir.string(), "--seed", "7"}, root);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.out.find("wrote example dataset 'example-lateral-seed7'"), std::string::npos)
+      << run.out;
+  EXPECT_TRUE(LoadDataset(dir.string()).Ok());
+  // Same seed through the library: same bytes.
+  WriteDataset(MakeExampleDataset(7), (root / "library").string());
+  EXPECT_EQ(FilesUnder(dir), FilesUnder(root / "library"));
+
+  const testing_support::CommandResult again =
+      RunHdabench({"dataset", "create", dir.string()}, root);
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_EQ(again.err, "hdabench dataset create: " + dir.string() +
+                           ": exists and is not an empty folder; choose a new folder\n");
+}
+
+}  // namespace
+}  // namespace hdabench::datasets

@@ -1,0 +1,168 @@
+// Helpers shared by every test suite: per-test folders, seeds from test
+// names, file edits and running the hdabench binary.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+namespace hdabench::testing_support {
+
+namespace fs = std::filesystem;
+
+// FNV-1a of a string: seeds derived from a test's name are stable across
+// runs, machines and standard libraries (std::hash is not).
+inline std::uint64_t SeedFromName(const std::string& name) {
+  std::uint64_t hash = 0xcbf29ce484222325ULL;
+  for (const char c : name) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 0x100000001b3ULL;
+  }
+  return hash;
+}
+
+// "Suite.Test" (with the parameter suffix for TEST_P), file-name safe.
+inline std::string CurrentTestName() {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = std::string(info->test_suite_name()) + "." + info->name();
+  for (char& c : name) {
+    if (c == '/') c = '_';
+  }
+  return name;
+}
+
+inline std::uint64_t CurrentTestSeed() { return SeedFromName(CurrentTestName()); }
+
+// Removes the folder of a test that passed; a failed test keeps its folder
+// (named after the test) for inspection.
+class RemovePassedTestDirs : public ::testing::EmptyTestEventListener {
+ public:
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    if (!info.result()->Passed()) return;
+    std::string name = std::string(info.test_suite_name()) + "." + info.name();
+    for (char& c : name) {
+      if (c == '/') c = '_';
+    }
+    std::error_code ignored;
+    fs::remove_all(fs::path(HDABENCH_TEST_TMP) / name, ignored);
+  }
+};
+
+// A fresh, empty folder for the current test under the build tree; removed
+// after the test if it passes.
+inline fs::path FreshTestDir() {
+  static const bool registered = [] {
+    ::testing::UnitTest::GetInstance()->listeners().Append(new RemovePassedTestDirs);
+    return true;
+  }();
+  (void)registered;
+  const fs::path dir = fs::path(HDABENCH_TEST_TMP) / CurrentTestName();
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+inline std::string ReadText(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+inline void WriteText(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+}
+
+inline std::vector<std::string> SplitLines(const std::string& text) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) lines.push_back(line);
+  return lines;
+}
+
+inline std::string JoinLines(const std::vector<std::string>& lines) {
+  std::string text;
+  for (const std::string& line : lines) text += line + "\n";
+  return text;
+}
+
+// Replaces line `line_number` (1-based) of a text file.
+inline void ReplaceLine(const fs::path& path, int line_number, const std::string& line) {
+  std::vector<std::string> lines = SplitLines(ReadText(path));
+  lines.at(static_cast<size_t>(line_number - 1)) = line;
+  WriteText(path, JoinLines(lines));
+}
+
+inline std::vector<std::string> SplitCsv(const std::string& line) {
+  std::vector<std::string> fields;
+  std::stringstream in(line);
+  std::string field;
+  while (std::getline(in, field, ',')) fields.push_back(field);
+  return fields;
+}
+
+inline std::string JoinCsv(const std::vector<std::string>& fields) {
+  std::string line;
+  for (size_t i = 0; i < fields.size(); ++i) line += (i > 0 ? "," : "") + fields[i];
+  return line;
+}
+
+// Sets the value of `column` (by header name) on line `line_number` of a CSV file.
+inline void SetCsvValue(const fs::path& path, int line_number, const std::string& column,
+                        const std::string& value) {
+  std::vector<std::string> lines = SplitLines(ReadText(path));
+  const std::vector<std::string> header = SplitCsv(lines.at(0));
+  std::vector<std::string> fields = SplitCsv(lines.at(static_cast<size_t>(line_number - 1)));
+  for (size_t i = 0; i < header.size(); ++i) {
+    if (header[i] == column) fields.at(i) = value;
+  }
+  lines[static_cast<size_t>(line_number - 1)] = JoinCsv(fields);
+  WriteText(path, JoinLines(lines));
+}
+
+struct CommandResult {
+  int exit_code = -1;
+  std::string out;
+  std::string err;
+};
+
+inline std::string ShellQuote(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) {
+    if (c == '\'') {
+      quoted += "'\\''";
+    } else {
+      quoted += c;
+    }
+  }
+  return quoted + "'";
+}
+
+// Runs the hdabench binary with `args`; stdout and stderr go to files in `dir`.
+inline CommandResult RunHdabench(const std::vector<std::string>& args, const fs::path& dir) {
+  std::string command = ShellQuote(HDABENCH_EXE);
+  for (const std::string& arg : args) command += " " + ShellQuote(arg);
+  const fs::path out_file = dir / "cli.stdout";
+  const fs::path err_file = dir / "cli.stderr";
+  command += " >" + ShellQuote(out_file.string()) + " 2>" + ShellQuote(err_file.string());
+  const int status = std::system(command.c_str());
+  CommandResult result;
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  result.out = ReadText(out_file);
+  result.err = ReadText(err_file);
+  fs::remove(out_file);
+  fs::remove(err_file);
+  return result;
+}
+
+}  // namespace hdabench::testing_support

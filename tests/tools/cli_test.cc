@@ -1,0 +1,99 @@
+// The hdabench binary as a user meets it: help, version, exit codes.
+#include <filesystem>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "tests/support/test_support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using hdabench::testing_support::CommandResult;
+using hdabench::testing_support::FreshTestDir;
+using hdabench::testing_support::ReadText;
+
+std::vector<std::string> SplitWords(const std::string& text) {
+  std::vector<std::string> words;
+  std::istringstream in(text);
+  for (std::string word; in >> word;) words.push_back(word);
+  return words;
+}
+
+// Runs `hdabench ARGS`; out holds stdout then stderr.
+CommandResult RunHdabench(const std::vector<std::string>& args) {
+  // Each test runs in its own process: name the scratch folder after the test.
+  static int counter = 0;
+  const fs::path dir = fs::path(HDABENCH_TEST_TMP) /
+                       (hdabench::testing_support::CurrentTestName() + ".run" + std::to_string(counter++));
+  fs::create_directories(dir);
+  CommandResult result = hdabench::testing_support::RunHdabench(args, dir);
+  result.out += result.err;
+  return result;
+}
+
+TEST(Cli, HelpListsEveryCommandAndExitsZero) {
+  const CommandResult run = RunHdabench({"--help"});
+  EXPECT_EQ(run.exit_code, 0) << run.out;
+  for (const char* command : {"version", "dataset", "demo", "Exit codes"}) {
+    EXPECT_NE(run.out.find(command), std::string::npos) << command << "\n" << run.out;
+  }
+}
+
+TEST(Cli, EverySubcommandHasHelp) {
+  for (const char* command : {"version", "dataset", "dataset check", "dataset create", "demo"}) {
+    const CommandResult run = RunHdabench(SplitWords(std::string(command) + " --help"));
+    EXPECT_EQ(run.exit_code, 0) << command << "\n" << run.out;
+    EXPECT_NE(run.out.find("Usage"), std::string::npos) << command << "\n" << run.out;
+  }
+}
+
+TEST(Cli, VersionNamesTheLibraries) {
+  const CommandResult run = RunHdabench({"version"});
+  EXPECT_EQ(run.exit_code, 0);
+  EXPECT_EQ(run.out.rfind("hdabench 0.1.0\n", 0), 0u) << run.out;
+  EXPECT_NE(run.out.find("OpenCV 4."), std::string::npos) << run.out;
+  EXPECT_NE(run.out.find("libmrcal 2.2"), std::string::npos) << run.out;
+}
+
+TEST(Cli, UsageErrorsExitTwo) {
+  EXPECT_EQ(RunHdabench({}).exit_code, 2);
+  EXPECT_EQ(RunHdabench({"no-such-command"}).exit_code, 2);
+  EXPECT_EQ(RunHdabench({"dataset", "check"}).exit_code, 2);  // DIR missing
+  EXPECT_EQ(RunHdabench({"dataset", "check", "somewhere", "--no-such-flag"}).exit_code, 2);
+  const CommandResult bad_frames = RunHdabench({"dataset", "check", "somewhere", "--frames", "1-2"});
+  EXPECT_EQ(bad_frames.exit_code, 2);
+  EXPECT_NE(bad_frames.out.find("--frames"), std::string::npos) << bad_frames.out;
+  EXPECT_EQ(RunHdabench({"dataset", "create", "somewhere", "--seed", "minus-one"}).exit_code, 2);
+}
+
+TEST(Cli, MissingDatasetFolderExitsThree) {
+  const fs::path dir = FreshTestDir() / "absent";
+  const CommandResult run = RunHdabench({"dataset", "check", dir.string()});
+  EXPECT_EQ(run.exit_code, 3) << run.out;
+  EXPECT_NE(run.out.find(dir.string()), std::string::npos) << run.out;
+}
+
+TEST(Cli, DemoCreatesAndChecksTheDefaultDatasetDeterministically) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult first = RunHdabench({"demo", "--out", (dir / "a").string()});
+  ASSERT_EQ(first.exit_code, 0) << first.out;
+  EXPECT_TRUE(fs::exists(dir / "a" / "dataset" / "manifest.json"));
+  // A second run into the same folder replaces it with identical bytes.
+  const CommandResult again = RunHdabench({"demo", "--out", (dir / "a").string()});
+  ASSERT_EQ(again.exit_code, 0) << again.out;
+  ASSERT_EQ(RunHdabench({"demo", "--out", (dir / "b").string()}).exit_code, 0);
+  size_t files = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir / "a" / "dataset")) {
+    if (!entry.is_regular_file()) continue;
+    const fs::path relative = fs::relative(entry.path(), dir / "a");
+    EXPECT_EQ(ReadText(entry.path()), ReadText(dir / "b" / relative)) << relative;
+    ++files;
+  }
+  EXPECT_GT(files, 3u);
+}
+
+}  // namespace

@@ -1,0 +1,86 @@
+#!/usr/bin/env bash
+# hdabench set-up and the README's two commands.
+#
+#   tools/bench.sh run     install what is missing, build, run the main job on the built-in default
+#   tools/bench.sh test    install what is missing, build, run the whole test suite
+#                          (the normal build, then the address + undefined-behaviour sanitizer build)
+#   tools/bench.sh setup   install what is missing and build, nothing else
+#
+# Debian packages come from tools/debian-packages.txt (the one list). apt runs only
+# when something is missing, and the build is incremental, so a second run is fast
+# and changes nothing. Environment: HDABENCH_BUILD_DIR (default build),
+# HDABENCH_JOBS (default: number of cores), HDABENCH_SKIP_SANITIZE=1 to test the
+# normal build only.
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build_dir=${HDABENCH_BUILD_DIR:-$root/build}
+jobs=${HDABENCH_JOBS:-$(nproc)}
+
+say() { printf '== %s\n' "$*"; }
+die() { printf 'tools/bench.sh: error: %s\n' "$*" >&2; exit "${2:-1}"; }
+
+install_packages() {
+  local wanted=() missing=() pkg status
+  mapfile -t wanted < <(sed -e 's/#.*//' -e '/^[[:space:]]*$/d' "$root/tools/debian-packages.txt")
+  for pkg in "${wanted[@]}"; do
+    status=$(dpkg-query -W -f='${db:Status-Abbrev}' "$pkg" 2>/dev/null || true)
+    [[ $status == ii* ]] || missing+=("$pkg")
+  done
+  if ((${#missing[@]} == 0)); then
+    say "Debian packages: all ${#wanted[@]} present"
+    return
+  fi
+  say "Debian packages: installing ${#missing[@]} missing: ${missing[*]}"
+  [[ $(id -u) -eq 0 ]] || die "installing packages needs root (missing: ${missing[*]})" 3
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -qq || die "apt-get update failed" 4
+  apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null ||
+    die "apt-get install failed for: ${missing[*]}" 4
+}
+
+# configure_and_build DIR [extra cmake args...]
+configure_and_build() {
+  local dir=$1
+  shift
+  if [[ ! -f $dir/CMakeCache.txt ]]; then
+    say "Configuring $dir"
+    cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" >/dev/null
+  fi
+  say "Building $dir"
+  cmake --build "$dir" -j "$jobs" || die "build failed in $dir"
+}
+
+run_tests() {
+  local dir=$1
+  say "Testing $dir"
+  ctest --test-dir "$dir" --output-on-failure -j "$jobs"
+}
+
+command=${1:-}
+case $command in
+  setup)
+    install_packages
+    configure_and_build "$build_dir"
+    ;;
+  run)
+    install_packages
+    configure_and_build "$build_dir"
+    "$build_dir/tools/hdabench" demo --out "$root/hdabench-demo"
+    ;;
+  test)
+    install_packages
+    configure_and_build "$build_dir"
+    run_tests "$build_dir"
+    if [[ ${HDABENCH_SKIP_SANITIZE:-0} != 1 ]]; then
+      configure_and_build "${build_dir}-sanitize" -DHDABENCH_SANITIZE=ON
+      run_tests "${build_dir}-sanitize"
+    fi
+    ;;
+  -h | --help | help)
+    sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+    ;;
+  *)
+    die "usage: tools/bench.sh run|test|setup (see tools/bench.sh --help)" 2
+    ;;
+esac

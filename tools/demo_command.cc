@@ -1,0 +1,39 @@
+#include <filesystem>
+#include <system_error>
+
+#include "tools/commands.h"
+#include "tools/exit_codes.h"
+
+namespace hdabench::tools {
+
+namespace fs = std::filesystem;
+
+int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
+  const fs::path dataset_dir = fs::path(options.out_dir) / "dataset";
+  // The demo folder is the bench's own: its dataset is replaced on every run.
+  // WriteDataset renames a complete folder into place, so a failed run leaves
+  // no half-written dataset behind.
+  std::error_code ec;
+  fs::remove_all(dataset_dir, ec);
+  if (ec) {
+    err << "hdabench demo: cannot replace " << dataset_dir.string() << ": " << ec.message() << "\n";
+    return kExitInput;
+  }
+  fs::create_directories(options.out_dir, ec);
+  if (ec) {
+    err << "hdabench demo: cannot create " << options.out_dir << ": " << ec.message() << "\n";
+    return kExitInput;
+  }
+  DatasetCreateOptions create;
+  create.out_dir = dataset_dir.string();
+  create.seed = options.seed;
+  out << "== Creating the example dataset (seed " << options.seed << ")\n";
+  const int created = RunDatasetCreate(create, out, err);
+  if (created != kExitOk) return created;
+  out << "== Checking " << dataset_dir.string() << "\n";
+  DatasetCheckOptions check;
+  check.dataset_dir = dataset_dir.string();
+  return RunDatasetCheck(check, out, err);
+}
+
+}  // namespace hdabench::tools

@@ -218,11 +218,14 @@ std::vector<double> ParseNumberList(const ModelScanner& scanner, const std::stri
   std::vector<double> values;
   for (size_t i = 0; i < items.size(); ++i) {
     const std::string& item = items[i].first;
-    char* end = nullptr;
-    const double v = std::strtod(item.c_str(), &end);
-    if (end != item.c_str() + item.size() || !std::isfinite(v)) {
+    // Decimal notation only, as libmrcal reads it (no hex, no '_' separators).
+    const char* first = item.c_str();
+    if (*first == '+') ++first;
+    double v = 0.0;
+    const auto [end, ec] = std::from_chars(first, item.c_str() + item.size(), v);
+    if (ec != std::errc() || end != item.c_str() + item.size() || !std::isfinite(v)) {
       scanner.Fail(items[i].second, "'" + key + "'[" + std::to_string(i) + "] = '" + item +
-                                        "' is not a finite number");
+                                        "' is not a finite decimal number");
     }
     values.push_back(v);
   }
@@ -256,8 +259,10 @@ std::string CaptureStderr(Fn&& fn) {
   return captured;
 }
 
-// Turns "cameramodel-parser.re(540): Garbage after trailing } at 117. Giving up"
-// into "4:2: Garbage after trailing }. Giving up".
+// Turns libmrcal's last stderr line, e.g.
+//   "cameramodel-parser.re(540): Garbage after trailing } at 117. Giving up"
+// into "<line>:<col>: libmrcal: Garbage after trailing }. Giving up", turning
+// its byte offset ("at N" or "at position N") into a line and column.
 std::string TranslateMrcalMessage(const std::string& captured, const std::string& text) {
   std::string message = captured;
   while (!message.empty() && (message.back() == '\n' || message.back() == ' ')) message.pop_back();
@@ -267,18 +272,20 @@ std::string TranslateMrcalMessage(const std::string& captured, const std::string
   if (prefix != std::string::npos && message.compare(0, 11, "cameramodel") == 0) {
     message = message.substr(prefix + 3);
   }
-  const size_t at = message.find(" at ");
-  if (at != std::string::npos) {
-    size_t digits_end = at + 4;
+  if (message.empty()) message = "could not parse the model";
+  for (const char* marker : {" at position ", " at "}) {
+    const size_t at = message.find(marker);
+    if (at == std::string::npos) continue;
+    const size_t digits_begin = at + std::char_traits<char>::length(marker);
+    size_t digits_end = digits_begin;
     while (digits_end < message.size() && std::isdigit(static_cast<unsigned char>(message[digits_end]))) {
       ++digits_end;
     }
-    if (digits_end > at + 4) {
-      const size_t offset = std::stoul(message.substr(at + 4, digits_end - at - 4));
-      message = LineCol(text, offset) + ": " + message.substr(0, at) + message.substr(digits_end);
-    }
+    if (digits_end == digits_begin) continue;
+    const size_t offset = std::stoul(message.substr(digits_begin, digits_end - digits_begin));
+    return LineCol(text, offset) + ": libmrcal: " + message.substr(0, at) + message.substr(digits_end);
   }
-  return message.empty() ? "libmrcal could not parse the model" : "libmrcal: " + message;
+  return " libmrcal: " + message;
 }
 
 bool ParseLensModel(const std::string& name, mrcal_lensmodel_t* lensmodel) {

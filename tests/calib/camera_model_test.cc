@@ -290,11 +290,11 @@ const BadModelCase kBadModels[] = {
     {"NanIntrinsic",
      "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [1000, nan, 319.5, 239.5],\n"
      " 'extrinsics': [0, 0, 0, 0, 0, 0],\n 'imagersize': [640, 480],\n}\n",
-     "3:23: 'intrinsics'[1] = 'nan' is not a finite number"},
+     "3:23: 'intrinsics'[1] = 'nan' is not a finite decimal number"},
     {"OverflowingIntrinsic",
      "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [1000, 1000, 4.5e400, 239.5],\n"
      " 'extrinsics': [0, 0, 0, 0, 0, 0],\n 'imagersize': [640, 480],\n}\n",
-     "3:29: 'intrinsics'[2] = '4.5e400' is not a finite number"},
+     "3:29: 'intrinsics'[2] = '4.5e400' is not a finite decimal number"},
     {"NegativeImagerSize",
      "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [1000, 1000, 319.5, 239.5],\n"
      " 'extrinsics': [0, 0, 0, 0, 0, 0],\n 'imagersize': [-640, 480],\n}\n",
@@ -311,6 +311,21 @@ const BadModelCase kBadModels[] = {
      "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [1000, 1000, 319.5, 239.5],\n",
      "4:1: the file ends before the closing '}'"},
     {"NotADictionary", "[1, 2, 3]\n", "1:1: expected '{' to open the model, found '[1, 2, 3]'"},
+    {"HexadecimalIntrinsic",
+     "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [0x3e8, 1000, 319.5, 239.5],\n"
+     " 'extrinsics': [0, 0, 0, 0, 0, 0],\n 'imagersize': [640, 480],\n}\n",
+     "3:17: 'intrinsics'[0] = '0x3e8' is not a finite decimal number"},
+    // The two below pass the bench's own scan and are refused by libmrcal: its
+    // stderr message is captured, located and folded into the error.
+    {"EmptyListItemRefusedByLibmrcal",
+     "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [1000, 1000, 319.5, 239.5,,],\n"
+     " 'extrinsics': [0, 0, 0, 0, 0, 0],\n 'imagersize': [640, 480],\n}\n",
+     "3:43: libmrcal: Didn't see the closing )/] for the intrinsics. Expected 4 values, but the "
+     "given list has more. Giving up."},
+    {"NestedValueRefusedByLibmrcal",
+     "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [1000, 1000, 319.5, 239.5],\n"
+     " 'extrinsics': [0, 0, 0, 0, 0, 0],\n 'imagersize': [640, 480],\n 'extra': {'a': [1, {'b': 2}]},\n}\n",
+     "6:10: libmrcal: Error parsing value for key 'extra'"},
     {"DuplicateKey",
      "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'lensmodel': 'LENSMODEL_PINHOLE',\n}\n",
      "3:2: key 'lensmodel' appears twice"},

@@ -6,7 +6,7 @@
 // captures libmrcal's stderr for anything the scan let through.
 #include "calib/camera_model.h"
 
-#include <unistd.h>
+#include <unistd.h>  // getpid
 
 #include <algorithm>
 #include <cctype>
@@ -17,11 +17,11 @@
 #include <fstream>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <sstream>
 #include <system_error>
 
 #include "calib/error.h"
+#include "calib/stderr_capture.h"
 
 extern "C" {
 #include <mrcal/mrcal.h>
@@ -230,33 +230,6 @@ std::vector<double> ParseNumberList(const ModelScanner& scanner, const std::stri
     values.push_back(v);
   }
   return values;
-}
-
-std::mutex g_stderr_mutex;
-
-// Runs fn() with the process's stderr (fd 2) redirected into a temporary file
-// and returns what was written there. libmrcal reports parse errors that way.
-template <typename Fn>
-std::string CaptureStderr(Fn&& fn) {
-  std::lock_guard<std::mutex> lock(g_stderr_mutex);
-  std::fflush(stderr);
-  std::unique_ptr<FILE, int (*)(FILE*)> tmp(std::tmpfile(), &std::fclose);
-  const int saved = tmp ? dup(2) : -1;
-  if (saved < 0 || dup2(fileno(tmp.get()), 2) < 0) {
-    if (saved >= 0) close(saved);
-    fn();  // Cannot redirect: run anyway; the caller still reports failure.
-    return "";
-  }
-  fn();
-  std::fflush(stderr);
-  dup2(saved, 2);
-  close(saved);
-  std::string captured;
-  std::rewind(tmp.get());
-  char buffer[512];
-  size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof(buffer), tmp.get())) > 0) captured.append(buffer, n);
-  return captured;
 }
 
 // Turns libmrcal's last stderr line, e.g.

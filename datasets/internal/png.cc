@@ -6,10 +6,10 @@
 #include <stdexcept>
 #include <vector>
 
-#include <unistd.h>
-
 #include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
+
+#include "calib/stderr_capture.h"
 
 namespace hdabench::datasets::internal {
 
@@ -66,49 +66,6 @@ std::string ColorTypeName(int color_type) {
   }
 }
 
-// Sends what is written to file descriptor 2 into a temporary file for its
-// lifetime; Finish() restores fd 2 and returns what was captured.
-class StderrCapture {
- public:
-  StderrCapture() {
-    std::fflush(stderr);
-    file_ = std::tmpfile();
-    saved_fd_ = ::dup(2);
-    if (file_ != nullptr && saved_fd_ >= 0) active_ = ::dup2(::fileno(file_), 2) >= 0;
-  }
-  ~StderrCapture() { Finish(); }
-  StderrCapture(const StderrCapture&) = delete;
-  StderrCapture& operator=(const StderrCapture&) = delete;
-
-  std::string Finish() {
-    std::string captured;
-    std::fflush(stderr);
-    if (active_) {
-      ::dup2(saved_fd_, 2);
-      active_ = false;
-    }
-    if (saved_fd_ >= 0) {
-      ::close(saved_fd_);
-      saved_fd_ = -1;
-    }
-    if (file_ != nullptr) {
-      std::rewind(file_);
-      char buffer[512];
-      size_t n = 0;
-      while ((n = std::fread(buffer, 1, sizeof(buffer), file_)) > 0 && captured.size() < 4096) {
-        captured.append(buffer, n);
-      }
-      std::fclose(file_);
-      file_ = nullptr;
-    }
-    return captured;
-  }
-
- private:
-  std::FILE* file_ = nullptr;
-  int saved_fd_ = -1;
-  bool active_ = false;
-};
 
 std::string OneLine(std::string text) {
   for (char& c : text) {
@@ -217,8 +174,7 @@ bool DecodePngQuietly(const std::string& bytes, cv::Mat* image, std::string* err
       cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   std::string exception_text;
   std::string captured;
-  {
-    StderrCapture capture;
+  captured = CaptureStderr([&] {
     try {
       const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1,
                            const_cast<char*>(bytes.data()));
@@ -227,8 +183,7 @@ bool DecodePngQuietly(const std::string& bytes, cv::Mat* image, std::string* err
       exception_text = e.what();
       image->release();
     }
-    captured = capture.Finish();
-  }
+  });
   cv::utils::logging::setLogLevel(saved_level);
 
   if (!image->empty() && image->channels() == 1 &&

@@ -42,6 +42,8 @@ const CsvSchema kNavSchema{
     {{"vx_mps", "vy_mps", "vz_mps"},
      {"sigma_x_m", "sigma_y_m", "sigma_z_m", "sigma_rx_rad", "sigma_ry_rad", "sigma_rz_rad"}}};
 const CsvSchema kLrfSchema{{"time_s", "range_m", "bx", "by", "bz"}, {}};
+const CsvSchema kRocksSchema{{"x_m", "y_m", "z_m", "diameter_m", "height_above_ground_m"}, {}};
+const std::vector<std::string> kTruthKeys = {"points_in_local", "dem", "navigation", "rocks"};
 
 const std::vector<std::string> kManifestKeys = {
     "format",         "format_version",        "name",           "description",
@@ -489,13 +491,21 @@ class Loader {
 
   void LoadNav() {
     if (!nav_path_ok_) return;
-    const std::string& file = dataset_.nav_file;
+    nav_clean_ = LoadNavTable(dataset_.nav_file, "navigation", "navigation", &dataset_.nav,
+                              &dataset_.nav_has_velocity, &dataset_.nav_has_sigmas);
+  }
+
+  // Reads a table with the navigation schema (nav.csv or the truth
+  // navigation): `field` is its manifest field, `what` names it in messages.
+  // True when the file had no problem at all.
+  bool LoadNavTable(const std::string& file, const std::string& field, const std::string& what,
+                    std::vector<NavSample>* samples, bool* has_velocity, bool* has_sigmas) {
     CsvTable table;
     const size_t before = problems_.size();
-    if (!ReadTable(file, "navigation", kNavSchema, &table)) return;
+    if (!ReadTable(file, field, kNavSchema, &table)) return false;
     CheckEnoughRows(file, table, 2, "frame times are interpolated between samples");
-    dataset_.nav_has_velocity = table.HasColumn("vx_mps");
-    dataset_.nav_has_sigmas = table.HasColumn("sigma_x_m");
+    *has_velocity = table.HasColumn("vx_mps");
+    *has_sigmas = table.HasColumn("sigma_x_m");
     std::optional<std::pair<double, int>> previous;
     for (const internal::CsvRow& row : table.rows) {
       CsvRowReader reader(file, table, row, &problems_);
@@ -503,7 +513,7 @@ class Loader {
       const size_t before_time = problems_.size();
       sample.time_s = reader.Double("time_s");
       if (problems_.size() == before_time) {
-        CheckIncreasing(&reader, sample.time_s, "navigation", &previous);
+        CheckIncreasing(&reader, sample.time_s, what.c_str(), &previous);
       }
       sample.local_from_body.translation =
           Eigen::Vector3d(reader.Double("x_m"), reader.Double("y_m"), reader.Double("z_m"));
@@ -515,11 +525,11 @@ class Loader {
             CheckQuaternion(q, "quaternion (qw, qx, qy, qz) =", &sample.local_from_body.rotation);
         if (!error.empty()) reader.Fail(error);
       }
-      if (dataset_.nav_has_velocity) {
+      if (*has_velocity) {
         sample.velocity_in_local_mps = Eigen::Vector3d(
             reader.Double("vx_mps"), reader.Double("vy_mps"), reader.Double("vz_mps"));
       }
-      if (dataset_.nav_has_sigmas) {
+      if (*has_sigmas) {
         const char* const position[] = {"sigma_x_m", "sigma_y_m", "sigma_z_m"};
         const char* const attitude[] = {"sigma_rx_rad", "sigma_ry_rad", "sigma_rz_rad"};
         for (int i = 0; i < 3; ++i) {
@@ -527,9 +537,9 @@ class Loader {
           sample.sigma_attitude_in_body_rad[i] = ReadSigma(&reader, attitude[i]);
         }
       }
-      if (reader.ok()) dataset_.nav.push_back(sample);
+      if (reader.ok()) samples->push_back(sample);
     }
-    nav_clean_ = problems_.size() == before;
+    return problems_.size() == before;
   }
 
   double ReadSigma(CsvRowReader* reader, const std::string& column) {
@@ -638,16 +648,23 @@ class Loader {
       if (!frame.time_ok) continue;
       const double t = frame.record.time_s;
       const std::string where = dataset_.frames_file + ":" + std::to_string(frame.line);
-      if (nav_usable && (t < dataset_.nav.front().time_s || t > dataset_.nav.back().time_s)) {
-        Add(where, "time_s " + FormatDouble(t) + " is outside the navigation span [" +
-                       FormatDouble(dataset_.nav.front().time_s) + ", " +
-                       FormatDouble(dataset_.nav.back().time_s) + "] s of " + dataset_.nav_file);
-      }
+      if (nav_usable) CheckFrameInNavSpan(frame, dataset_.nav, "navigation", dataset_.nav_file);
       if (lrf_usable && (t < dataset_.lrf.front().time_s || t > dataset_.lrf.back().time_s)) {
         Add(where, "time_s " + FormatDouble(t) + " is outside the LRF span [" +
                        FormatDouble(dataset_.lrf.front().time_s) + ", " +
                        FormatDouble(dataset_.lrf.back().time_s) + "] s of " + dataset_.lrf_file);
       }
+    }
+  }
+
+  void CheckFrameInNavSpan(const FrameRow& frame, const std::vector<NavSample>& nav,
+                           const std::string& what, const std::string& file) {
+    const double t = frame.record.time_s;
+    if (t < nav.front().time_s || t > nav.back().time_s) {
+      Add(dataset_.frames_file + ":" + std::to_string(frame.line),
+          "time_s " + FormatDouble(t) + " is outside the " + what + " span [" +
+              FormatDouble(nav.front().time_s) + ", " + FormatDouble(nav.back().time_s) +
+              "] s of " + file);
     }
   }
 
@@ -657,14 +674,90 @@ class Loader {
     const json* truth = Member(manifest_, "truth", "truth", "", false);
     if (truth == nullptr) return;
     if (!truth->is_object()) {
-      AddField("truth", "is " + Describe(*truth) + "; expected an object with points_in_local and/or dem");
+      AddField("truth", "is " + Describe(*truth) +
+                            "; expected an object with points_in_local, dem, navigation and/or "
+                            "rocks");
       return;
     }
-    CheckKeys(*truth, {"points_in_local", "dem"}, "truth.");
+    CheckKeys(*truth, kTruthKeys, "truth.");
     if (const json* points = Member(*truth, "points_in_local", "truth.points_in_local", "", false)) {
       LoadTruthPoints(*points);
     }
     if (const json* dem = Member(*truth, "dem", "truth.dem", "", false)) LoadTruthDem(*dem);
+    LoadTruthNavigation(*truth);
+    LoadTruthRocks(*truth);
+  }
+
+  // The path in optional member `key` of the truth object; false when absent
+  // or wrong (a problem).
+  bool ReadTruthPath(const json& truth, const std::string& key, const std::string& what,
+                     std::string* path) {
+    const std::string field = "truth." + key;
+    if (!ReadString(truth, key, field, false, path,
+                    "a string: the path of the " + what + ", relative to the dataset folder")) {
+      return false;
+    }
+    const std::string error = internal::CheckDatasetPath(*path);
+    if (!error.empty()) {
+      AddField(field, error);
+      path->clear();
+      return false;
+    }
+    return true;
+  }
+
+  void LoadTruthNavigation(const json& truth) {
+    std::string file;
+    if (!ReadTruthPath(truth, "navigation", "truth navigation table", &file)) return;
+    std::vector<NavSample> samples;
+    bool has_velocity = false;
+    bool has_sigmas = false;
+    const bool clean = LoadNavTable(file, "truth.navigation", "truth navigation", &samples,
+                                    &has_velocity, &has_sigmas);
+    if (!clean) return;
+    for (const FrameRow& frame : frame_rows_) {
+      if (frame.time_ok) CheckFrameInNavSpan(frame, samples, "truth navigation", file);
+    }
+    dataset_.truth.navigation_file = file;
+    dataset_.truth.navigation = std::move(samples);
+  }
+
+  void LoadTruthRocks(const json& truth) {
+    std::string file;
+    if (!ReadTruthPath(truth, "rocks", "truth rocks table", &file)) return;
+    CsvTable table;
+    if (!ReadTable(file, "truth.rocks", kRocksSchema, &table)) return;
+    std::vector<TruthRock> rocks;
+    for (const internal::CsvRow& row : table.rows) {
+      CsvRowReader reader(file, table, row, &problems_);
+      TruthRock rock;
+      rock.center_in_local_m =
+          Eigen::Vector3d(reader.Double("x_m"), reader.Double("y_m"), reader.Double("z_m"));
+      const size_t before_diameter = problems_.size();
+      rock.diameter_m = reader.Double("diameter_m");
+      const bool diameter_ok = problems_.size() == before_diameter && rock.diameter_m > 0.0;
+      if (problems_.size() == before_diameter && !diameter_ok) {
+        reader.Fail("column 'diameter_m': value " + FormatDouble(rock.diameter_m) +
+                    " is not positive; expected a rock diameter > 0 m");
+      }
+      const size_t before_height = problems_.size();
+      rock.height_above_ground_m = reader.Double("height_above_ground_m");
+      if (problems_.size() == before_height) {
+        if (!(rock.height_above_ground_m > 0.0)) {
+          reader.Fail("column 'height_above_ground_m': value " +
+                      FormatDouble(rock.height_above_ground_m) +
+                      " is not positive; expected a height above the ground > 0 m");
+        } else if (diameter_ok && rock.height_above_ground_m > rock.diameter_m) {
+          reader.Fail("column 'height_above_ground_m': value " +
+                      FormatDouble(rock.height_above_ground_m) + " is larger than diameter_m " +
+                      FormatDouble(rock.diameter_m) +
+                      "; expected a height above the ground <= the rock's diameter");
+        }
+      }
+      if (reader.ok()) rocks.push_back(rock);
+    }
+    dataset_.truth.rocks_file = file;
+    dataset_.truth.rocks = std::move(rocks);
   }
 
   void LoadTruthPoints(const json& points) {
@@ -900,13 +993,13 @@ class Loader {
 
 // ------------------------------------------------------------------- writing
 
-std::string NavHeader(const Dataset& dataset) {
+std::string NavHeader(bool has_velocity, bool has_sigmas) {
   std::vector<std::string> columns = kNavSchema.required;
-  if (dataset.nav_has_velocity) {
+  if (has_velocity) {
     columns.insert(columns.end(), kNavSchema.optional_groups[0].begin(),
                    kNavSchema.optional_groups[0].end());
   }
-  if (dataset.nav_has_sigmas) {
+  if (has_sigmas) {
     columns.insert(columns.end(), kNavSchema.optional_groups[1].begin(),
                    kNavSchema.optional_groups[1].end());
   }
@@ -922,19 +1015,19 @@ std::string FramesCsv(const Dataset& dataset) {
   return text;
 }
 
-std::string NavCsv(const Dataset& dataset) {
-  std::string text = NavHeader(dataset);
-  for (const NavSample& sample : dataset.nav) {
+std::string NavCsv(const std::vector<NavSample>& nav, bool has_velocity, bool has_sigmas) {
+  std::string text = NavHeader(has_velocity, has_sigmas);
+  for (const NavSample& sample : nav) {
     const Eigen::Vector3d& p = sample.local_from_body.translation;
     const Eigen::Quaterniond& q = sample.local_from_body.rotation;
     std::vector<std::string> values = {FormatDouble(sample.time_s), FormatDouble(p.x()),
                                        FormatDouble(p.y()),         FormatDouble(p.z()),
                                        FormatDouble(q.w()),         FormatDouble(q.x()),
                                        FormatDouble(q.y()),         FormatDouble(q.z())};
-    if (dataset.nav_has_velocity) {
+    if (has_velocity) {
       for (int i = 0; i < 3; ++i) values.push_back(FormatDouble(sample.velocity_in_local_mps[i]));
     }
-    if (dataset.nav_has_sigmas) {
+    if (has_sigmas) {
       for (int i = 0; i < 3; ++i) {
         values.push_back(FormatDouble(sample.sigma_position_in_local_m[i]));
       }
@@ -943,6 +1036,30 @@ std::string NavCsv(const Dataset& dataset) {
       }
     }
     text += internal::CsvLine(values);
+  }
+  return text;
+}
+
+// The truth navigation has no column flags: a group is written when it holds
+// a non-zero value (a table loaded without it holds zeros).
+std::string TruthNavCsv(const std::vector<NavSample>& nav) {
+  bool has_velocity = false;
+  bool has_sigmas = false;
+  for (const NavSample& sample : nav) {
+    has_velocity = has_velocity || !sample.velocity_in_local_mps.isZero(0.0);
+    has_sigmas = has_sigmas || !sample.sigma_position_in_local_m.isZero(0.0) ||
+                 !sample.sigma_attitude_in_body_rad.isZero(0.0);
+  }
+  return NavCsv(nav, has_velocity, has_sigmas);
+}
+
+std::string RocksCsv(const std::vector<TruthRock>& rocks) {
+  std::string text = internal::CsvLine(kRocksSchema.required);
+  for (const TruthRock& rock : rocks) {
+    text += internal::CsvLine(
+        {FormatDouble(rock.center_in_local_m.x()), FormatDouble(rock.center_in_local_m.y()),
+         FormatDouble(rock.center_in_local_m.z()), FormatDouble(rock.diameter_m),
+         FormatDouble(rock.height_above_ground_m)});
   }
   return text;
 }
@@ -999,6 +1116,10 @@ std::string ManifestJson(const Dataset& dataset) {
       truth["dem"]["origin_in_local_m"] = JsonArray(dem.origin_in_local_m);
       truth["dem"]["spacing_m"] = dem.spacing_m;
     }
+    if (!dataset.truth.navigation_file.empty()) {
+      truth["navigation"] = dataset.truth.navigation_file;
+    }
+    if (!dataset.truth.rocks_file.empty()) truth["rocks"] = dataset.truth.rocks_file;
     manifest["truth"] = truth;
   }
   return manifest.dump(2) + "\n";
@@ -1049,6 +1170,17 @@ void CheckWritable(const Dataset& dataset) {
     claim(dem.file, "DEM");
     RequireWritable(dem.height_in_local_m.type() == CV_32FC1 && !dem.height_in_local_m.empty(),
                     "the DEM is not a non-empty CV_32FC1 array");
+  }
+  const Truth& truth = dataset.truth;
+  if (!truth.navigation_file.empty()) {
+    claim(truth.navigation_file, "truth navigation");
+  } else {
+    RequireWritable(truth.navigation.empty(), "the truth navigation has samples but no file name");
+  }
+  if (!truth.rocks_file.empty()) {
+    claim(truth.rocks_file, "truth rocks");
+  } else {
+    RequireWritable(truth.rocks.empty(), "the truth rocks table has rows but no file name");
   }
 }
 
@@ -1111,7 +1243,9 @@ void WriteDataset(const Dataset& dataset, const std::string& dir) {
       internal::WriteFileAtomically(staging / frame.image_path, internal::EncodePng(frame.image));
     }
     internal::WriteFileAtomically(staging / dataset.frames_file, FramesCsv(dataset));
-    internal::WriteFileAtomically(staging / dataset.nav_file, NavCsv(dataset));
+    internal::WriteFileAtomically(
+        staging / dataset.nav_file,
+        NavCsv(dataset.nav, dataset.nav_has_velocity, dataset.nav_has_sigmas));
     internal::WriteFileAtomically(staging / dataset.lrf_file, LrfCsv(dataset));
     for (const TruthPoints& truth : dataset.truth.points) {
       internal::WriteFileAtomically(staging / truth.file, NpyFromMat(truth.points_in_local_m));
@@ -1119,6 +1253,14 @@ void WriteDataset(const Dataset& dataset, const std::string& dir) {
     if (dataset.truth.dem.has_value()) {
       internal::WriteFileAtomically(staging / dataset.truth.dem->file,
                                     NpyFromMat(dataset.truth.dem->height_in_local_m));
+    }
+    if (!dataset.truth.navigation_file.empty()) {
+      internal::WriteFileAtomically(staging / dataset.truth.navigation_file,
+                                    TruthNavCsv(dataset.truth.navigation));
+    }
+    if (!dataset.truth.rocks_file.empty()) {
+      internal::WriteFileAtomically(staging / dataset.truth.rocks_file,
+                                    RocksCsv(dataset.truth.rocks));
     }
     internal::WriteFileAtomically(staging / kManifestFileName, ManifestJson(dataset));
     // rename(2) replaces an empty folder.
@@ -1135,20 +1277,61 @@ void WriteDataset(const Dataset& dataset, const std::string& dir) {
 
 // -------------------------------------------------------------------- poses
 
+namespace {
+
+// cam_from_local of a frame with the body pose from `nav` (the measured or the
+// truth navigation): cam_from_body * inverse(local_from_body(t_frame)).
+Rigid3d CamFromLocalWith(const Dataset& dataset, const std::vector<NavSample>& nav,
+                         Rigid3d (*local_from_body_at)(const std::vector<NavSample>&, double),
+                         int frame) {
+  if (frame < 0 || frame >= static_cast<int>(dataset.frames.size())) {
+    throw std::out_of_range("frame " + std::to_string(frame) + " is not in 0.." +
+                            std::to_string(static_cast<int>(dataset.frames.size()) - 1));
+  }
+  return dataset.cam_from_body *
+         local_from_body_at(nav, dataset.frames[static_cast<size_t>(frame)].time_s).Inverse();
+}
+
+// InterpolateLocalFromBody on the truth navigation, whose errors name it.
+Rigid3d TrueLocalFromBody(const std::vector<NavSample>& navigation, double time_s) {
+  if (navigation.empty()) {
+    throw std::out_of_range("the dataset has no truth navigation (manifest.json field "
+                            "'truth.navigation')");
+  }
+  const double first = navigation.front().time_s;
+  const double last = navigation.back().time_s;
+  if (!(time_s >= first && time_s <= last)) {
+    throw std::out_of_range("time " + FormatDouble(time_s) +
+                            " s is outside the truth navigation span [" + FormatDouble(first) +
+                            ", " + FormatDouble(last) + "] s");
+  }
+  return InterpolateLocalFromBody(navigation, time_s);
+}
+
+}  // namespace
+
 Rigid3d Dataset::LocalFromBodyAt(double time_s) const {
   return InterpolateLocalFromBody(nav, time_s);
 }
 
 Rigid3d Dataset::CamFromLocal(int frame) const {
-  if (frame < 0 || frame >= static_cast<int>(frames.size())) {
-    throw std::out_of_range("frame " + std::to_string(frame) + " is not in 0.." +
-                            std::to_string(static_cast<int>(frames.size()) - 1));
-  }
-  return cam_from_body * LocalFromBodyAt(frames[static_cast<size_t>(frame)].time_s).Inverse();
+  return CamFromLocalWith(*this, nav, &InterpolateLocalFromBody, frame);
 }
 
 Rigid3d Dataset::Cam2FromCam1(int frame1, int frame2) const {
   return CamFromLocal(frame2) * CamFromLocal(frame1).Inverse();
+}
+
+Rigid3d Dataset::TrueLocalFromBodyAt(double time_s) const {
+  return TrueLocalFromBody(truth.navigation, time_s);
+}
+
+Rigid3d Dataset::TrueCamFromLocal(int frame) const {
+  return CamFromLocalWith(*this, truth.navigation, &TrueLocalFromBody, frame);
+}
+
+Rigid3d Dataset::TrueCam2FromCam1(int frame1, int frame2) const {
+  return TrueCamFromLocal(frame2) * TrueCamFromLocal(frame1).Inverse();
 }
 
 Eigen::Vector3d Dataset::CameraCenterInLocal(int frame) const {

@@ -59,11 +59,33 @@ struct TruthDem {
   cv::Mat height_in_local_m;
 };
 
+// A truth rock: a boulder of the scene, for scoring hazard maps.
+struct TruthRock {
+  Eigen::Vector3d center_in_local_m = Eigen::Vector3d::Zero();  // rock centre, local frame
+  double diameter_m = 0.0;             // > 0
+  double height_above_ground_m = 0.0;  // > 0 and <= diameter_m
+};
+
 struct Truth {
   std::vector<TruthPoints> points;  // any subset of the frames, at most one each
   std::optional<TruthDem> dem;
+  // True body poses local_from_body (Dataset::nav holds the measured ones, with
+  // their errors): same table schema and checks as the navigation table, and
+  // its span covers every frame time. Present when navigation_file is not
+  // empty (.csv, relative to the dataset folder). Always loaded. The writer
+  // writes the velocity (or sigma) columns when a sample has a non-zero
+  // velocity (or sigma).
+  std::string navigation_file;
+  std::vector<NavSample> navigation;  // strictly increasing times
+  // Rocks of the scene. Present when rocks_file is not empty (.csv, relative to
+  // the dataset folder); an empty table (no rocks) is valid. Always loaded.
+  std::string rocks_file;
+  std::vector<TruthRock> rocks;
 
-  bool Empty() const { return points.empty() && !dem.has_value(); }
+  bool Empty() const {
+    return points.empty() && !dem.has_value() && navigation_file.empty() && navigation.empty() &&
+           rocks_file.empty() && rocks.empty();
+  }
 };
 
 struct Dataset {
@@ -110,6 +132,14 @@ struct Dataset {
   double LrfRangeAt(double time_s) const;
   // Camera centre of a frame in the local frame, metres.
   Eigen::Vector3d CameraCenterInLocal(int frame) const;
+
+  // The same poses from the truth navigation (truth.navigation) instead of the
+  // measured one. Throw std::out_of_range naming the truth navigation when the
+  // dataset has none or the time is outside its span, and for a bad frame
+  // index as above.
+  Rigid3d TrueLocalFromBodyAt(double time_s) const;
+  Rigid3d TrueCamFromLocal(int frame) const;
+  Rigid3d TrueCam2FromCam1(int frame1, int frame2) const;
 };
 
 struct LoadOptions {
@@ -148,7 +178,8 @@ DatasetLoadResult LoadDataset(const std::string& dir, const LoadOptions& options
 // whole dataset or is left as it was. `dir` must not exist or be an empty
 // folder. Throws std::invalid_argument when the dataset cannot be written as is
 // (an image or truth array missing, of the wrong type or size; a bad or
-// repeated path; frame indices not 0..N-1), and InputError when `dir` is not
+// repeated path; frame indices not 0..N-1; truth navigation samples or rocks
+// without a file name), and InputError when `dir` is not
 // usable or a file cannot be written.
 void WriteDataset(const Dataset& dataset, const std::string& dir);
 

@@ -1,5 +1,7 @@
 #include "datasets/example.h"
 
+#include "datasets/synth/noise.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -17,63 +19,22 @@ constexpr double kPi = 3.14159265358979323846;
 
 double DegToRad(double deg) { return deg * kPi / 180.0; }
 
-// SplitMix64 finaliser: a well-mixed 64-bit hash.
-std::uint64_t Mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
-}
-
-// Value in [0, 1) at an integer lattice point; `key` identifies seed and octave.
-double LatticeValue(std::uint64_t key, std::int64_t ix, std::int64_t iy) {
-  const std::uint64_t h = Mix(key ^ (static_cast<std::uint64_t>(ix) * 0x9e3779b97f4a7c15ULL) ^
-                              (static_cast<std::uint64_t>(iy) * 0xc2b2ae3d27d4eb4fULL));
-  return static_cast<double>(h >> 11) * 0x1.0p-53;
-}
-
-// Smoothly interpolated value noise in [0, 1).
-double ValueNoise(std::uint64_t key, double x, double y) {
-  const double fx = std::floor(x);
-  const double fy = std::floor(y);
-  const std::int64_t ix = static_cast<std::int64_t>(fx);
-  const std::int64_t iy = static_cast<std::int64_t>(fy);
-  const double u = x - fx;
-  const double v = y - fy;
-  const double su = u * u * (3.0 - 2.0 * u);
-  const double sv = v * v * (3.0 - 2.0 * v);
-  const double a = LatticeValue(key, ix, iy);
-  const double b = LatticeValue(key, ix + 1, iy);
-  const double c = LatticeValue(key, ix, iy + 1);
-  const double d = LatticeValue(key, ix + 1, iy + 1);
-  return (a + (b - a) * su) * (1.0 - sv) + (c + (d - c) * su) * sv;
-}
-
 // Regolith-like albedo in [0, 1] at ground point (x, y): equally weighted
 // octaves of value noise from 96 m down to 3 m wavelength, so that there is
 // texture at every scale a feature detector looks at.
 class AlbedoTexture {
  public:
-  explicit AlbedoTexture(std::uint64_t seed) {
-    for (int octave = 0; octave < kOctaves; ++octave) {
-      keys_[octave] = Mix(seed ^ Mix(static_cast<std::uint64_t>(octave) + 1));
-    }
-  }
+  explicit AlbedoTexture(std::uint64_t seed) : seed_(seed) {}
 
   double operator()(double x_m, double y_m) const {
-    double sum = 0.0;
-    double inverse_wavelength = 1.0 / 96.0;
-    for (int octave = 0; octave < kOctaves; ++octave) {
-      sum += ValueNoise(keys_[octave], x_m * inverse_wavelength, y_m * inverse_wavelength);
-      inverse_wavelength *= 2.0;
-    }
-    // Stretch: a mean of noises clusters around 0.5.
-    return std::clamp(0.5 + 2.5 * (sum / kOctaves - 0.5), 0.0, 1.0);
+    // Equal weights (hurst 0); the fractal sum lies in [-1, 1] and clusters
+    // around 0, so stretch it.
+    const double sum = synth::FractalNoise(seed_, x_m, y_m, 3.0, 96.0, 0.0);
+    return std::clamp(0.5 + 1.25 * sum, 0.0, 1.0);
   }
 
  private:
-  static constexpr int kOctaves = 6;
-  std::uint64_t keys_[kOctaves] = {};
+  std::uint64_t seed_;
 };
 
 // Where a ray from `origin` along `direction` meets the plane z = 0, if ahead.

@@ -9,6 +9,7 @@
 #include <ostream>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace hdabench::tools {
 
@@ -24,12 +25,36 @@ struct DatasetCreateOptions {
 };
 int RunDatasetCreate(const DatasetCreateOptions& options, std::ostream& out, std::ostream& err);
 
+struct SynthCommandOptions {
+  std::string out_dir;                  // folder to create; must not exist, or be empty
+  std::string preset = "novac-lateral"; // novac-lateral, novac-boresight, truck, aircraft
+  std::string terrain;                  // mare, cratered, rocky; empty: the preset's
+  std::uint64_t seed = 1;               // same seed, same bytes
+  int threads = 0;                      // 0: all cores; the output does not depend on it
+  int image_size_px = 0;                // 0: the preset's (1024)
+  std::string camera_model_file;        // a .cameramodel instead of the default camera
+  std::vector<std::string> overrides;   // "key=value", docs/synthetic-scenes.md
+  bool quiet = false;                   // no progress lines
+};
+int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct TruthCommandOptions {
+  std::string dataset_dir;
+  int frame = 0;
+  int roi[4] = {0, 0, 0, 0};  // x, y, width, height in pixels
+  bool json = false;          // print one JSON object instead of a table
+};
+int RunTruth(const TruthCommandOptions& options, std::ostream& out, std::ostream& err);
+
 struct DemoOptions {
   std::string out_dir = "hdabench-demo";  // replaced on each run; the dataset goes in out_dir/dataset
   std::uint64_t seed = 1;                 // same seed, same bytes
+  int image_size_px = 0;                  // 0: the default camera's 1024
+  int threads = 0;                        // 0: all cores
 };
-// The main job on the built-in default. Today: create the example dataset and
-// check it (later: the full reference comparison on it).
+// The main job on the built-in default. Today: generate the default synthetic
+// dataset (hdabench synth, preset novac-lateral) and check it (later: the full
+// reference comparison on it).
 int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err);
 
 }  // namespace hdabench::tools

@@ -71,6 +71,10 @@ void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int 
       out << "; DEM " << dem.width_cells << " x " << dem.height_cells << " cells of "
           << Fixed(dem.spacing_m, 3) << " m";
     }
+    if (!dataset.truth.navigation_file.empty()) {
+      out << "; true navigation (" << dataset.truth.navigation.size() << " samples)";
+    }
+    if (!dataset.truth.rocks_file.empty()) out << "; " << dataset.truth.rocks.size() << " rocks";
     out << "\n";
   }
 }

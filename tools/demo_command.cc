@@ -11,8 +11,8 @@ namespace fs = std::filesystem;
 int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
   const fs::path dataset_dir = fs::path(options.out_dir) / "dataset";
   // The demo folder is the bench's own: its dataset is replaced on every run.
-  // WriteDataset renames a complete folder into place, so a failed run leaves
-  // no half-written dataset behind.
+  // synth renames a complete folder into place, so a failed run leaves no
+  // half-written dataset behind.
   std::error_code ec;
   fs::remove_all(dataset_dir, ec);
   if (ec) {
@@ -24,11 +24,14 @@ int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
     err << "hdabench demo: cannot create " << options.out_dir << ": " << ec.message() << "\n";
     return kExitInput;
   }
-  DatasetCreateOptions create;
-  create.out_dir = dataset_dir.string();
-  create.seed = options.seed;
-  out << "== Creating the example dataset (seed " << options.seed << ")\n";
-  const int created = RunDatasetCreate(create, out, err);
+  SynthCommandOptions synth;
+  synth.out_dir = dataset_dir.string();
+  synth.seed = options.seed;
+  synth.image_size_px = options.image_size_px;
+  synth.threads = options.threads;
+  out << "== Generating the default synthetic dataset (preset novac-lateral, seed " << options.seed
+      << ")\n";
+  const int created = RunSynth(synth, out, err);
   if (created != kExitOk) return created;
   out << "== Checking " << dataset_dir.string() << "\n";
   DatasetCheckOptions check;

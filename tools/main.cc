@@ -4,7 +4,9 @@
 #include <exception>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -16,19 +18,30 @@
 namespace hdabench::tools {
 namespace {
 
-std::optional<std::pair<int, int>> ParseFramePair(const std::string& text) {
-  const size_t comma = text.find(',');
-  if (comma == std::string::npos) throw CLI::ValidationError("--frames", "expected i,j, got '" + text + "'");
-  try {
-    size_t used_i = 0;
-    size_t used_j = 0;
-    const int i = std::stoi(text.substr(0, comma), &used_i);
-    const int j = std::stoi(text.substr(comma + 1), &used_j);
-    if (used_i != comma || used_j != text.size() - comma - 1) throw std::invalid_argument(text);
-    return std::make_pair(i, j);
-  } catch (const std::logic_error&) {
-    throw CLI::ValidationError("--frames", "expected two frame indices i,j, got '" + text + "'");
+// Parses "a,b,..." into exactly `count` integers; a CLI::ValidationError
+// (exit code 2) names the flag and the expected form otherwise.
+std::vector<int> ParseIntList(const std::string& text, size_t count, const std::string& flag,
+                              const std::string& form) {
+  std::vector<int> values;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    size_t used = 0;
+    int value = 0;
+    try {
+      value = std::stoi(item, &used);
+    } catch (const std::logic_error&) {
+      used = std::string::npos;
+    }
+    if (used != item.size()) {
+      throw CLI::ValidationError(flag, "expected " + form + " (whole numbers), got '" + text + "'");
+    }
+    values.push_back(value);
   }
+  if (values.size() != count) {
+    throw CLI::ValidationError(flag, "expected " + form + ", got '" + text + "'");
+  }
+  return values;
 }
 
 int Main(int argc, char** argv) {
@@ -56,11 +69,38 @@ int Main(int argc, char** argv) {
   create->add_option("DIR", create_options.out_dir, "Folder to create (must not exist, or be empty)")->required();
   create->add_option("--seed", create_options.seed, "Random seed")->capture_default_str();
 
+  SynthCommandOptions synth_options;
+  CLI::App* synth = app.add_subcommand(
+      "synth", "Generate a synthetic lunar dataset with ground truth (docs/synthetic-scenes.md)");
+  synth->add_option("--out", synth_options.out_dir, "Folder to create (must not exist, or be empty)")->required();
+  synth->add_option("--preset", synth_options.preset,
+                    "novac-lateral, novac-boresight, truck or aircraft")->capture_default_str();
+  synth->add_option("--terrain", synth_options.terrain, "mare, cratered or rocky (default: the preset's)");
+  synth->add_option("--seed", synth_options.seed, "Random seed: same seed, same bytes")->capture_default_str();
+  synth->add_option("--threads", synth_options.threads, "Worker threads (0: all cores); output does not depend on it")
+      ->capture_default_str();
+  synth->add_option("--image-size", synth_options.image_size_px, "Square imager side in pixels (default 1024; 2048 variant)");
+  synth->add_option("--camera-model", synth_options.camera_model_file, "A .cameramodel to use instead of the default camera");
+  synth->add_option("--set", synth_options.overrides,
+                    "Override any parameter: key=value (e.g. render.sun_elevation_deg=15, terrain.rock_k=0.01)");
+  synth->add_flag("--quiet", synth_options.quiet, "No progress lines");
+
+  TruthCommandOptions truth_options;
+  std::string roi_text;
+  CLI::App* truth = app.add_subcommand(
+      "truth", "True slope, roughness and hazard height of an ROI of a dataset with truth");
+  truth->add_option("DATASET", truth_options.dataset_dir, "Dataset folder")->required();
+  truth->add_option("--frame", truth_options.frame, "Frame index")->capture_default_str();
+  truth->add_option("--roi", roi_text, "x,y,w,h in pixels")->required();
+  truth->add_flag("--json", truth_options.json, "Print JSON instead of a table");
+
   DemoOptions demo_options;
   CLI::App* demo = app.add_subcommand(
-      "demo", "The main job on the built-in default: create the example dataset and check it");
+      "demo", "The main job on the built-in default: generate the default synthetic dataset and check it");
   demo->add_option("--out", demo_options.out_dir, "Output folder (replaced on each run)")->capture_default_str();
   demo->add_option("--seed", demo_options.seed, "Random seed")->capture_default_str();
+  demo->add_option("--image-size", demo_options.image_size_px, "Square imager side in pixels (default 1024)");
+  demo->add_option("--threads", demo_options.threads, "Worker threads (0: all cores)")->capture_default_str();
 
   try {
     app.parse(argc, argv);
@@ -80,11 +120,20 @@ int Main(int argc, char** argv) {
     return kExitOk;
   }
   if (check->parsed()) {
-    if (!frames_text.empty()) check_options.frames = ParseFramePair(frames_text);
+    if (!frames_text.empty()) {
+      const std::vector<int> pair = ParseIntList(frames_text, 2, "--frames", "i,j");
+      check_options.frames = std::make_pair(pair[0], pair[1]);
+    }
     return RunDatasetCheck(check_options, std::cout, std::cerr);
   }
   if (create->parsed()) return RunDatasetCreate(create_options, std::cout, std::cerr);
   if (demo->parsed()) return RunDemo(demo_options, std::cout, std::cerr);
+  if (synth->parsed()) return RunSynth(synth_options, std::cout, std::cerr);
+  if (truth->parsed()) {
+    const std::vector<int> roi = ParseIntList(roi_text, 4, "--roi", "x,y,w,h");
+    std::copy(roi.begin(), roi.end(), truth_options.roi);
+    return RunTruth(truth_options, std::cout, std::cerr);
+  }
   std::cerr << "hdabench: no command given; see hdabench --help\n";
   return kExitUsage;
 }

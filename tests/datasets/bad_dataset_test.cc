@@ -92,6 +92,25 @@ std::uint32_t PngCrc(const std::string& bytes, size_t begin, size_t length) {
   return crc ^ 0xffffffffU;
 }
 
+// Gives the dataset a valid truth navigation (a copy of nav.csv, whose span
+// covers the frames) at truth/navigation.csv.
+void AddTruthNavigation(const fs::path& dir) {
+  WriteText(dir / "truth/navigation.csv", ReadText(dir / "nav.csv"));
+  EditManifest(dir, [](json& m) { m["truth"]["navigation"] = "truth/navigation.csv"; });
+}
+
+const char kRocksCsv[] =
+    "x_m,y_m,z_m,diameter_m,height_above_ground_m\n"
+    "12.5,-3.25,0.4,1.2,0.6\n"
+    "-40,220,0.9,2,1.1\n"
+    "3,410.75,0.25,0.5,0.5\n";
+
+// Gives the dataset a truth rocks table at truth/rocks.csv.
+void AddTruthRocks(const fs::path& dir, const std::string& text = kRocksCsv) {
+  WriteText(dir / "truth/rocks.csv", text);
+  EditManifest(dir, [](json& m) { m["truth"]["rocks"] = "truth/rocks.csv"; });
+}
+
 constexpr size_t kFirstIdatOffset = 33;  // signature (8) + IHDR chunk (25)
 
 std::string Manifest(const std::string& field) { return "manifest.json: field '" + field + "'"; }
@@ -583,6 +602,107 @@ std::vector<Defect> Catalogue() {
          fs::remove(dir / "truth/dem.npy");
          return Problem{"truth/dem.npy", "file not found (manifest.json field 'truth.dem.file')"};
        }},
+      {"UnknownTruthKey",
+       [](const fs::path& dir) {
+         EditManifest(dir, [](json& m) { m["truth"]["rock"] = "truth/rocks.csv"; });
+         return Problem{Manifest("truth.rock"),
+                        "is not a field of format_version 1; expected in truth only "
+                        "points_in_local, dem, navigation, rocks"};
+       }},
+      {"TruthNavigationMissing",
+       [](const fs::path& dir) {
+         EditManifest(dir, [](json& m) { m["truth"]["navigation"] = "truth/navigation.csv"; });
+         return Problem{"truth/navigation.csv",
+                        "file not found (manifest.json field 'truth.navigation')"};
+       }},
+      {"TruthNavigationPathNotAString",
+       [](const fs::path& dir) {
+         EditManifest(dir, [](json& m) { m["truth"]["navigation"] = 3; });
+         return Problem{Manifest("truth.navigation"),
+                        "is a number (3); expected a string: the path of the truth navigation "
+                        "table, relative to the dataset folder"};
+       }},
+      {"TruthNavigationTimeNotIncreasing",
+       [](const fs::path& dir) {
+         AddTruthNavigation(dir);
+         SetCsvValue(dir / "truth/navigation.csv", 20, "time_s", "0.34");  // line 19 holds 0.34
+         return Problem{"truth/navigation.csv:20",
+                        "time_s 0.34 is not after the previous truth navigation time 0.34 s "
+                        "(line 19); times must strictly increase"};
+       }},
+      {"TruthNavigationQuaternionNotUnit",
+       [](const fs::path& dir) {
+         AddTruthNavigation(dir);
+         const fs::path path = dir / "truth/navigation.csv";
+         SetCsvValue(path, 30, "qw", "0");
+         SetCsvValue(path, 30, "qx", "0");
+         SetCsvValue(path, 30, "qy", "0");
+         SetCsvValue(path, 30, "qz", "0.5");
+         return Problem{"truth/navigation.csv:30",
+                        "quaternion (qw, qx, qy, qz) = (0, 0, 0, 0.5) has norm 0.5; expected a "
+                        "unit quaternion (| |q| - 1 | <= 1e-6)"};
+       }},
+      {"TruthNavigationPartialOptionalColumns",
+       [](const fs::path& dir) {
+         AddTruthNavigation(dir);
+         EditCsvLines(dir / "truth/navigation.csv", [](size_t, std::vector<std::string>* fields) {
+           fields->erase(fields->begin() + 10);  // vz_mps
+         });
+         return Problem{"truth/navigation.csv:1",
+                        "optional columns vx_mps, vy_mps, vz_mps must all be present or all "
+                        "absent; missing vz_mps"};
+       }},
+      {"FrameOutsideTruthNavigationSpan",
+       [](const fs::path& dir) {
+         AddTruthNavigation(dir);
+         KeepLines(dir / "truth/navigation.csv", 1 + 121);  // samples 0 .. 2.4 s
+         return Problem{"frames.csv:7", "time_s 2.5 is outside the truth navigation span [0, 2.4] "
+                                        "s of truth/navigation.csv"};
+       }},
+      {"TruthRocksMissing",
+       [](const fs::path& dir) {
+         EditManifest(dir, [](json& m) { m["truth"]["rocks"] = "truth/rocks.csv"; });
+         return Problem{"truth/rocks.csv", "file not found (manifest.json field 'truth.rocks')"};
+       }},
+      {"TruthRocksMissingColumn",
+       [](const fs::path& dir) {
+         AddTruthRocks(dir);
+         EditCsvLines(dir / "truth/rocks.csv",
+                      [](size_t, std::vector<std::string>* fields) { fields->pop_back(); });
+         return Problem{"truth/rocks.csv:1",
+                        "missing column 'height_above_ground_m'; expected columns x_m, y_m, z_m, "
+                        "diameter_m, height_above_ground_m"};
+       }},
+      {"TruthRockNegativeDiameter",
+       [](const fs::path& dir) {
+         AddTruthRocks(dir);
+         SetCsvValue(dir / "truth/rocks.csv", 3, "diameter_m", "-2");
+         return Problem{"truth/rocks.csv:3", "column 'diameter_m': value -2 is not positive; "
+                                             "expected a rock diameter > 0 m"};
+       }},
+      {"TruthRockZeroHeight",
+       [](const fs::path& dir) {
+         AddTruthRocks(dir);
+         SetCsvValue(dir / "truth/rocks.csv", 2, "height_above_ground_m", "0");
+         return Problem{"truth/rocks.csv:2",
+                        "column 'height_above_ground_m': value 0 is not positive; expected a "
+                        "height above the ground > 0 m"};
+       }},
+      {"TruthRockHigherThanItsDiameter",
+       [](const fs::path& dir) {
+         AddTruthRocks(dir);
+         SetCsvValue(dir / "truth/rocks.csv", 4, "height_above_ground_m", "0.75");
+         return Problem{"truth/rocks.csv:4",
+                        "column 'height_above_ground_m': value 0.75 is larger than diameter_m "
+                        "0.5; expected a height above the ground <= the rock's diameter"};
+       }},
+      {"TruthRockNanCentre",
+       [](const fs::path& dir) {
+         AddTruthRocks(dir);
+         SetCsvValue(dir / "truth/rocks.csv", 2, "y_m", "nan");
+         return Problem{"truth/rocks.csv:2",
+                        "column 'y_m': value 'nan' is not finite; expected a finite number"};
+       }},
   };
 }
 
@@ -649,6 +769,32 @@ TEST(LoadDataset, ReportsEveryProblemOfADatasetWithSeveralDefects) {
   for (const Problem& problem : expected) {
     EXPECT_NE(run.err.find(problem.ToString() + "\n"), std::string::npos) << problem.ToString();
   }
+}
+
+// The base of the truth navigation and rocks defects is itself valid.
+TEST(LoadDataset, AcceptsTheTruthNavigationAndRocksOfTheCatalogue) {
+  const fs::path root = FreshTestDir();
+  const fs::path dir = WriteSmallExample(root / "dataset", CurrentTestSeed());
+  AddTruthNavigation(dir);
+  AddTruthRocks(dir);
+  const DatasetLoadResult result = LoadDataset(dir.string());
+  ASSERT_TRUE(result.Ok()) << result.problems[0].ToString();
+  EXPECT_EQ(result.dataset->truth.navigation_file, "truth/navigation.csv");
+  EXPECT_EQ(result.dataset->truth.navigation.size(), result.dataset->nav.size());
+  EXPECT_EQ(result.dataset->truth.rocks_file, "truth/rocks.csv");
+  ASSERT_EQ(result.dataset->truth.rocks.size(), 3U);
+  EXPECT_EQ(result.dataset->truth.rocks[1].center_in_local_m, Eigen::Vector3d(-40.0, 220.0, 0.9));
+  EXPECT_EQ(result.dataset->truth.rocks[1].diameter_m, 2.0);
+  EXPECT_EQ(result.dataset->truth.rocks[1].height_above_ground_m, 1.1);
+  // A scene without rocks: a header-only table.
+  AddTruthRocks(dir, "x_m,y_m,z_m,diameter_m,height_above_ground_m\n");
+  const DatasetLoadResult no_rocks = LoadDataset(dir.string());
+  ASSERT_TRUE(no_rocks.Ok()) << no_rocks.problems[0].ToString();
+  EXPECT_EQ(no_rocks.dataset->truth.rocks_file, "truth/rocks.csv");
+  EXPECT_TRUE(no_rocks.dataset->truth.rocks.empty());
+  const testing_support::CommandResult run =
+      testing_support::RunHdabench({"dataset", "check", dir.string()}, root);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
 }
 
 TEST(LoadDataset, MissingFolderIsAProblemNotACrash) {

@@ -1,9 +1,11 @@
 // WriteDataset / LoadDataset round trips, determinism of the example, and the
 // `hdabench dataset` commands on good input.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <random>
 #include <stdexcept>
 #include <string>
 
@@ -12,6 +14,7 @@
 #include "calib/error.h"
 #include "datasets/dataset.h"
 #include "datasets/example.h"
+#include "datasets/navigation.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::datasets {
@@ -118,6 +121,213 @@ TEST(WriteDataset, LoadGivesIdenticalValues) {
   const Rigid3d b = written.Cam2FromCam1(0, 5);
   EXPECT_EQ(a.rotation.coeffs(), b.rotation.coeffs());
   EXPECT_EQ(a.translation, b.translation);
+}
+
+// The example with a truth navigation (the measured poses shifted and turned a
+// little, as a navigation error would, with velocities but no sigmas) and
+// truth rocks whose values need all 17 digits.
+Dataset ExampleWithTruthNavigationAndRocks(std::uint64_t seed) {
+  Dataset dataset = MakeExampleDataset(seed);
+  dataset.truth.navigation_file = "truth/navigation.csv";
+  for (const NavSample& measured : dataset.nav) {
+    NavSample truth = measured;
+    truth.local_from_body.translation += Eigen::Vector3d(0.3, -1.0 / 3.0, 0.1 * measured.time_s);
+    truth.local_from_body.rotation =
+        (measured.local_from_body.rotation *
+         Eigen::Quaterniond(Eigen::AngleAxisd(1e-3, Eigen::Vector3d(1.0, 2.0, 3.0).normalized())))
+            .normalized();
+    truth.sigma_position_in_local_m.setZero();
+    truth.sigma_attitude_in_body_rad.setZero();
+    dataset.truth.navigation.push_back(truth);
+  }
+  dataset.truth.rocks_file = "truth/rocks.csv";
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (int i = 0; i < 7; ++i) {
+    TruthRock rock;
+    rock.center_in_local_m =
+        Eigen::Vector3d(400.0 * unit(rng) - 200.0, 400.0 * unit(rng) + 100.0, unit(rng));
+    rock.diameter_m = 0.2 + 3.0 * unit(rng);
+    rock.height_above_ground_m = rock.diameter_m * (0.1 + 0.9 * unit(rng));
+    dataset.truth.rocks.push_back(rock);
+  }
+  return dataset;
+}
+
+TEST(WriteDataset, TruthNavigationAndRocksLoadIdentical) {
+  const std::uint64_t seed = CurrentTestSeed();
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  const fs::path root = FreshTestDir();
+  const Dataset written = ExampleWithTruthNavigationAndRocks(seed);
+  WriteDataset(written, (root / "first").string());
+  const DatasetLoadResult result = LoadDataset((root / "first").string(), KeepEverything());
+  ASSERT_TRUE(result.Ok()) << result.Summary() << ": "
+                           << (result.problems.empty() ? "" : result.problems[0].ToString());
+  const Dataset& read = *result.dataset;
+
+  EXPECT_EQ(read.truth.navigation_file, written.truth.navigation_file);
+  ASSERT_EQ(read.truth.navigation.size(), written.truth.navigation.size());
+  for (size_t i = 0; i < read.truth.navigation.size(); ++i) {
+    const NavSample& a = read.truth.navigation[i];
+    const NavSample& b = written.truth.navigation[i];
+    EXPECT_EQ(a.time_s, b.time_s);
+    EXPECT_EQ(a.local_from_body.translation, b.local_from_body.translation);
+    EXPECT_EQ(a.local_from_body.rotation.coeffs(), b.local_from_body.rotation.coeffs());
+    EXPECT_EQ(a.velocity_in_local_mps, b.velocity_in_local_mps);
+    EXPECT_EQ(a.sigma_position_in_local_m, b.sigma_position_in_local_m);
+    EXPECT_EQ(a.sigma_attitude_in_body_rad, b.sigma_attitude_in_body_rad);
+  }
+  // Velocities are written (non-zero), sigmas are not (all zero).
+  EXPECT_EQ(testing_support::SplitLines(ReadText(root / "first/truth/navigation.csv"))[0],
+            "time_s,x_m,y_m,z_m,qw,qx,qy,qz,vx_mps,vy_mps,vz_mps");
+  EXPECT_EQ(read.truth.rocks_file, written.truth.rocks_file);
+  ASSERT_EQ(read.truth.rocks.size(), written.truth.rocks.size());
+  for (size_t i = 0; i < read.truth.rocks.size(); ++i) {
+    EXPECT_EQ(read.truth.rocks[i].center_in_local_m, written.truth.rocks[i].center_in_local_m);
+    EXPECT_EQ(read.truth.rocks[i].diameter_m, written.truth.rocks[i].diameter_m);
+    EXPECT_EQ(read.truth.rocks[i].height_above_ground_m,
+              written.truth.rocks[i].height_above_ground_m);
+  }
+  // True poses derived from the loaded values are the same bits, and differ
+  // from the measured ones.
+  for (int frame = 0; frame < 6; ++frame) {
+    const Rigid3d a = read.TrueCamFromLocal(frame);
+    const Rigid3d b = written.TrueCamFromLocal(frame);
+    EXPECT_EQ(a.rotation.coeffs(), b.rotation.coeffs());
+    EXPECT_EQ(a.translation, b.translation);
+  }
+  EXPECT_GT((read.TrueCam2FromCam1(0, 5).translation - read.Cam2FromCam1(0, 5).translation).norm(),
+            1e-3);
+
+  // Writing the loaded dataset again gives the same files.
+  WriteDataset(read, (root / "second").string());
+  EXPECT_EQ(FilesUnder(root / "first"), FilesUnder(root / "second"));
+}
+
+TEST(WriteDataset, NoRocksIsAHeaderOnlyTable) {
+  const fs::path dir = FreshTestDir() / "dataset";
+  Dataset dataset = ExampleWithTruthNavigationAndRocks(CurrentTestSeed());
+  dataset.truth.rocks.clear();
+  WriteDataset(dataset, dir.string());
+  EXPECT_EQ(ReadText(dir / "truth/rocks.csv"), "x_m,y_m,z_m,diameter_m,height_above_ground_m\n");
+  const DatasetLoadResult result = LoadDataset(dir.string());
+  ASSERT_TRUE(result.Ok()) << result.problems[0].ToString();
+  EXPECT_EQ(result.dataset->truth.rocks_file, "truth/rocks.csv");
+  EXPECT_TRUE(result.dataset->truth.rocks.empty());
+}
+
+TEST(WriteDataset, TruthWithoutAFileNameThrows) {
+  const fs::path root = FreshTestDir();
+  Dataset dataset = ExampleWithTruthNavigationAndRocks(CurrentTestSeed());
+  dataset.truth.navigation_file.clear();
+  try {
+    WriteDataset(dataset, (root / "dataset").string());
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(),
+                 "WriteDataset: the truth navigation has samples but no file name");
+  }
+  dataset = ExampleWithTruthNavigationAndRocks(CurrentTestSeed());
+  dataset.truth.rocks_file = "nav.csv";
+  try {
+    WriteDataset(dataset, (root / "dataset").string());
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "WriteDataset: truth rocks path 'nav.csv' is used twice");
+  }
+  EXPECT_TRUE(fs::is_empty(root));
+}
+
+NavSample PoseSample(double time_s, const Rigid3d& local_from_body) {
+  NavSample sample;
+  sample.time_s = time_s;
+  sample.local_from_body = local_from_body;
+  return sample;
+}
+
+// The true relative pose against truth built so that it is known (as for
+// Cam2FromCam1 in navigation_test.cc): pick the mount, cam1_from_local and
+// cam2_from_cam1, then put local_from_body(t_i) = inverse(cam_i_from_local) *
+// cam_from_body in the truth navigation. The measured navigation is something
+// else, so a mix-up shows.
+TEST(TrueCam2FromCam1, MatchesConstructedTruth) {
+  const std::uint64_t seed = CurrentTestSeed();
+  SCOPED_TRACE("seed " + std::to_string(seed));
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  auto random_rotation = [&] {
+    return Eigen::Quaterniond(Eigen::Vector4d(unit(rng), unit(rng), unit(rng), unit(rng)))
+        .normalized();
+  };
+  auto random_vector = [&](double scale) {
+    return Eigen::Vector3d(scale * unit(rng), scale * unit(rng), scale * unit(rng));
+  };
+  auto random_pose = [&](double scale) { return Rigid3d(random_rotation(), random_vector(scale)); };
+  for (int trial = 0; trial < 50; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    const Rigid3d cam_from_body = random_pose(1.0);
+    const Rigid3d cam1_from_local = random_pose(600.0);
+    const Rigid3d cam2_from_cam1 = random_pose(40.0);
+    const Rigid3d cam2_from_local = cam2_from_cam1 * cam1_from_local;
+
+    Dataset dataset(
+        calib::CameraModel("LENSMODEL_PINHOLE", {500.0, 500.0, 127.5, 127.5}, 256, 256));
+    dataset.cam_from_body = cam_from_body;
+    const double t1 = 1.25;
+    const double t2 = 3.5;
+    dataset.truth.navigation = {
+        PoseSample(0.0, random_pose(600.0)),
+        PoseSample(t1, cam1_from_local.Inverse() * cam_from_body),
+        PoseSample(t2, cam2_from_local.Inverse() * cam_from_body),
+        PoseSample(4.0, random_pose(600.0))};
+    dataset.nav = {PoseSample(0.0, random_pose(600.0)), PoseSample(4.0, random_pose(600.0))};
+    FrameRecord frame1;
+    frame1.index = 0;
+    frame1.time_s = t1;
+    FrameRecord frame2 = frame1;
+    frame2.index = 1;
+    frame2.time_s = t2;
+    dataset.frames = {frame1, frame2};
+
+    const Rigid3d estimate = dataset.TrueCam2FromCam1(0, 1);
+    EXPECT_LT(RotationAngleRad(estimate.rotation * cam2_from_cam1.rotation.conjugate()), 1e-12);
+    EXPECT_LT((estimate.translation - cam2_from_cam1.translation).norm(), 1e-9);
+    const Rigid3d true_cam1_from_local = dataset.TrueCamFromLocal(0);
+    EXPECT_LT(RotationAngleRad(true_cam1_from_local.rotation * cam1_from_local.rotation.conjugate()),
+              1e-12);
+    EXPECT_LT((true_cam1_from_local.translation - cam1_from_local.translation).norm(), 1e-9);
+    // The reverse pair is the inverse.
+    const Rigid3d reverse = dataset.TrueCam2FromCam1(1, 0);
+    EXPECT_LT(RotationAngleRad(reverse.rotation * cam2_from_cam1.rotation), 1e-12);
+    // The measured navigation gives another answer.
+    EXPECT_GT((dataset.Cam2FromCam1(0, 1).translation - cam2_from_cam1.translation).norm(), 1e-3);
+  }
+}
+
+TEST(TrueCam2FromCam1, WithoutTruthOrOutsideItsSpanThrowsNamingIt) {
+  Dataset dataset(calib::CameraModel("LENSMODEL_PINHOLE", {500.0, 500.0, 127.5, 127.5}, 256, 256));
+  FrameRecord frame;
+  frame.time_s = 2.5;
+  dataset.frames = {frame};
+  dataset.nav = {PoseSample(0.0, Rigid3d()), PoseSample(3.0, Rigid3d())};
+  try {
+    dataset.TrueCamFromLocal(0);
+    FAIL() << "expected std::out_of_range";
+  } catch (const std::out_of_range& e) {
+    EXPECT_STREQ(e.what(),
+                 "the dataset has no truth navigation (manifest.json field 'truth.navigation')");
+  }
+  dataset.truth.navigation = {PoseSample(0.0, Rigid3d()), PoseSample(2.0, Rigid3d())};
+  try {
+    dataset.TrueCam2FromCam1(0, 0);
+    FAIL() << "expected std::out_of_range";
+  } catch (const std::out_of_range& e) {
+    EXPECT_STREQ(e.what(), "time 2.5 s is outside the truth navigation span [0, 2] s");
+  }
+  EXPECT_THROW(dataset.TrueLocalFromBodyAt(std::nan("")), std::out_of_range);
+  EXPECT_THROW(dataset.TrueCamFromLocal(1), std::out_of_range);
+  EXPECT_EQ(dataset.TrueLocalFromBodyAt(2.0).translation, Eigen::Vector3d::Zero());
+  EXPECT_NO_THROW(dataset.CamFromLocal(0));
 }
 
 TEST(WriteDataset, RewritingALoadedDatasetIsByteIdentical) {

@@ -38,13 +38,13 @@ CommandResult RunHdabench(const std::vector<std::string>& args) {
 TEST(Cli, HelpListsEveryCommandAndExitsZero) {
   const CommandResult run = RunHdabench({"--help"});
   EXPECT_EQ(run.exit_code, 0) << run.out;
-  for (const char* command : {"version", "dataset", "demo", "Exit codes"}) {
+  for (const char* command : {"version", "dataset", "demo", "synth", "truth", "Exit codes"}) {
     EXPECT_NE(run.out.find(command), std::string::npos) << command << "\n" << run.out;
   }
 }
 
 TEST(Cli, EverySubcommandHasHelp) {
-  for (const char* command : {"version", "dataset", "dataset check", "dataset create", "demo"}) {
+  for (const char* command : {"version", "dataset", "dataset check", "dataset create", "demo", "synth", "truth"}) {
     const CommandResult run = RunHdabench(SplitWords(std::string(command) + " --help"));
     EXPECT_EQ(run.exit_code, 0) << command << "\n" << run.out;
     EXPECT_NE(run.out.find("Usage"), std::string::npos) << command << "\n" << run.out;
@@ -79,13 +79,13 @@ TEST(Cli, MissingDatasetFolderExitsThree) {
 
 TEST(Cli, DemoCreatesAndChecksTheDefaultDatasetDeterministically) {
   const fs::path dir = FreshTestDir();
-  const CommandResult first = RunHdabench({"demo", "--out", (dir / "a").string()});
+  const CommandResult first = RunHdabench({"demo", "--out", (dir / "a").string(), "--image-size", "96"});
   ASSERT_EQ(first.exit_code, 0) << first.out;
   EXPECT_TRUE(fs::exists(dir / "a" / "dataset" / "manifest.json"));
   // A second run into the same folder replaces it with identical bytes.
-  const CommandResult again = RunHdabench({"demo", "--out", (dir / "a").string()});
+  const CommandResult again = RunHdabench({"demo", "--out", (dir / "a").string(), "--image-size", "96"});
   ASSERT_EQ(again.exit_code, 0) << again.out;
-  ASSERT_EQ(RunHdabench({"demo", "--out", (dir / "b").string()}).exit_code, 0);
+  ASSERT_EQ(RunHdabench({"demo", "--out", (dir / "b").string(), "--image-size", "96", "--threads", "1"}).exit_code, 0);
   size_t files = 0;
   for (const auto& entry : fs::recursive_directory_iterator(dir / "a" / "dataset")) {
     if (!entry.is_regular_file()) continue;

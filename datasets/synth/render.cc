@@ -1,0 +1,459 @@
+#include "datasets/synth/render.h"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <thread>
+
+#include "calib/error.h"
+#include "datasets/synth/noise.h"
+
+namespace hdabench::datasets::synth {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+
+std::string Number(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
+// Runs body(row) for every row in [0, rows) on `threads` workers (the caller
+// is one of them). Rows are handed out one at a time, so the split adapts to
+// uneven rows; results never depend on it. after_row(rows_done) is called on
+// the calling thread only.
+template <typename Body, typename AfterRow>
+void ForEachRow(int rows, int threads, const Body& body, const AfterRow& after_row) {
+  std::atomic<int> next_row{0};
+  std::atomic<int> rows_done{0};
+  const auto work = [&](bool caller) {
+    for (;;) {
+      const int row = next_row.fetch_add(1);
+      if (row >= rows) return;
+      body(row);
+      const int done = rows_done.fetch_add(1) + 1;
+      if (caller) after_row(done);
+    }
+  };
+  std::vector<std::thread> workers;
+  const int extra = std::max(0, std::min(threads, rows) - 1);
+  workers.reserve(static_cast<size_t>(extra));
+  for (int i = 0; i < extra; ++i) workers.emplace_back(work, false);
+  work(true);
+  for (std::thread& worker : workers) worker.join();
+}
+
+// A pair of independent standard normal deviates from two uniforms (Box-Muller).
+void GaussianPair(std::uint64_t seed, std::uint64_t index, double* n1, double* n2) {
+  const double u1 = 1.0 - HashUniform(seed, index, 0);  // (0, 1]
+  const double u2 = HashUniform(seed, index, 1);
+  const double radius = std::sqrt(-2.0 * std::log(u1));
+  *n1 = radius * std::cos(2.0 * kPi * u2);
+  *n2 = radius * std::sin(2.0 * kPi * u2);
+}
+
+}  // namespace
+
+Eigen::Vector3d SunDirectionInLocal(double azimuth_deg, double elevation_deg) {
+  const double azimuth_rad = azimuth_deg * kDegToRad;
+  const double elevation_rad = elevation_deg * kDegToRad;
+  return Eigen::Vector3d(std::sin(azimuth_rad) * std::cos(elevation_rad),
+                         std::cos(azimuth_rad) * std::cos(elevation_rad), std::sin(elevation_rad));
+}
+
+double LunarLambertLimbDarkening(double phase_rad) {
+  const double g_deg = phase_rad / kDegToRad;
+  const double l = 1.0 + g_deg * (-0.019 + g_deg * (2.42e-4 + g_deg * -1.46e-6));
+  return std::clamp(l, 0.0, 1.0);
+}
+
+double LunarLambertReflectance(double albedo, double cos_incidence, double cos_emission, double phase_rad) {
+  if (!(cos_incidence > 0.0) || !(cos_emission > 0.0)) return 0.0;
+  const double l = LunarLambertLimbDarkening(phase_rad);
+  return albedo * (2.0 * l * cos_incidence / (cos_incidence + cos_emission) + (1.0 - l) * cos_incidence);
+}
+
+std::vector<std::string> RenderOptions::Validate() const {
+  std::vector<std::string> errors;
+  if (!std::isfinite(sun_azimuth_deg)) {
+    errors.push_back("sun_azimuth_deg: " + Number(sun_azimuth_deg) + " is not finite");
+  }
+  if (!std::isfinite(sun_elevation_deg)) {
+    errors.push_back("sun_elevation_deg: " + Number(sun_elevation_deg) +
+                     " is not finite; expected in (0, 90]");
+  } else if (sun_elevation_deg <= 0.0) {
+    errors.push_back("sun_elevation_deg: " + Number(sun_elevation_deg) +
+                     " puts the sun at or below the horizon; expected in (0, 90]");
+  } else if (sun_elevation_deg > 90.0) {
+    errors.push_back("sun_elevation_deg: " + Number(sun_elevation_deg) + " is past the zenith; expected in (0, 90]");
+  }
+  if (samples_per_pixel_axis < 1 || samples_per_pixel_axis > 16) {
+    errors.push_back("samples_per_pixel_axis: " + std::to_string(samples_per_pixel_axis) +
+                     "; expected 1 to 16");
+  }
+  if (!std::isfinite(dn_per_reflectance)) {
+    errors.push_back("dn_per_reflectance: " + Number(dn_per_reflectance) +
+                     " is not finite; expected > 0 (fixed exposure) or <= 0 (auto-exposure)");
+  }
+  if (!(std::isfinite(target_mean_dn) && target_mean_dn > 0.0)) {
+    errors.push_back("target_mean_dn: " + Number(target_mean_dn) + "; expected a finite value > 0");
+  }
+  if (!(std::isfinite(gain_electrons_per_dn) && gain_electrons_per_dn > 0.0)) {
+    errors.push_back("gain_electrons_per_dn: " + Number(gain_electrons_per_dn) +
+                     "; expected a finite value > 0");
+  }
+  if (!(std::isfinite(full_well_electrons) && full_well_electrons > 0.0)) {
+    errors.push_back("full_well_electrons: " + Number(full_well_electrons) +
+                     "; expected a finite value > 0");
+  }
+  if (!(std::isfinite(read_noise_dn) && read_noise_dn >= 0.0)) {
+    errors.push_back("read_noise_dn: " + Number(read_noise_dn) + "; expected a finite value >= 0");
+  }
+  if (bit_depth != 8 && bit_depth != 16) {
+    errors.push_back("bit_depth: " + std::to_string(bit_depth) + "; expected 8 or 16");
+  }
+  if (!(std::isfinite(ambient_reflectance) && ambient_reflectance >= 0.0)) {
+    errors.push_back("ambient_reflectance: " + Number(ambient_reflectance) +
+                     "; expected a finite value >= 0");
+  }
+  if (threads < 1) {
+    errors.push_back("threads: " + std::to_string(threads) + "; expected >= 1");
+  }
+  return errors;
+}
+
+namespace {
+
+void ThrowIfInvalid(const RenderOptions& options) {
+  const std::vector<std::string> errors = options.Validate();
+  if (errors.empty()) return;
+  std::string message = "invalid render options: ";
+  for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
+  throw InputError(message);
+}
+
+}  // namespace
+
+double ExposureFor(const RenderOptions& options, double mean_albedo,
+                   const Eigen::Vector3d& direction_to_camera_in_local) {
+  ThrowIfInvalid(options);
+  const Eigen::Vector3d sun = SunDirectionInLocal(options.sun_azimuth_deg, options.sun_elevation_deg);
+  const Eigen::Vector3d view = direction_to_camera_in_local.normalized();
+  const double cos_incidence = sun.z();
+  const double cos_emission = view.z();
+  const double phase_rad = std::acos(std::clamp(sun.dot(view), -1.0, 1.0));
+  const double reflectance = LunarLambertReflectance(mean_albedo, cos_incidence, cos_emission, phase_rad) +
+                             options.ambient_reflectance * mean_albedo;
+  if (!(reflectance > 0.0) || !std::isfinite(reflectance)) {
+    throw InputError("auto-exposure: the reference patch (albedo " + Number(mean_albedo) +
+                     ", view direction z " + Number(cos_emission) +
+                     ") reflects no light; expected albedo > 0 and a camera above the horizon");
+  }
+  return options.target_mean_dn / reflectance;
+}
+
+CameraRays::CameraRays(const calib::CameraModel& camera, int threads)
+    : width_px_(camera.WidthPx()), height_px_(camera.HeightPx()) {
+  if (threads < 1) throw InputError("threads: " + std::to_string(threads) + "; expected >= 1");
+  centres_.assign(static_cast<size_t>(width_px_) * height_px_, Eigen::Vector3d::Zero());
+  ForEachRow(
+      height_px_, threads,
+      [&](int row) {
+        std::vector<Eigen::Vector2d> pixels;
+        pixels.reserve(static_cast<size_t>(width_px_));
+        for (int col = 0; col < width_px_; ++col) pixels.emplace_back(col, row);
+        std::vector<Eigen::Vector3d> bearings;
+        std::vector<unsigned char> valid;
+        camera.Unproject(pixels, &bearings, &valid);
+        const size_t row_start = static_cast<size_t>(row) * width_px_;
+        for (int col = 0; col < width_px_; ++col) {
+          if (valid[static_cast<size_t>(col)]) centres_[row_start + col] = bearings[static_cast<size_t>(col)];
+        }
+      },
+      [](int) {});
+}
+
+Eigen::Vector3d CameraRays::SampleBearing(int row, int col, double dx_px, double dy_px) const {
+  // The 2 x 2 stencil of pixel centres around the sample, kept inside the
+  // imager (the weights then extrapolate by up to half a pixel).
+  const int c0 = std::clamp(dx_px < 0.0 ? col - 1 : col, 0, std::max(0, width_px_ - 2));
+  const int r0 = std::clamp(dy_px < 0.0 ? row - 1 : row, 0, std::max(0, height_px_ - 2));
+  const int c1 = std::min(c0 + 1, width_px_ - 1);
+  const int r1 = std::min(r0 + 1, height_px_ - 1);
+  const double fx = col + dx_px - c0;
+  const double fy = row + dy_px - r0;
+  const Eigen::Vector3d& b00 = CentreBearing(r0, c0);
+  const Eigen::Vector3d& b01 = CentreBearing(r0, c1);
+  const Eigen::Vector3d& b10 = CentreBearing(r1, c0);
+  const Eigen::Vector3d& b11 = CentreBearing(r1, c1);
+  if (b00.squaredNorm() == 0.0 || b01.squaredNorm() == 0.0 || b10.squaredNorm() == 0.0 ||
+      b11.squaredNorm() == 0.0) {
+    return Eigen::Vector3d::Zero();
+  }
+  const Eigen::Vector3d b = (1.0 - fy) * ((1.0 - fx) * b00 + fx * b01) + fy * ((1.0 - fx) * b10 + fx * b11);
+  const double norm = b.norm();
+  return norm > 0.0 ? Eigen::Vector3d(b / norm) : Eigen::Vector3d::Zero();
+}
+
+namespace {
+
+// What one camera ray sees.
+struct Sample {
+  bool hit = false;
+  RayHit ray_hit;
+  double reflectance = 0.0;  // including the ambient term
+  unsigned char shadow = 0;  // 255 cast, 128 attached, 0 lit
+};
+
+struct FrameContext {
+  const SceneRaycaster* raycaster;
+  Eigen::Matrix3d local_from_cam;
+  Eigen::Vector3d camera_in_local;
+  Eigen::Vector3d sun_in_local;
+  double ambient_reflectance;
+};
+
+// How a sample learns whether the sun is blocked.
+enum class ShadowMode {
+  kTrace,           // cast a shadow ray
+  kAssumeLit,       // the surrounding pixel centres are all unblocked: no ray
+  kAssumeShadowed,  // the surrounding pixel centres are all in cast shadow: no ray
+};
+
+// Casts the camera ray of `bearing_in_cam`, then (by `shadow_mode`) its shadow
+// ray. Without `shade`, only the geometry and the shadow flag (no albedo, no
+// reflectance).
+Sample Shade(const FrameContext& frame, const Eigen::Vector3d& bearing_in_cam, bool shade,
+             ShadowMode shadow_mode, std::int64_t* shadow_rays) {
+  Sample sample;
+  if (bearing_in_cam.squaredNorm() == 0.0) return sample;  // unprojectable pixel
+  const Eigen::Vector3d direction = (frame.local_from_cam * bearing_in_cam).normalized();
+  const double infinity = std::numeric_limits<double>::infinity();
+  const bool found = shade ? frame.raycaster->Intersect(frame.camera_in_local, direction, infinity, &sample.ray_hit)
+                           : frame.raycaster->IntersectGeometry(frame.camera_in_local, direction, infinity,
+                                                                &sample.ray_hit);
+  if (!found) return sample;
+  sample.hit = true;
+  const RayHit& hit = sample.ray_hit;
+  const Eigen::Vector3d to_camera = -direction;
+  const double cos_incidence = hit.normal_in_local.dot(frame.sun_in_local);
+  const double cos_emission = hit.normal_in_local.dot(to_camera);
+  double direct = 0.0;
+  if (cos_incidence <= 0.0) {
+    sample.shadow = 128;
+  } else {
+    bool blocked = shadow_mode == ShadowMode::kAssumeShadowed;
+    if (shadow_mode == ShadowMode::kTrace) {
+      ++*shadow_rays;
+      const Eigen::Vector3d start =
+          hit.point_in_local_m + SceneRaycaster::kShadowRayOffsetM * hit.normal_in_local;
+      blocked = frame.raycaster->Occluded(start, frame.sun_in_local, infinity);
+    }
+    if (blocked) {
+      sample.shadow = 255;
+    } else if (shade) {
+      const double phase_rad = std::acos(std::clamp(frame.sun_in_local.dot(to_camera), -1.0, 1.0));
+      direct = LunarLambertReflectance(hit.albedo, cos_incidence, cos_emission, phase_rad);
+    }
+  }
+  if (shade) sample.reflectance = direct + frame.ambient_reflectance * hit.albedo;
+  return sample;
+}
+
+}  // namespace
+
+RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, const calib::CameraModel& camera,
+                          const Rigid3d& cam_from_local, const RenderOptions& options,
+                          std::uint64_t noise_seed, const std::function<void(double fraction_done)>& progress) {
+  ThrowIfInvalid(options);
+  const auto start = std::chrono::steady_clock::now();
+  const CameraRays rays(camera, options.threads);
+  RenderedFrame frame = RenderFrame(raycaster, scene, rays, cam_from_local, options, noise_seed, progress);
+  frame.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return frame;
+}
+
+RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, const CameraRays& rays,
+                          const Rigid3d& cam_from_local, const RenderOptions& options,
+                          std::uint64_t noise_seed, const std::function<void(double fraction_done)>& progress) {
+  ThrowIfInvalid(options);
+  if (&scene != &raycaster.GetScene()) {
+    throw InputError("RenderFrame: the scene is not the one the raycaster was built from");
+  }
+  if (rays.WidthPx() < 1 || rays.HeightPx() < 1) throw InputError("RenderFrame: the camera rays are empty");
+  const auto start = std::chrono::steady_clock::now();
+  const Rigid3d local_from_cam = cam_from_local.Inverse();
+  FrameContext context;
+  context.raycaster = &raycaster;
+  context.local_from_cam = local_from_cam.RotationMatrix();
+  context.camera_in_local = local_from_cam.translation;
+  context.sun_in_local = SunDirectionInLocal(options.sun_azimuth_deg, options.sun_elevation_deg);
+  context.ambient_reflectance = options.ambient_reflectance;
+
+  RenderedFrame frame;
+  frame.dn_per_reflectance =
+      options.dn_per_reflectance > 0.0
+          ? options.dn_per_reflectance
+          : ExposureFor(options, scene.albedo.mean, -(context.local_from_cam * Eigen::Vector3d::UnitZ()));
+  const int width = rays.WidthPx();
+  const int height = rays.HeightPx();
+  const int n = options.samples_per_pixel_axis;
+  const int samples_per_pixel = n * n;
+  // With odd n the middle sample is the pixel centre: reuse its hit.
+  const int centre_sample = n % 2 == 1 ? (n / 2) * n + n / 2 : -1;
+  const double max_dn = options.bit_depth == 8 ? 255.0 : 65535.0;
+  frame.image = cv::Mat(height, width, options.bit_depth == 8 ? CV_8UC1 : CV_16UC1);
+  frame.points_in_local_m = cv::Mat(height, width, CV_32FC3);
+  frame.shadow_mask = cv::Mat(height, width, CV_8UC1);
+  frame.rock_index = cv::Mat(height, width, CV_32SC1);
+  std::vector<std::int64_t> camera_rays(static_cast<size_t>(height), 0);
+  std::vector<std::int64_t> shadow_rays(static_cast<size_t>(height), 0);
+
+  // Pass 1, the truth: every pixel-centre ray with its own shadow ray.
+  const bool quincunx = options.anti_aliasing == RenderOptions::AntiAliasing::kQuincunx;
+  const bool centre_in_image = quincunx || centre_sample >= 0;
+  std::vector<double> centre_reflectance(centre_in_image ? static_cast<size_t>(width) * height : 0);
+  const auto trace_centres = [&](int row) {
+    std::int64_t row_shadow_rays = 0;
+    auto* points = frame.points_in_local_m.ptr<cv::Vec3f>(row);
+    auto* mask = frame.shadow_mask.ptr<unsigned char>(row);
+    auto* rock = frame.rock_index.ptr<std::int32_t>(row);
+    for (int col = 0; col < width; ++col) {
+      // Its albedo only matters when it is also an image sample.
+      const Sample centre = Shade(context, rays.CentreBearing(row, col), centre_in_image,
+                                  ShadowMode::kTrace, &row_shadow_rays);
+      if (centre.hit) {
+        const Eigen::Vector3f p = centre.ray_hit.point_in_local_m.cast<float>();
+        points[col] = cv::Vec3f(p.x(), p.y(), p.z());
+      } else {
+        const float nan = std::numeric_limits<float>::quiet_NaN();
+        points[col] = cv::Vec3f(nan, nan, nan);
+      }
+      mask[col] = centre.shadow;
+      rock[col] = centre.hit ? centre.ray_hit.rock_index : -1;
+      if (centre_in_image) centre_reflectance[static_cast<size_t>(row) * width + col] = centre.reflectance;
+    }
+    camera_rays[static_cast<size_t>(row)] = width;
+    shadow_rays[static_cast<size_t>(row)] = row_shadow_rays;
+  };
+  ForEachRow(height, options.threads, trace_centres, [&](int rows_done) {
+    if (progress && (rows_done % 16 == 0)) progress(0.2 * rows_done / height);
+  });
+
+  // Pass 2, the image: the sub-pixel samples. Their shadow rays are cast only
+  // near shadow edges, where the 3x3 pixel centres around the pixel disagree
+  // about cast shadow (255); elsewhere every sample takes the centres' state.
+  // Pass 1 is complete, so this depends on nothing but its inputs: the output
+  // stays the same for any thread count.
+  // Shadow mode of the samples of pixels rows [row0, row1] x cols [col0, col1].
+  const auto shadow_mode_of_box = [&](int row0, int row1, int col0, int col1) {
+    bool any_cast = false;
+    bool any_not_cast = false;
+    for (int r = std::max(0, row0); r <= std::min(height - 1, row1); ++r) {
+      const auto* mask = frame.shadow_mask.ptr<unsigned char>(r);
+      for (int c = std::max(0, col0); c <= std::min(width - 1, col1); ++c) {
+        if (mask[c] == 255) {
+          any_cast = true;
+        } else {
+          any_not_cast = true;
+        }
+      }
+    }
+    if (any_cast && any_not_cast) return ShadowMode::kTrace;
+    return any_cast ? ShadowMode::kAssumeShadowed : ShadowMode::kAssumeLit;
+  };
+
+  // Quincunx corners: corner (r, c) is the pixel corner at x = c - 0.5,
+  // y = r - 0.5; its shadow mode comes from the 4 x 4 pixel centres around
+  // it (the 2 x 2 pixels that share it, grown by one, as for grid samples).
+  std::vector<double> corner_reflectance(quincunx ? static_cast<size_t>(width + 1) * (height + 1) : 0);
+  if (quincunx) {
+    const auto trace_corners = [&](int r) {
+      std::int64_t row_shadow_rays = 0;
+      const int rr = std::min(r, height - 1);
+      for (int c = 0; c <= width; ++c) {
+        const int cc = std::min(c, width - 1);
+        const double dx_px = (c - 0.5) - cc;
+        const double dy_px = (r - 0.5) - rr;
+        corner_reflectance[static_cast<size_t>(r) * (width + 1) + c] =
+            Shade(context, rays.SampleBearing(rr, cc, dx_px, dy_px), true,
+                  shadow_mode_of_box(r - 2, r + 1, c - 2, c + 1), &row_shadow_rays)
+                .reflectance;
+      }
+      camera_rays[static_cast<size_t>(std::min(r, height - 1))] += width + 1;
+      shadow_rays[static_cast<size_t>(std::min(r, height - 1))] += row_shadow_rays;
+    };
+    // Corner rows 0..height-1 in the workers (each writes its own row's
+    // counters), then the bottom corner row here, adding to the last row's.
+    ForEachRow(height, options.threads, trace_corners, [&](int rows_done) {
+      if (progress && (rows_done % 16 == 0)) progress(0.2 + 0.7 * rows_done / height);
+    });
+    trace_corners(height);
+  }
+  const auto render_row = [&](int row) {
+    std::int64_t row_shadow_rays = 0;
+    std::int64_t row_camera_rays = 0;
+    for (int col = 0; col < width; ++col) {
+      const ShadowMode shadow_mode = shadow_mode_of_box(row - 1, row + 1, col - 1, col + 1);
+      // Image: the weighted mean reflectance of the pixel's rays.
+      double reflectance_sum = 0.0;
+      if (quincunx) {
+        const size_t stride = static_cast<size_t>(width) + 1;
+        const size_t top_left = static_cast<size_t>(row) * stride + col;
+        reflectance_sum = samples_per_pixel *
+                          (0.5 * centre_reflectance[static_cast<size_t>(row) * width + col] +
+                           0.125 * (corner_reflectance[top_left] + corner_reflectance[top_left + 1] +
+                                    corner_reflectance[top_left + stride] +
+                                    corner_reflectance[top_left + stride + 1]));
+      }
+      for (int k = 0; !quincunx && k < samples_per_pixel; ++k) {
+        if (k == centre_sample) {
+          reflectance_sum += centre_reflectance[static_cast<size_t>(row) * width + col];
+          continue;
+        }
+        const double dx_px = (k % n + 0.5) / n - 0.5;
+        const double dy_px = (k / n + 0.5) / n - 0.5;
+        reflectance_sum += Shade(context, rays.SampleBearing(row, col, dx_px, dy_px), true, shadow_mode,
+                                 &row_shadow_rays)
+                               .reflectance;
+        ++row_camera_rays;
+      }
+      const double signal_dn = frame.dn_per_reflectance * reflectance_sum / samples_per_pixel;
+      // Sensor: shot noise on the electrons, full-well clip, read noise, rounding.
+      const std::uint64_t pixel_index = static_cast<std::uint64_t>(row) * static_cast<std::uint64_t>(width) +
+                                        static_cast<std::uint64_t>(col);
+      double shot = 0.0, read = 0.0;
+      if (options.shot_noise || options.read_noise_dn > 0.0) GaussianPair(noise_seed, pixel_index, &shot, &read);
+      double electrons = signal_dn * options.gain_electrons_per_dn;
+      if (options.shot_noise) electrons += std::sqrt(std::max(electrons, 0.0)) * shot;
+      electrons = std::clamp(electrons, 0.0, options.full_well_electrons);
+      const double dn = std::clamp(
+          std::round(electrons / options.gain_electrons_per_dn + options.read_noise_dn * read), 0.0, max_dn);
+      if (options.bit_depth == 8) {
+        frame.image.ptr<std::uint8_t>(row)[col] = static_cast<std::uint8_t>(dn);
+      } else {
+        frame.image.ptr<std::uint16_t>(row)[col] = static_cast<std::uint16_t>(dn);
+      }
+    }
+    camera_rays[static_cast<size_t>(row)] += row_camera_rays;
+    shadow_rays[static_cast<size_t>(row)] += row_shadow_rays;
+  };
+  ForEachRow(height, options.threads, render_row, [&](int rows_done) {
+    if (progress && (rows_done % 16 == 0)) progress(0.2 + 0.8 * rows_done / height);
+  });
+  if (progress) progress(1.0);
+  for (int row = 0; row < height; ++row) {
+    frame.stats.camera_rays += camera_rays[static_cast<size_t>(row)];
+    frame.stats.shadow_rays += shadow_rays[static_cast<size_t>(row)];
+  }
+  frame.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return frame;
+}
+
+}  // namespace hdabench::datasets::synth

@@ -1,0 +1,62 @@
+#include "datasets/synth/scene.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "datasets/synth/noise.h"
+
+namespace hdabench::datasets::synth {
+
+namespace {
+
+// The triangle of the cell under (x, y): its three corner nodes in local
+// coordinates. Cells are split along the diagonal (r, c) -> (r+1, c+1).
+bool CellTriangle(const Heightfield& dem, double x_m, double y_m, Eigen::Vector3d corners[3]) {
+  if (dem.width < 2 || dem.height < 2) return false;
+  const double u = (x_m - dem.origin_x_m) / dem.spacing_m;   // column coordinate
+  const double v = (dem.origin_y_m - y_m) / dem.spacing_m;   // row coordinate
+  if (!(u >= 0.0 && v >= 0.0 && u <= dem.width - 1 && v <= dem.height - 1)) return false;
+  const int c = std::min(static_cast<int>(u), dem.width - 2);
+  const int r = std::min(static_cast<int>(v), dem.height - 2);
+  const double fu = u - c;
+  const double fv = v - r;
+  const auto node = [&](int rr, int cc) {
+    return Eigen::Vector3d(dem.origin_x_m + cc * dem.spacing_m, dem.origin_y_m - rr * dem.spacing_m,
+                           dem.At(rr, cc));
+  };
+  corners[0] = node(r, c);
+  corners[1] = node(r + 1, c + 1);
+  // Upper-right triangle (fu >= fv) holds node (r, c+1); the other (r+1, c).
+  corners[2] = fu >= fv ? node(r, c + 1) : node(r + 1, c);
+  return true;
+}
+
+}  // namespace
+
+bool Heightfield::HeightAt(double x_m, double y_m, double* z_m) const {
+  Eigen::Vector3d p[3];
+  if (!CellTriangle(*this, x_m, y_m, p)) return false;
+  // The plane through the triangle, evaluated at (x, y).
+  const Eigen::Vector3d n = (p[1] - p[0]).cross(p[2] - p[0]);
+  *z_m = p[0].z() - (n.x() * (x_m - p[0].x()) + n.y() * (y_m - p[0].y())) / n.z();
+  return true;
+}
+
+bool Heightfield::NormalAt(double x_m, double y_m, Eigen::Vector3d* normal) const {
+  Eigen::Vector3d p[3];
+  if (!CellTriangle(*this, x_m, y_m, p)) return false;
+  Eigen::Vector3d n = (p[1] - p[0]).cross(p[2] - p[0]).normalized();
+  if (n.z() < 0.0) n = -n;
+  *normal = n;
+  return true;
+}
+
+double AlbedoField::At(double x_m, double y_m) const {
+  const double variation =
+      FractalNoise(seed, x_m, y_m, finest_wavelength_m, coarsest_wavelength_m, 0.5);  // [-1, 1]
+  return std::clamp(mean * (1.0 + relative_variation * variation), 1e-3, 1.0);
+}
+
+}  // namespace hdabench::datasets::synth

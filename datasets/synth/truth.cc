@@ -1,0 +1,165 @@
+#include "datasets/synth/truth.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "calib/error.h"
+
+namespace hdabench::datasets::synth {
+
+namespace {
+constexpr double kRadToDeg = 57.29577951308232;
+
+Eigen::Vector3d UpInLocal(const Dataset& dataset) {
+  return -dataset.gravity_in_local_mps2.normalized();
+}
+
+// Writes a PNG to a temporary name and renames it into place.
+void WritePngAtomically(const std::filesystem::path& path, const cv::Mat& image) {
+  const std::filesystem::path tmp = path.string() + ".partial.png";
+  if (!cv::imwrite(tmp.string(), image)) {
+    throw InputError(path.string() + ": cannot write the image");
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) throw InputError(path.string() + ": cannot move the written image into place: " + ec.message());
+}
+}  // namespace
+
+RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi) {
+  const TruthPoints* truth = nullptr;
+  for (const TruthPoints& t : dataset.truth.points) {
+    if (t.frame == frame) truth = &t;
+  }
+  if (truth == nullptr || truth->points_in_local_m.empty()) {
+    throw InputError("frame " + std::to_string(frame) + " has no truth points in the dataset");
+  }
+  const cv::Mat& raster = truth->points_in_local_m;
+  if (roi.width <= 0 || roi.height <= 0 || roi.x < 0 || roi.y < 0 || roi.x + roi.width > raster.cols ||
+      roi.y + roi.height > raster.rows) {
+    throw InputError("ROI x=" + std::to_string(roi.x) + " y=" + std::to_string(roi.y) + " w=" +
+                     std::to_string(roi.width) + " h=" + std::to_string(roi.height) +
+                     " is empty or leaves the " + std::to_string(raster.cols) + " x " +
+                     std::to_string(raster.rows) + " px image");
+  }
+  std::vector<Eigen::Vector3d> points;
+  for (int r = roi.y; r < roi.y + roi.height; ++r) {
+    const cv::Vec3f* row = raster.ptr<cv::Vec3f>(r);
+    for (int c = roi.x; c < roi.x + roi.width; ++c) {
+      const cv::Vec3f& p = row[c];
+      if (std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2])) {
+        points.emplace_back(p[0], p[1], p[2]);
+      }
+    }
+  }
+  if (points.size() < 3) {
+    throw InputError("the ROI holds " + std::to_string(points.size()) +
+                     " true points; a plane needs at least 3");
+  }
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points) covariance += (p - centroid) * (p - centroid).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+  const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
+  if (eigenvalues(1) <= 1e-12 * std::max(1.0, eigenvalues(2))) {
+    throw InputError("the ROI's true points are collinear: no plane");
+  }
+  const Eigen::Vector3d up = UpInLocal(dataset);
+  Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
+  if (normal.dot(up) < 0) normal = -normal;
+
+  RoiTruth result;
+  result.num_points = static_cast<int>(points.size());
+  result.normal_in_local = normal;
+  result.centroid_in_local_m = centroid;
+  result.slope_deg = std::acos(std::clamp(normal.dot(up), -1.0, 1.0)) * kRadToDeg;
+  double sum_squares = 0.0;
+  for (const Eigen::Vector3d& p : points) {
+    const double d = std::abs(normal.dot(p - centroid));
+    sum_squares += d * d;
+    result.roughness_max_m = std::max(result.roughness_max_m, d);
+  }
+  result.roughness_rms_m = std::sqrt(sum_squares / static_cast<double>(points.size()));
+
+  // Rocks whose centre projects into the ROI with the frame's true pose.
+  if (!dataset.truth.rocks.empty()) {
+    const Rigid3d cam_from_local =
+        dataset.truth.navigation.empty() ? dataset.CamFromLocal(frame) : dataset.TrueCamFromLocal(frame);
+    std::vector<Eigen::Vector3d> centers;
+    for (const TruthRock& rock : dataset.truth.rocks) centers.push_back(cam_from_local * rock.center_in_local_m);
+    std::vector<Eigen::Vector2d> pixels;
+    std::vector<unsigned char> valid;
+    dataset.camera.Project(centers, &pixels, &valid);
+    for (size_t i = 0; i < centers.size(); ++i) {
+      if (!valid[i]) continue;
+      const Eigen::Vector2d& q = pixels[i];
+      if (q.x() >= roi.x - 0.5 && q.x() < roi.x + roi.width - 0.5 && q.y() >= roi.y - 0.5 &&
+          q.y() < roi.y + roi.height - 0.5) {
+        result.max_rock_height_m = std::max(result.max_rock_height_m, dataset.truth.rocks[i].height_above_ground_m);
+      }
+    }
+  }
+  result.hazard_height_m = std::max(result.roughness_max_m, result.max_rock_height_m);
+  return result;
+}
+
+void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double max_slope_deg,
+                    double max_hazard_m) {
+  if (!dataset.truth.dem.has_value() || dataset.truth.dem->height_in_local_m.empty()) {
+    throw InputError("the dataset has no truth DEM in memory: no maps to draw");
+  }
+  const TruthDem& dem = *dataset.truth.dem;
+  const cv::Mat& z = dem.height_in_local_m;
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (ec) throw InputError(out_dir + ": cannot create the folder: " + ec.message());
+
+  // Slope over a baseline of about 1 m (at least one node each side).
+  const int k = std::max(1, static_cast<int>(std::lround(0.5 / dem.spacing_m)));
+  cv::Mat slope_deg(z.rows, z.cols, CV_32FC1, cv::Scalar(0));
+  for (int r = 0; r < z.rows; ++r) {
+    const int r0 = std::max(0, r - k);
+    const int r1 = std::min(z.rows - 1, r + k);
+    for (int c = 0; c < z.cols; ++c) {
+      const int c0 = std::max(0, c - k);
+      const int c1 = std::min(z.cols - 1, c + k);
+      const double dzdx = static_cast<double>(z.at<float>(r, c1) - z.at<float>(r, c0)) / ((c1 - c0) * dem.spacing_m);
+      const double dzdy = static_cast<double>(z.at<float>(r0, c) - z.at<float>(r1, c)) / ((r1 - r0) * dem.spacing_m);
+      slope_deg.at<float>(r, c) = static_cast<float>(std::atan(std::hypot(dzdx, dzdy)) * kRadToDeg);
+    }
+  }
+  cv::Mat elevation_8u;
+  cv::normalize(z, elevation_8u, 0, 255, cv::NORM_MINMAX, CV_8UC1);
+  cv::Mat elevation_color;
+  cv::applyColorMap(elevation_8u, elevation_color, cv::COLORMAP_VIRIDIS);
+  cv::Mat slope_8u;
+  slope_deg.convertTo(slope_8u, CV_8UC1, 255.0 / 30.0);  // 0..30 degrees
+  cv::Mat slope_color;
+  cv::applyColorMap(slope_8u, slope_color, cv::COLORMAP_INFERNO);
+
+  // Hazards: red where the slope is over the limit, yellow under rocks over max_hazard_m.
+  cv::Mat hazards(z.rows, z.cols, CV_8UC3, cv::Scalar(40, 120, 40));
+  hazards.setTo(cv::Scalar(0, 0, 220), slope_deg > max_slope_deg);
+  for (const TruthRock& rock : dataset.truth.rocks) {
+    if (rock.height_above_ground_m <= max_hazard_m) continue;
+    const double col = (rock.center_in_local_m.x() - dem.origin_in_local_m.x()) / dem.spacing_m;
+    const double row = (dem.origin_in_local_m.y() - rock.center_in_local_m.y()) / dem.spacing_m;
+    const int radius = std::max(1, static_cast<int>(std::lround(0.5 * rock.diameter_m / dem.spacing_m)));
+    cv::circle(hazards, cv::Point(static_cast<int>(std::lround(col)), static_cast<int>(std::lround(row))),
+               radius, cv::Scalar(0, 220, 255), cv::FILLED);
+  }
+  const std::filesystem::path dir(out_dir);
+  WritePngAtomically(dir / "elevation.png", elevation_color);
+  WritePngAtomically(dir / "slope.png", slope_color);
+  WritePngAtomically(dir / "hazards.png", hazards);
+}
+
+}  // namespace hdabench::datasets::synth

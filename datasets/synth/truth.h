@@ -1,0 +1,53 @@
+// Ground truth of a region of interest (ROI): the numbers every comparison of
+// the bench is scored against. Definitions (docs/synthetic-scenes.md, "Truth"):
+//   points   the true 3D points (local frame) of the ROI's pixels in the frame's
+//            truth raster; pixels whose ray hit nothing are skipped.
+//   plane    least-squares plane through those points (total least squares:
+//            the normal is the eigenvector of the smallest eigenvalue of their
+//            covariance), its normal n pointing up (n . up > 0, up = -gravity).
+//   slope    angle between n and up, degrees.
+//   roughness_rms_m / roughness_max_m: RMS and maximum of |n . (p - centroid)|.
+//   max_rock_height_m: tallest rock (height above the terrain under its
+//            centre) whose centre projects into the ROI with the frame's true
+//            pose; 0 when none.
+//   hazard_height_m: max(roughness_max_m, max_rock_height_m).
+#pragma once
+
+#include <string>
+
+#include "datasets/dataset.h"
+
+namespace hdabench::datasets::synth {
+
+struct PixelRoi {
+  int x = 0;       // left column, pixels
+  int y = 0;       // top row, pixels
+  int width = 0;   // pixels
+  int height = 0;  // pixels
+};
+
+struct RoiTruth {
+  int num_points = 0;
+  double slope_deg = 0.0;
+  double roughness_rms_m = 0.0;
+  double roughness_max_m = 0.0;
+  double max_rock_height_m = 0.0;
+  double hazard_height_m = 0.0;
+  Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d centroid_in_local_m = Eigen::Vector3d::Zero();
+};
+
+// Truth of `roi` in frame `frame`. The dataset must hold the frame's truth
+// points in memory (LoadOptions::keep_truth). Throws InputError when the frame
+// has no truth points, the ROI leaves the image or is empty, or fewer than 3
+// points (or only collinear ones) fall inside it.
+RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi);
+
+// Writes elevation.png, slope.png and hazards.png (slope over max_slope_deg
+// measured over a 1 m baseline, or a rock taller than max_hazard_m) of the
+// dataset's truth DEM into out_dir, each atomically. Throws InputError when
+// the dataset has no DEM in memory or a file cannot be written.
+void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double max_slope_deg = 10.0,
+                    double max_hazard_m = 0.30);
+
+}  // namespace hdabench::datasets::synth

@@ -1,0 +1,202 @@
+#include "datasets/synth/synth.h"
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "calib/error.h"
+#include "datasets/example.h"
+#include "datasets/synth/truth.h"
+#include "tests/support/test_support.h"
+
+namespace hdabench::datasets::synth {
+namespace {
+
+namespace fs = std::filesystem;
+using testing_support::CurrentTestSeed;
+using testing_support::FreshTestDir;
+using testing_support::ReadText;
+using testing_support::RunHdabench;
+
+// A preset shrunk for tests: a small imager (the DEM spacing follows the pixel
+// footprint, so the scene shrinks with it) and fewer frames.
+SynthOptions SmallPreset(const std::string& name) {
+  SynthOptions options = SynthPreset(name);
+  options.image_size_px = 96;
+  options.frame_rate_hz = 1.0;
+  return options;
+}
+
+TerrainOptions TerrainFor(const SynthOptions& options) {
+  TerrainOptions terrain = TerrainPreset(options.terrain);
+  ScaleTerrain(options.terrain_scale, &terrain);
+  return terrain;
+}
+
+TEST(GenerateSynthDataset, EveryPresetPassesTheDatasetCheck) {
+  for (const std::string& name : SynthPresetNames()) {
+    SCOPED_TRACE(name);
+    const SynthOptions options = SmallPreset(name);
+    SynthSummary summary;
+    const Dataset dataset =
+        GenerateSynthDataset(options, TerrainFor(options), CurrentTestSeed(), {}, &summary);
+    const fs::path dir = FreshTestDir() / name;
+    WriteDataset(dataset, dir.string());
+    const DatasetLoadResult loaded = LoadDataset(dir.string());
+    ASSERT_TRUE(loaded.Ok()) << (loaded.problems.empty() ? "" : loaded.problems[0].ToString());
+    EXPECT_EQ(static_cast<int>(loaded.dataset->frames.size()), summary.frames);
+    EXPECT_FALSE(loaded.dataset->truth.navigation.empty());
+    // Every frame sees terrain: most truth points are hits.
+    for (const TruthPoints& points : dataset.truth.points) {
+      int hits = 0;
+      for (int r = 0; r < points.points_in_local_m.rows; ++r) {
+        for (int c = 0; c < points.points_in_local_m.cols; ++c) {
+          hits += std::isfinite(points.points_in_local_m.at<cv::Vec3f>(r, c)[0]) ? 1 : 0;
+        }
+      }
+      EXPECT_EQ(hits, points.points_in_local_m.rows * points.points_in_local_m.cols);
+    }
+    // The CLI agrees.
+    const auto check = RunHdabench({"dataset", "check", dir.string()}, dir.parent_path());
+    EXPECT_EQ(check.exit_code, 0) << check.err;
+  }
+}
+
+TEST(GenerateSynthDataset, LateralPresetHasAPairAbout30MetresApart) {
+  const SynthOptions options = SynthPreset("novac-lateral");
+  EXPECT_EQ(options.image_size_px, 1024);
+  // 13 m/s over the 5 s window at 2.5 Hz: frames 0 and 6 are 2.4 s apart.
+  EXPECT_NEAR(options.speed_mps * 6.0 / options.frame_rate_hz, 31.2, 1e-9);
+}
+
+TEST(GenerateSynthDataset, MeasuredNavigationEqualsTruthWithoutErrorsAndDriftsWithThem) {
+  SynthOptions options = SmallPreset("novac-lateral");
+  options.nav_velocity_bias_mps = 0.0;
+  options.nav_position_noise_m = 0.0;
+  options.nav_attitude_drift_deg_per_s = 0.0;
+  options.nav_attitude_noise_deg = 0.0;
+  options.lrf_noise_m = 0.0;
+  const Dataset exact = GenerateSynthDataset(options, TerrainFor(options), CurrentTestSeed());
+  ASSERT_EQ(exact.nav.size(), exact.truth.navigation.size());
+  for (size_t i = 0; i < exact.nav.size(); ++i) {
+    EXPECT_LT((exact.nav[i].local_from_body.translation - exact.truth.navigation[i].local_from_body.translation).norm(), 1e-12);
+    EXPECT_LT(exact.nav[i].local_from_body.rotation.angularDistance(exact.truth.navigation[i].local_from_body.rotation), 1e-12);
+  }
+  // The LRF range is the distance to the terrain along the boresight: the
+  // boresight passes near the ILS, about 566 m away at the window's middle.
+  const double mid_s = 0.5 * options.collection_s;
+  EXPECT_NEAR(exact.LrfRangeAt(mid_s), std::hypot(400.0, 400.0), 15.0);
+
+  options.nav_velocity_bias_mps = 0.05;
+  const Dataset biased = GenerateSynthDataset(options, TerrainFor(options), CurrentTestSeed());
+  // A constant velocity error drifts the relative position by bias * dt.
+  const int last = static_cast<int>(biased.frames.size()) - 1;
+  const Rigid3d measured = biased.Cam2FromCam1(0, last);
+  const Rigid3d truth = biased.TrueCam2FromCam1(0, last);
+  const double dt = biased.frames[last].time_s - biased.frames[0].time_s;
+  EXPECT_NEAR((measured.translation - truth.translation).norm(), 0.05 * dt, 1e-6);
+}
+
+TEST(GenerateSynthDataset, SameSeedSameBytesWhateverTheThreadCount) {
+  SynthOptions options = SmallPreset("novac-lateral");
+  const fs::path dir = FreshTestDir();
+  options.threads = 1;
+  WriteDataset(GenerateSynthDataset(options, TerrainFor(options), 7), (dir / "one").string());
+  options.threads = 2;
+  WriteDataset(GenerateSynthDataset(options, TerrainFor(options), 7), (dir / "two").string());
+  WriteDataset(GenerateSynthDataset(options, TerrainFor(options), 8), (dir / "other").string());
+  size_t files = 0;
+  bool any_differs = false;
+  for (const auto& entry : fs::recursive_directory_iterator(dir / "one")) {
+    if (!entry.is_regular_file()) continue;
+    const fs::path relative = fs::relative(entry.path(), dir / "one");
+    EXPECT_EQ(ReadText(entry.path()), ReadText(dir / "two" / relative)) << relative;
+    any_differs |= ReadText(entry.path()) != ReadText(dir / "other" / relative);
+    ++files;
+  }
+  EXPECT_GT(files, 8u);
+  EXPECT_TRUE(any_differs) << "seed 8 gave the same files as seed 7";
+}
+
+void ExpectInputError(const SynthOptions& options, const TerrainOptions& terrain, const std::string& expected) {
+  try {
+    GenerateSynthDataset(options, terrain, 1);
+    ADD_FAILURE() << "expected InputError containing: " << expected;
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+  }
+}
+
+TEST(GenerateSynthDataset, BadParametersGiveClearErrors) {
+  SynthOptions options = SmallPreset("novac-lateral");
+  const TerrainOptions terrain = TerrainFor(options);
+  SynthOptions negative = options;
+  negative.altitude_m = -5.0;
+  ExpectInputError(negative, terrain, "altitude_m = -5: expected > 0");
+  SynthOptions dark = options;
+  dark.render.sun_elevation_deg = -3.0;
+  ExpectInputError(dark, terrain, "render.sun_elevation_deg");
+  SynthOptions sky = options;
+  sky.off_nadir_deg = 70.0;
+  sky.horizontal_fov_deg = 60.0;
+  ExpectInputError(sky, terrain, "the camera sees no terrain");
+  SynthOptions no_camera = options;
+  no_camera.camera_model_file = (FreshTestDir() / "absent.cameramodel").string();
+  ExpectInputError(no_camera, terrain, "absent.cameramodel: cannot open the camera model file");
+  EXPECT_THROW(SynthPreset("lander"), InputError);
+}
+
+TEST(SynthCommand, FailureLeavesNoDatasetBehind) {
+  const fs::path dir = FreshTestDir();
+  const fs::path out = dir / "out";
+  const auto run = RunHdabench({"synth", "--out", out.string(), "--image-size", "64", "--set",
+                                "render.sun_elevation_deg=-5", "--quiet"},
+                               dir);
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_NE(run.err.find("sun_elevation_deg"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(out));
+  const auto bad_key = RunHdabench({"synth", "--out", out.string(), "--set", "warp_factor=9"}, dir);
+  EXPECT_EQ(bad_key.exit_code, 3) << bad_key.err;
+  EXPECT_NE(bad_key.err.find("warp_factor"), std::string::npos) << bad_key.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+TEST(ComputeRoiTruth, FlatGroundHasZeroSlopeAndRoughness) {
+  ExampleDatasetOptions example;
+  example.image_size_px = 64;
+  const Dataset dataset = MakeExampleDataset(example);
+  const RoiTruth truth = ComputeRoiTruth(dataset, 0, PixelRoi{10, 10, 20, 20});
+  EXPECT_EQ(truth.num_points, 400);
+  EXPECT_LT(truth.slope_deg, 0.01);
+  // Truth points are float32: about 1e-5 m of rounding at 500 m.
+  EXPECT_LT(truth.roughness_rms_m, 1e-3);
+  EXPECT_EQ(truth.max_rock_height_m, 0.0);
+}
+
+TEST(ComputeRoiTruth, TiltedPlaneGivesItsSlopeAndBadRoisAreRefused) {
+  ExampleDatasetOptions example;
+  example.image_size_px = 32;
+  Dataset dataset = MakeExampleDataset(example);
+  // Replace frame 0's truth by a plane rising 20 degrees toward the north.
+  cv::Mat& raster = dataset.truth.points[0].points_in_local_m;
+  const double tan20 = std::tan(20.0 * 3.14159265358979323846 / 180.0);
+  for (int r = 0; r < raster.rows; ++r) {
+    for (int c = 0; c < raster.cols; ++c) {
+      const float x = static_cast<float>(c * 0.5);
+      const float y = static_cast<float>(-r * 0.5);
+      raster.at<cv::Vec3f>(r, c) = cv::Vec3f(x, y, static_cast<float>(static_cast<double>(y) * tan20));
+    }
+  }
+  raster.at<cv::Vec3f>(3, 3) = cv::Vec3f(NAN, NAN, NAN);  // a ray that hit nothing
+  const RoiTruth truth = ComputeRoiTruth(dataset, 0, PixelRoi{0, 0, 8, 8});
+  EXPECT_EQ(truth.num_points, 63);
+  EXPECT_NEAR(truth.slope_deg, 20.0, 1e-4);
+  EXPECT_THROW(ComputeRoiTruth(dataset, 0, PixelRoi{30, 30, 8, 8}), InputError);
+  EXPECT_THROW(ComputeRoiTruth(dataset, 0, PixelRoi{0, 0, 0, 8}), InputError);
+  EXPECT_THROW(ComputeRoiTruth(dataset, 42, PixelRoi{0, 0, 8, 8}), InputError);
+}
+
+}  // namespace
+}  // namespace hdabench::datasets::synth

@@ -254,14 +254,8 @@ TEST(TrueCam2FromCam1, MatchesConstructedTruth) {
   const std::uint64_t seed = CurrentTestSeed();
   SCOPED_TRACE("seed " + std::to_string(seed));
   std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> unit(-1.0, 1.0);
-  auto random_rotation = [&] {
-    return Eigen::Quaterniond(Eigen::Vector4d(unit(rng), unit(rng), unit(rng), unit(rng)))
-        .normalized();
-  };
-  auto random_vector = [&](double scale) {
-    return Eigen::Vector3d(scale * unit(rng), scale * unit(rng), scale * unit(rng));
-  };
+  auto random_rotation = [&] { return testing_support::RandomRotation(&rng); };
+  auto random_vector = [&](double scale) { return testing_support::RandomVector(&rng, scale); };
   auto random_pose = [&](double scale) { return Rigid3d(random_rotation(), random_vector(scale)); };
   for (int trial = 0; trial < 50; ++trial) {
     SCOPED_TRACE("trial " + std::to_string(trial));

@@ -9,11 +9,14 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <random>
 #include <sstream>
 #include <string>
 #include <system_error>
 #include <vector>
 
+#include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 namespace hdabench::testing_support {
@@ -29,6 +32,19 @@ inline std::uint64_t SeedFromName(const std::string& name) {
     hash *= 0x100000001b3ULL;
   }
   return hash;
+}
+
+// A random unit quaternion (uniform 4-vector, normalised) and a random vector
+// with components uniform in [-scale, scale], from a seeded generator.
+inline Eigen::Quaterniond RandomRotation(std::mt19937_64* rng) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const double w = unit(*rng), x = unit(*rng), y = unit(*rng), z = unit(*rng);
+  return Eigen::Quaterniond(w, x, y, z).normalized();
+}
+inline Eigen::Vector3d RandomVector(std::mt19937_64* rng, double scale) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  const double x = unit(*rng), y = unit(*rng), z = unit(*rng);
+  return Eigen::Vector3d(scale * x, scale * y, scale * z);
 }
 
 // "Suite.Test" (with the parameter suffix for TEST_P), file-name safe.

@@ -6,19 +6,18 @@
 #include <string>
 #include <vector>
 
+#include "hda/quadtree.h"
+
 namespace hdabench::hda {
 
 struct HdaOptions {
-  // Landing-site requirements (paper, "Requirements").
-  double site_size_m = 10.0;          // side of the square landing area, metres
+  // Landing-site requirements (paper, "Requirements"); the site size is
+  // quadtree.site_size_m.
   double max_hazard_height_m = 0.30;  // largest tolerated rock or hole, metres
   double max_slope_deg = 10.0;        // largest slope from local horizontal, degrees
 
-  // Quadtree on image 1.
-  double max_block_stddev = 12.0;     // a block this uniform (brightness std, 8-bit levels) stops splitting
-  double min_block_mean = 40.0;       // darker blocks are shadow: rejected (8-bit levels)
-  double max_roi_stddev = 30.0;       // brighter variability than this: rejected (8-bit levels)
-  double min_block_fraction = 0.9;    // minimum block = this fraction of the site's projected size
+  // Quadtree on image 1 (hda/quadtree.h): site size, block limits.
+  QuadtreeOptions quadtree;
 
   // Features and matching.
   int orb_features_per_roi = 500;     // ORB keypoints requested per ROI
@@ -31,7 +30,8 @@ struct HdaOptions {
   double compute_budget_s = 10.0;     // seconds of computation on the flight computer
   double processor_scale = 1.0;       // this machine's speed relative to the 1 GHz board
 
-  // Every violated constraint, one message each ("field = value: expected ...").
+  // Every violated constraint, one message each ("field = value: expected ...";
+  // nested options prefixed, e.g. "quadtree.site_size_m = ...").
   // Empty when the options are usable.
   std::vector<std::string> Validate() const;
 };

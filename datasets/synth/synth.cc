@@ -11,6 +11,7 @@
 #include "datasets/synth/noise.h"
 #include "datasets/synth/raycast.h"
 #include "datasets/synth/render.h"
+#include "calib/options_check.h"
 
 namespace hdabench::datasets::synth {
 
@@ -22,14 +23,6 @@ double DegToRad(double deg) { return deg * kPi / 180.0; }
 // Largest DEM the generator builds (nodes); a larger footprint needs a coarser
 // dem_spacing_m. 60 M nodes of float are 240 MB.
 constexpr double kMaxDemNodes = 60e6;
-
-void Require(bool ok, const std::string& field, double value, const std::string& expected,
-             std::vector<std::string>* errors) {
-  if (ok && std::isfinite(value)) return;
-  std::ostringstream message;
-  message << field << " = " << value << ": expected " << expected;
-  errors->push_back(message.str());
-}
 
 // Attitude of the body: x north (toward the ILS), y east, z down.
 Eigen::Quaterniond LocalFromBodyRotation() {
@@ -151,29 +144,29 @@ void FootprintExtent(const calib::CameraModel& camera, const std::vector<Rigid3d
 
 std::vector<std::string> SynthOptions::Validate() const {
   std::vector<std::string> e;
-  Require(image_size_px >= 16 && image_size_px <= 8192, "image_size_px", image_size_px,
+  RequireOption(image_size_px >= 16 && image_size_px <= 8192, "image_size_px", image_size_px,
           "in [16, 8192]", &e);
-  Require(horizontal_fov_deg > 0 && horizontal_fov_deg < 120, "horizontal_fov_deg",
+  RequireOption(horizontal_fov_deg > 0 && horizontal_fov_deg < 120, "horizontal_fov_deg",
           horizontal_fov_deg, "in (0, 120)", &e);
-  Require(altitude_m > 0, "altitude_m", altitude_m, "> 0", &e);
-  Require(standoff_m >= 0, "standoff_m", standoff_m, ">= 0", &e);
-  Require(off_nadir_deg >= 0 && off_nadir_deg < 80, "off_nadir_deg", off_nadir_deg, "in [0, 80)", &e);
-  Require(speed_mps >= 0, "speed_mps", speed_mps, ">= 0", &e);
-  Require(collection_s > 0, "collection_s", collection_s, "> 0", &e);
-  Require(frame_rate_hz > 0 && collection_s * frame_rate_hz >= 1 && collection_s * frame_rate_hz <= 1000,
+  RequireOption(altitude_m > 0, "altitude_m", altitude_m, "> 0", &e);
+  RequireOption(standoff_m >= 0, "standoff_m", standoff_m, ">= 0", &e);
+  RequireOption(off_nadir_deg >= 0 && off_nadir_deg < 80, "off_nadir_deg", off_nadir_deg, "in [0, 80)", &e);
+  RequireOption(speed_mps >= 0, "speed_mps", speed_mps, ">= 0", &e);
+  RequireOption(collection_s > 0, "collection_s", collection_s, "> 0", &e);
+  RequireOption(frame_rate_hz > 0 && collection_s * frame_rate_hz >= 1 && collection_s * frame_rate_hz <= 1000,
           "frame_rate_hz", frame_rate_hz, "> 0, with 2 to 1001 frames in collection_s", &e);
-  Require(dem_spacing_m >= 0, "dem_spacing_m", dem_spacing_m, ">= 0 (0: automatic)", &e);
-  Require(terrain_scale > 0, "terrain_scale", terrain_scale, "> 0", &e);
-  Require(nav_rate_hz >= 1, "nav_rate_hz", nav_rate_hz, ">= 1", &e);
-  Require(lrf_rate_hz >= 1, "lrf_rate_hz", lrf_rate_hz, ">= 1", &e);
-  Require(nav_velocity_bias_mps >= 0, "nav_velocity_bias_mps", nav_velocity_bias_mps, ">= 0", &e);
-  Require(nav_position_noise_m >= 0, "nav_position_noise_m", nav_position_noise_m, ">= 0", &e);
-  Require(nav_attitude_drift_deg_per_s >= 0, "nav_attitude_drift_deg_per_s",
+  RequireOption(dem_spacing_m >= 0, "dem_spacing_m", dem_spacing_m, ">= 0 (0: automatic)", &e);
+  RequireOption(terrain_scale > 0, "terrain_scale", terrain_scale, "> 0", &e);
+  RequireOption(nav_rate_hz >= 1, "nav_rate_hz", nav_rate_hz, ">= 1", &e);
+  RequireOption(lrf_rate_hz >= 1, "lrf_rate_hz", lrf_rate_hz, ">= 1", &e);
+  RequireOption(nav_velocity_bias_mps >= 0, "nav_velocity_bias_mps", nav_velocity_bias_mps, ">= 0", &e);
+  RequireOption(nav_position_noise_m >= 0, "nav_position_noise_m", nav_position_noise_m, ">= 0", &e);
+  RequireOption(nav_attitude_drift_deg_per_s >= 0, "nav_attitude_drift_deg_per_s",
           nav_attitude_drift_deg_per_s, ">= 0", &e);
-  Require(nav_attitude_noise_deg >= 0, "nav_attitude_noise_deg", nav_attitude_noise_deg, ">= 0", &e);
-  Require(lrf_noise_m >= 0, "lrf_noise_m", lrf_noise_m, ">= 0", &e);
-  Require(std::isfinite(lrf_bias_m), "lrf_bias_m", lrf_bias_m, "a finite number", &e);
-  Require(threads >= 1 && threads <= 256, "threads", threads, "in [1, 256]", &e);
+  RequireOption(nav_attitude_noise_deg >= 0, "nav_attitude_noise_deg", nav_attitude_noise_deg, ">= 0", &e);
+  RequireOption(lrf_noise_m >= 0, "lrf_noise_m", lrf_noise_m, ">= 0", &e);
+  RequireOption(std::isfinite(lrf_bias_m), "lrf_bias_m", lrf_bias_m, "a finite number", &e);
+  RequireOption(threads >= 1 && threads <= 256, "threads", threads, "in [1, 256]", &e);
   for (const std::string& m : render.Validate()) e.push_back("render." + m);
   return e;
 }

@@ -10,19 +10,19 @@ namespace {
 TEST(HdaOptionsValidate, PaperDefaultsAreValid) {
   const HdaOptions options;
   EXPECT_TRUE(options.Validate().empty());
-  EXPECT_EQ(options.site_size_m, 10.0);
+  EXPECT_EQ(options.quadtree.site_size_m, 10.0);
   EXPECT_EQ(options.max_slope_deg, 10.0);
   EXPECT_EQ(options.max_hazard_height_m, 0.30);
 }
 
 TEST(HdaOptionsValidate, ReportsEveryBadFieldWithItsValue) {
   HdaOptions options;
-  options.site_size_m = -1.0;
+  options.quadtree.site_size_m = -1.0;
   options.max_slope_deg = std::nan("");
   options.min_points = 2;
   const std::vector<std::string> errors = options.Validate();
   ASSERT_EQ(errors.size(), 3u);
-  EXPECT_EQ(errors[0], "site_size_m = -1: expected > 0");
+  EXPECT_EQ(errors[0], "quadtree.site_size_m = -1: expected > 0");
   EXPECT_EQ(errors[1], "max_slope_deg = nan: expected in (0, 90)");
   EXPECT_EQ(errors[2], "min_points = 2: expected >= 3 (a plane needs 3 points)");
 }

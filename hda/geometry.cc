@@ -1,0 +1,377 @@
+#include "hda/geometry.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+#include "calib/options_check.h"
+
+namespace hdabench::hda {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+constexpr double kRadToDeg = 180.0 / kPi;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+bool IsFinite(const Eigen::Vector3d& v) { return v.allFinite(); }
+
+bool IsFinite(const Rigid3d& pose) {
+  return pose.rotation.coeffs().allFinite() && pose.translation.allFinite();
+}
+
+// Angle between two non-zero vectors, radians in [0, pi]; atan2 keeps full
+// precision near 0 and pi, where acos of the dot product does not.
+double AngleRad(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+// Two unit vectors completing the unit vector d to an orthonormal basis.
+void TangentBasis(const Eigen::Vector3d& d, Eigen::Vector3d* e1, Eigen::Vector3d* e2) {
+  // Cross with the axis least aligned with d: never near-parallel.
+  Eigen::Index axis = 0;
+  d.cwiseAbs().minCoeff(&axis);
+  *e1 = d.cross(Eigen::Vector3d::Unit(axis)).normalized();
+  *e2 = d.cross(*e1);
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// Triangulation
+
+std::vector<std::string> TriangulationOptions::Validate() const {
+  std::vector<std::string> errors;
+  RequireOption(min_parallax_deg > 0 && min_parallax_deg < 90, "min_parallax_deg", min_parallax_deg,
+          "in (0, 90)", &errors);
+  return errors;
+}
+
+const char* ToString(TriangulationStatus status) {
+  switch (status) {
+    case TriangulationStatus::kOk:
+      return "ok";
+    case TriangulationStatus::kParallelRays:
+      return "parallel rays";
+    case TriangulationStatus::kBehindCamera:
+      return "behind camera";
+    case TriangulationStatus::kNonFinite:
+      return "non-finite input";
+  }
+  return "unknown";
+}
+
+TriangulationStatus TriangulateMidpoint(const Eigen::Vector3d& bearing1_in_cam1,
+                                        const Eigen::Vector3d& bearing2_in_cam2,
+                                        const Rigid3d& cam2_from_cam1,
+                                        const TriangulationOptions& options,
+                                        Eigen::Vector3d* point_in_cam1, double* parallax_deg) {
+  if (!IsFinite(bearing1_in_cam1) || !IsFinite(bearing2_in_cam2) || !IsFinite(cam2_from_cam1) ||
+      bearing1_in_cam1.norm() == 0.0 || bearing2_in_cam2.norm() == 0.0 ||
+      cam2_from_cam1.rotation.norm() == 0.0) {
+    return TriangulationStatus::kNonFinite;
+  }
+  const Eigen::Matrix3d cam1_from_cam2_rotation =
+      cam2_from_cam1.rotation.normalized().toRotationMatrix().transpose();
+  const Eigen::Vector3d d1 = bearing1_in_cam1.normalized();
+  const Eigen::Vector3d d2 = (cam1_from_cam2_rotation * bearing2_in_cam2).normalized();
+  const Eigen::Vector3d c2 = -(cam1_from_cam2_rotation * cam2_from_cam1.translation);
+
+  const Eigen::Vector3d n = d1.cross(d2);
+  const double sin_parallax = n.norm();
+  if (parallax_deg != nullptr) *parallax_deg = std::atan2(sin_parallax, d1.dot(d2)) * kRadToDeg;
+  // Parallel and anti-parallel rays alike have no unique closest points.
+  if (sin_parallax < std::sin(options.min_parallax_deg * kDegToRad)) {
+    return TriangulationStatus::kParallelRays;
+  }
+  const double n_squared = n.squaredNorm();
+  const double s1 = c2.cross(d2).dot(n) / n_squared;
+  const double s2 = c2.cross(d1).dot(n) / n_squared;
+  if (!(s1 > 0.0) || !(s2 > 0.0)) return TriangulationStatus::kBehindCamera;
+  const Eigen::Vector3d point = 0.5 * (s1 * d1 + c2 + s2 * d2);
+  if (!IsFinite(point)) return TriangulationStatus::kNonFinite;
+  *point_in_cam1 = point;
+  return TriangulationStatus::kOk;
+}
+
+double EpipolarAngleRad(const Eigen::Vector3d& bearing1_in_cam1,
+                        const Eigen::Vector3d& bearing2_in_cam2, const Rigid3d& cam2_from_cam1) {
+  if (!IsFinite(bearing1_in_cam1) || !IsFinite(bearing2_in_cam2) || !IsFinite(cam2_from_cam1) ||
+      bearing1_in_cam1.norm() == 0.0 || bearing2_in_cam2.norm() == 0.0 ||
+      cam2_from_cam1.rotation.norm() == 0.0) {
+    return kInfinity;
+  }
+  const Eigen::Vector3d b2 = bearing2_in_cam2.normalized();
+  const Eigen::Vector3d r_b1 = (cam2_from_cam1.rotation.normalized() * bearing1_in_cam1).normalized();
+  const Eigen::Vector3d& t = cam2_from_cam1.translation;
+  const double t_norm = t.norm();
+  if (t_norm == 0.0) return AngleRad(b2, r_b1);  // pure rotation: b2 must equal R b1
+  const Eigen::Vector3d plane_normal = (t / t_norm).cross(r_b1);
+  // sin of the angle between R b1 and the baseline: below this the plane is
+  // numerically undefined and the ray of bearing1 images to the epipole only.
+  constexpr double kMinSinEpipole = 1e-12;
+  const double plane_normal_norm = plane_normal.norm();
+  if (plane_normal_norm < kMinSinEpipole) {
+    const double angle = AngleRad(b2, t);
+    return std::min(angle, kPi - angle);
+  }
+  return std::asin(std::min(1.0, std::abs(b2.dot(plane_normal)) / plane_normal_norm));
+}
+
+double SampsonErrorPx(const Eigen::Vector3d& bearing1_in_cam1,
+                      const Eigen::Vector3d& bearing2_in_cam2, const Rigid3d& cam2_from_cam1,
+                      double focal_px) {
+  if (!IsFinite(bearing1_in_cam1) || !IsFinite(bearing2_in_cam2) || !IsFinite(cam2_from_cam1) ||
+      !std::isfinite(focal_px) || focal_px <= 0.0 || !(bearing1_in_cam1.z() > 0.0) ||
+      !(bearing2_in_cam2.z() > 0.0) || cam2_from_cam1.rotation.norm() == 0.0) {
+    return kInfinity;
+  }
+  const Eigen::Vector3d x1 = bearing1_in_cam1 / bearing1_in_cam1.z();
+  const Eigen::Vector3d x2 = bearing2_in_cam2 / bearing2_in_cam2.z();
+  Eigen::Matrix3d t_cross;
+  const Eigen::Vector3d& t = cam2_from_cam1.translation;
+  t_cross << 0.0, -t.z(), t.y(), t.z(), 0.0, -t.x(), -t.y(), t.x(), 0.0;
+  const Eigen::Matrix3d essential =
+      t_cross * cam2_from_cam1.rotation.normalized().toRotationMatrix();
+  const Eigen::Vector3d line2 = essential * x1;              // epipolar line in image 2
+  const Eigen::Vector3d line1 = essential.transpose() * x2;  // epipolar line in image 1
+  const double gradient_squared = line2.head<2>().squaredNorm() + line1.head<2>().squaredNorm();
+  if (!(gradient_squared > 0.0)) return kInfinity;
+  return focal_px * std::abs(x2.dot(line2)) / std::sqrt(gradient_squared);
+}
+
+// ---------------------------------------------------------------------------
+// Plane fit
+
+const char* ToString(PlaneFitStatus status) {
+  switch (status) {
+    case PlaneFitStatus::kOk:
+      return "ok";
+    case PlaneFitStatus::kTooFewPoints:
+      return "too few points";
+    case PlaneFitStatus::kDegenerate:
+      return "collinear points";
+    case PlaneFitStatus::kInvalidInput:
+      return "non-finite point or invalid gravity";
+  }
+  return "unknown";
+}
+
+PlaneFitResult FitPlane(const std::vector<Eigen::Vector3d>& points_in_local,
+                        const Eigen::Vector3d& gravity_in_local, int min_points) {
+  PlaneFitResult result;
+  result.num_points = static_cast<int>(points_in_local.size());
+  if (result.num_points < std::max(min_points, 3)) {
+    result.status = PlaneFitStatus::kTooFewPoints;
+    return result;
+  }
+  const double gravity_norm = gravity_in_local.norm();
+  if (!IsFinite(gravity_in_local) || !(gravity_norm > 0.0) ||
+      !std::all_of(points_in_local.begin(), points_in_local.end(),
+                   [](const Eigen::Vector3d& p) { return IsFinite(p); })) {
+    result.status = PlaneFitStatus::kInvalidInput;
+    return result;
+  }
+  const Eigen::Vector3d up = -gravity_in_local / gravity_norm;
+
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points_in_local) centroid += p;
+  centroid /= static_cast<double>(points_in_local.size());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points_in_local) {
+    covariance += (p - centroid) * (p - centroid).transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+  const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
+  if (!(eigenvalues(2) > 0.0) || eigenvalues(1) <= kCollinearEigenvalueRatio * eigenvalues(2)) {
+    result.status = PlaneFitStatus::kDegenerate;
+    return result;
+  }
+  Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
+  if (normal.dot(up) < 0.0) normal = -normal;
+
+  result.status = PlaneFitStatus::kOk;
+  result.normal_in_local = normal;
+  result.centroid_in_local_m = centroid;
+  result.slope_deg = AngleRad(normal, up) * kRadToDeg;
+  double sum_squares = 0.0;
+  for (const Eigen::Vector3d& p : points_in_local) {
+    const double distance = std::abs(normal.dot(p - centroid));
+    sum_squares += distance * distance;
+    result.roughness_max_m = std::max(result.roughness_max_m, distance);
+  }
+  result.roughness_rms_m = std::sqrt(sum_squares / static_cast<double>(points_in_local.size()));
+  return result;
+}
+
+// ---------------------------------------------------------------------------
+// Predicted slope uncertainty
+
+std::vector<std::string> SlopeSigmaOptions::Validate() const {
+  std::vector<std::string> errors;
+  RequireOption(pixel_sigma_px >= 0, "pixel_sigma_px", pixel_sigma_px, ">= 0", &errors);
+  RequireOption(focal_px > 0, "focal_px", focal_px, "> 0", &errors);
+  RequireOption(baseline_sigma_m >= 0, "baseline_sigma_m", baseline_sigma_m, ">= 0", &errors);
+  RequireOption(attitude_sigma_deg >= 0 && attitude_sigma_deg < 90, "attitude_sigma_deg",
+          attitude_sigma_deg, "in [0, 90)", &errors);
+  return errors;
+}
+
+namespace {
+
+// Triangulation inside the predictor only needs the rays not to be exactly
+// parallel: low parallax shows up as a large predicted sigma instead.
+TriangulationOptions PredictorTriangulationOptions() {
+  TriangulationOptions options;
+  options.min_parallax_deg = 1e-9;
+  return options;
+}
+
+// Tilt covariance contribution (3x3, rad^2, in cam1) of a perturbed refit:
+// the normal change projected off the nominal normal.
+Eigen::Matrix3d TiltOuter(const Eigen::Vector3d& normal, Eigen::Vector3d perturbed) {
+  if (perturbed.dot(normal) < 0.0) perturbed = -perturbed;
+  const Eigen::Vector3d tilt = perturbed - normal * normal.dot(perturbed);
+  return tilt * tilt.transpose();
+}
+
+// Slope std (rad) from a tilt covariance: along the dip direction, or the
+// per-axis RMS on a level patch.
+double SlopeSigmaFromTilt(const Eigen::Matrix3d& tilt_covariance, const Eigen::Vector3d& normal,
+                          const Eigen::Vector3d& up) {
+  const Eigen::Vector3d dip = up - normal * normal.dot(up);
+  constexpr double kMinSlopeRad = 1e-6;
+  if (dip.norm() < kMinSlopeRad) return std::sqrt(std::max(0.0, tilt_covariance.trace() / 2.0));
+  const Eigen::Vector3d g = dip.normalized();
+  return std::sqrt(std::max(0.0, g.dot(tilt_covariance * g)));
+}
+
+}  // namespace
+
+double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
+                            const std::vector<Eigen::Vector3d>& points_in_cam1,
+                            const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& up_in_cam1,
+                            SlopeSigmaTerms* terms) {
+  SlopeSigmaTerms local_terms;
+  SlopeSigmaTerms& out = terms != nullptr ? *terms : local_terms;
+  out = SlopeSigmaTerms();
+  if (!IsFinite(cam2_from_cam1) || cam2_from_cam1.rotation.norm() == 0.0) {
+    out.status = PlaneFitStatus::kInvalidInput;
+    return kInfinity;
+  }
+  // The nominal plane, fitted in cam1 with gravity = -up.
+  const PlaneFitResult plane = FitPlane(points_in_cam1, -up_in_cam1, 3);
+  out.status = plane.status;
+  if (plane.status != PlaneFitStatus::kOk) return kInfinity;
+  const Eigen::Vector3d up = up_in_cam1.normalized();
+  const Eigen::Vector3d& normal = plane.normal_in_local;  // in cam1 here
+  const Rigid3d pose(cam2_from_cam1.rotation.normalized(), cam2_from_cam1.translation);
+  const TriangulationOptions triangulation = PredictorTriangulationOptions();
+
+  // Exact bearings of the nominal points.
+  const size_t n = points_in_cam1.size();
+  std::vector<Eigen::Vector3d> bearings1(n), bearings2(n);
+  for (size_t i = 0; i < n; ++i) {
+    bearings1[i] = points_in_cam1[i].normalized();
+    bearings2[i] = (pose * points_in_cam1[i]).normalized();
+  }
+
+  // Pixel noise: per-point covariance along the normal, then the regression
+  // sandwich in the plane's coordinates.
+  Eigen::Vector3d u, v;
+  TangentBasis(normal, &u, &v);
+  const double sigma_angle_rad = options.pixel_sigma_px / options.focal_px;
+  // Step of the central differences, radians: large enough against rounding
+  // at 1e3 m ranges, small against the curvature of the triangulation.
+  constexpr double kStepRad = 1e-6;
+  Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();  // A^T A
+  Eigen::Matrix3d meat = Eigen::Matrix3d::Zero();           // A^T diag(sigma^2) A
+  for (size_t i = 0; i < n; ++i) {
+    Eigen::Matrix<double, 3, 4> jacobian;
+    for (int k = 0; k < 4; ++k) {
+      const bool first = k < 2;
+      Eigen::Vector3d e1, e2;
+      TangentBasis(first ? bearings1[i] : bearings2[i], &e1, &e2);
+      const Eigen::Vector3d step = kStepRad * ((k % 2 == 0) ? e1 : e2);
+      Eigen::Vector3d plus, minus;
+      const TriangulationStatus status_plus =
+          first ? TriangulateMidpoint(bearings1[i] + step, bearings2[i], pose, triangulation,
+                                      &plus, nullptr)
+                : TriangulateMidpoint(bearings1[i], bearings2[i] + step, pose, triangulation,
+                                      &plus, nullptr);
+      const TriangulationStatus status_minus =
+          first ? TriangulateMidpoint(bearings1[i] - step, bearings2[i], pose, triangulation,
+                                      &minus, nullptr)
+                : TriangulateMidpoint(bearings1[i], bearings2[i] - step, pose, triangulation,
+                                      &minus, nullptr);
+      if (status_plus != TriangulationStatus::kOk || status_minus != TriangulationStatus::kOk) {
+        out.status = PlaneFitStatus::kDegenerate;
+        return kInfinity;
+      }
+      jacobian.col(k) = (plus - minus) / (2.0 * kStepRad);
+    }
+    const Eigen::Vector4d along_normal = jacobian.transpose() * normal;
+    const double sigma_perp_squared = sigma_angle_rad * sigma_angle_rad * along_normal.squaredNorm();
+    const Eigen::Vector3d offset = points_in_cam1[i] - plane.centroid_in_local_m;
+    const Eigen::Vector3d row(1.0, u.dot(offset), v.dot(offset));
+    normal_matrix += row * row.transpose();
+    meat += sigma_perp_squared * row * row.transpose();
+  }
+  const Eigen::Matrix3d bread = normal_matrix.inverse();
+  const Eigen::Matrix3d coefficients_covariance = bread * meat * bread;
+  // The normal n - b u - c v: tilt covariance from the (b, c) block.
+  Eigen::Matrix<double, 3, 2> in_plane;
+  in_plane.col(0) = u;
+  in_plane.col(1) = v;
+  const Eigen::Matrix3d pixel_tilt =
+      in_plane * coefficients_covariance.bottomRightCorner<2, 2>() * in_plane.transpose();
+
+  // Baseline: re-triangulate with each translation axis perturbed by one sigma.
+  Eigen::Matrix3d baseline_tilt = Eigen::Matrix3d::Zero();
+  if (options.baseline_sigma_m > 0.0) {
+    std::vector<Eigen::Vector3d> points_plus(n), points_minus(n);
+    for (int axis = 0; axis < 3; ++axis) {
+      Rigid3d pose_plus = pose, pose_minus = pose;
+      pose_plus.translation(axis) += options.baseline_sigma_m;
+      pose_minus.translation(axis) -= options.baseline_sigma_m;
+      for (size_t i = 0; i < n; ++i) {
+        if (TriangulateMidpoint(bearings1[i], bearings2[i], pose_plus, triangulation,
+                                &points_plus[i], nullptr) != TriangulationStatus::kOk ||
+            TriangulateMidpoint(bearings1[i], bearings2[i], pose_minus, triangulation,
+                                &points_minus[i], nullptr) != TriangulationStatus::kOk) {
+          out.status = PlaneFitStatus::kDegenerate;
+          return kInfinity;
+        }
+      }
+      const PlaneFitResult fit_plus = FitPlane(points_plus, -up, 3);
+      const PlaneFitResult fit_minus = FitPlane(points_minus, -up, 3);
+      if (fit_plus.status != PlaneFitStatus::kOk || fit_minus.status != PlaneFitStatus::kOk) {
+        out.status = PlaneFitStatus::kDegenerate;
+        return kInfinity;
+      }
+      // Central difference of the normal: (n+ - n-) / 2 per sigma.
+      Eigen::Vector3d n_plus = fit_plus.normal_in_local, n_minus = fit_minus.normal_in_local;
+      if (n_plus.dot(normal) < 0.0) n_plus = -n_plus;
+      if (n_minus.dot(normal) < 0.0) n_minus = -n_minus;
+      baseline_tilt += TiltOuter(normal, normal + 0.5 * (n_plus - n_minus));
+    }
+  }
+
+  // Attitude: a rotation by a small angle vector w moves n by w x n.
+  const double attitude_sigma_rad = options.attitude_sigma_deg * kDegToRad;
+  const Eigen::Matrix3d attitude_tilt = attitude_sigma_rad * attitude_sigma_rad *
+                                        (Eigen::Matrix3d::Identity() - normal * normal.transpose());
+
+  out.pixel_deg = SlopeSigmaFromTilt(pixel_tilt, normal, up) * kRadToDeg;
+  out.baseline_deg = SlopeSigmaFromTilt(baseline_tilt, normal, up) * kRadToDeg;
+  out.attitude_deg = SlopeSigmaFromTilt(attitude_tilt, normal, up) * kRadToDeg;
+  return SlopeSigmaFromTilt(pixel_tilt + baseline_tilt + attitude_tilt, normal, up) * kRadToDeg;
+}
+
+}  // namespace hdabench::hda

@@ -1,0 +1,165 @@
+#include "hda/quadtree.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "calib/error.h"
+#include "calib/options_check.h"
+
+namespace hdabench::hda {
+
+namespace {
+
+void ThrowIfInvalid(const char* function, const std::vector<std::string>& errors) {
+  if (errors.empty()) return;
+  std::string message = std::string(function) + ": invalid QuadtreeOptions: ";
+  for (size_t i = 0; i < errors.size(); ++i) {
+    if (i > 0) message += "; ";
+    message += errors[i];
+  }
+  throw InputError(message);
+}
+
+}  // namespace
+
+std::vector<std::string> QuadtreeOptions::Validate() const {
+  std::vector<std::string> errors;
+  RequireOption(site_size_m > 0, "site_size_m", site_size_m, "> 0", &errors);
+  RequireOption(min_block_fraction > 0 && min_block_fraction <= 1, "min_block_fraction",
+          min_block_fraction, "in (0, 1]", &errors);
+  RequireOption(max_block_stddev > 0, "max_block_stddev", max_block_stddev, "> 0", &errors);
+  RequireOption(min_block_mean >= 0 && min_block_mean < 255, "min_block_mean", min_block_mean,
+          "in [0, 255)", &errors);
+  RequireOption(max_roi_stddev >= max_block_stddev, "max_roi_stddev", max_roi_stddev,
+          ">= max_block_stddev", &errors);
+  return errors;
+}
+
+std::string QuadtreeResult::Summary() const {
+  std::ostringstream line;
+  line << "quadtree: " << rois.size() << " ROIs, " << blocks_visited << " blocks visited, "
+       << rejected_dark << " dark, " << rejected_variable << " variable, " << rejected_small
+       << " small, min block " << min_block_px << " px";
+  return line.str();
+}
+
+int MinimumBlockSizePx(const calib::CameraModel& camera, double lrf_range_m,
+                       const QuadtreeOptions& options) {
+  ThrowIfInvalid("MinimumBlockSizePx", options.Validate());
+  if (!(std::isfinite(lrf_range_m) && lrf_range_m > 0)) {
+    std::ostringstream message;
+    message << "MinimumBlockSizePx: lrf_range_m = " << lrf_range_m << ": expected finite and > 0";
+    throw InputError(message.str());
+  }
+  const Eigen::Vector2d centre_px(0.5 * (camera.WidthPx() - 1), 0.5 * (camera.HeightPx() - 1));
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<unsigned char> valid;
+  if (camera.Unproject({centre_px}, &bearings, &valid) != 1) {
+    throw InputError("MinimumBlockSizePx: camera " + camera.LensModelName() +
+                     " cannot unproject the image centre");
+  }
+  const Eigen::Vector3d ray = bearings[0].normalized();
+  // Two directions perpendicular to the ray: the first in the camera's x-z
+  // plane (image rows), the second orthogonal to both (image columns).
+  Eigen::Vector3d across = Eigen::Vector3d::UnitX() - ray.x() * ray;
+  if (across.norm() < 1e-9) across = Eigen::Vector3d::UnitY() - ray.y() * ray;
+  across.normalize();
+  const Eigen::Vector3d down = ray.cross(across).normalized();
+  const Eigen::Vector3d centre_in_cam = lrf_range_m * ray;
+  const double half_m = 0.5 * options.site_size_m;
+  const std::vector<Eigen::Vector3d> points_in_cam = {
+      centre_in_cam - half_m * across, centre_in_cam + half_m * across,
+      centre_in_cam - half_m * down, centre_in_cam + half_m * down};
+  std::vector<Eigen::Vector2d> pixels;
+  if (camera.Project(points_in_cam, &pixels, &valid) != 4) {
+    throw InputError("MinimumBlockSizePx: camera " + camera.LensModelName() +
+                     " cannot project the landing site at the image centre");
+  }
+  const double site_px = std::min((pixels[1] - pixels[0]).norm(), (pixels[3] - pixels[2]).norm());
+  // The epsilon keeps an exact product (3000.0 computed as 2999.9999999) from
+  // losing a pixel.
+  const double side_px = std::floor(options.min_block_fraction * site_px + 1e-9);
+  if (!(side_px < 1e9)) {
+    throw InputError("MinimumBlockSizePx: projected site side is not finite");
+  }
+  return std::max(kMinBlockSidePx, static_cast<int>(side_px));
+}
+
+BlockStats BlockStatsFromIntegral(const cv::Mat& sum, const cv::Mat& sqsum, const cv::Rect& box_px,
+                                  double scale) {
+  const int x0 = box_px.x, y0 = box_px.y, x1 = box_px.x + box_px.width,
+            y1 = box_px.y + box_px.height;
+  const double s = sum.at<double>(y1, x1) - sum.at<double>(y0, x1) - sum.at<double>(y1, x0) +
+                   sum.at<double>(y0, x0);
+  const double sq = sqsum.at<double>(y1, x1) - sqsum.at<double>(y0, x1) -
+                    sqsum.at<double>(y1, x0) + sqsum.at<double>(y0, x0);
+  const double n = static_cast<double>(box_px.area());
+  const double mean = s / n;
+  // Rounding can make the difference slightly negative for uniform blocks.
+  const double variance = std::max(0.0, sq / n - mean * mean);
+  return BlockStats{mean * scale, std::sqrt(variance) * scale};
+}
+
+QuadtreeResult RunQuadtree(const cv::Mat& image, int min_block_px, const QuadtreeOptions& options) {
+  ThrowIfInvalid("RunQuadtree", options.Validate());
+  if (min_block_px < 1) {
+    throw InputError("RunQuadtree: min_block_px = " + std::to_string(min_block_px) +
+                     ": expected >= 1");
+  }
+  QuadtreeResult result;
+  result.min_block_px = min_block_px;
+  if (image.empty()) return result;
+  if (image.type() != CV_8UC1 && image.type() != CV_16UC1) {
+    throw InputError("RunQuadtree: image type " + cv::typeToString(image.type()) +
+                     " is not supported: expected CV_8UC1 or CV_16UC1");
+  }
+  const double scale = image.type() == CV_16UC1 ? 1.0 / 257.0 : 1.0;
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  if (image.cols < min_block_px || image.rows < min_block_px) {
+    result.rejected_small = 1;
+    result.rejected_boxes.push_back(whole);
+    return result;
+  }
+  cv::Mat sum, sqsum;
+  cv::integral(image, sum, sqsum, CV_64F, CV_64F);
+
+  // Depth first with an explicit stack; children are pushed in reverse so
+  // that they are visited top-left, top-right, bottom-left, bottom-right.
+  std::vector<cv::Rect> stack = {whole};
+  while (!stack.empty()) {
+    const cv::Rect box = stack.back();
+    stack.pop_back();
+    ++result.blocks_visited;
+    const BlockStats stats = BlockStatsFromIntegral(sum, sqsum, box, scale);
+    const int left_w = box.width / 2, top_h = box.height / 2;
+    const bool can_split = left_w >= min_block_px && top_h >= min_block_px;
+    if (stats.stddev_dn >= options.max_block_stddev && can_split) {
+      const int right_w = box.width - left_w, bottom_h = box.height - top_h;
+      stack.emplace_back(box.x + left_w, box.y + top_h, right_w, bottom_h);
+      stack.emplace_back(box.x, box.y + top_h, left_w, bottom_h);
+      stack.emplace_back(box.x + left_w, box.y, right_w, top_h);
+      stack.emplace_back(box.x, box.y, left_w, top_h);
+      continue;
+    }
+    if (stats.mean_dn < options.min_block_mean) {
+      ++result.rejected_dark;
+      result.rejected_boxes.push_back(box);
+    } else if (stats.stddev_dn > options.max_roi_stddev) {
+      ++result.rejected_variable;
+      result.rejected_boxes.push_back(box);
+    } else {
+      result.rois.push_back(Roi{0, box, stats.mean_dn, stats.stddev_dn});
+    }
+  }
+  std::sort(result.rois.begin(), result.rois.end(), [](const Roi& a, const Roi& b) {
+    return a.box_px.y != b.box_px.y ? a.box_px.y < b.box_px.y : a.box_px.x < b.box_px.x;
+  });
+  for (size_t i = 0; i < result.rois.size(); ++i) result.rois[i].id = static_cast<int>(i) + 1;
+  return result;
+}
+
+}  // namespace hdabench::hda

@@ -444,8 +444,12 @@ RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, c
     camera_rays[static_cast<size_t>(row)] += row_camera_rays;
     shadow_rays[static_cast<size_t>(row)] += row_shadow_rays;
   };
+  // Progress: centres 0-0.2, quincunx corners 0.2-0.9, then this pass to 1.
+  const double pass2_start = quincunx ? 0.9 : 0.2;
   ForEachRow(height, options.threads, render_row, [&](int rows_done) {
-    if (progress && (rows_done % 16 == 0)) progress(0.2 + 0.8 * rows_done / height);
+    if (progress && (rows_done % 16 == 0)) {
+      progress(pass2_start + (1.0 - pass2_start) * rows_done / height);
+    }
   });
   if (progress) progress(1.0);
   for (int row = 0; row < height; ++row) {

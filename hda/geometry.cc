@@ -163,50 +163,111 @@ const char* ToString(PlaneFitStatus status) {
   return "unknown";
 }
 
-PlaneFitResult FitPlane(const std::vector<Eigen::Vector3d>& points_in_local,
-                        const Eigen::Vector3d& gravity_in_local, int min_points) {
-  PlaneFitResult result;
-  result.num_points = static_cast<int>(points_in_local.size());
-  if (result.num_points < std::max(min_points, 3)) {
-    result.status = PlaneFitStatus::kTooFewPoints;
-    return result;
+namespace {
+
+// Checks shared by the plane fits: enough points, all finite, gravity usable.
+// Fills status/num_points; on success *up is the unit up vector.
+bool CheckPlaneInput(const std::vector<Eigen::Vector3d>& points_in_local,
+                     const Eigen::Vector3d& gravity_in_local, int min_points, PlaneFitResult* result,
+                     Eigen::Vector3d* up) {
+  result->num_points = static_cast<int>(points_in_local.size());
+  if (result->num_points < std::max(min_points, 3)) {
+    result->status = PlaneFitStatus::kTooFewPoints;
+    return false;
   }
   const double gravity_norm = gravity_in_local.norm();
   if (!IsFinite(gravity_in_local) || !(gravity_norm > 0.0) ||
       !std::all_of(points_in_local.begin(), points_in_local.end(),
                    [](const Eigen::Vector3d& p) { return IsFinite(p); })) {
-    result.status = PlaneFitStatus::kInvalidInput;
-    return result;
+    result->status = PlaneFitStatus::kInvalidInput;
+    return false;
   }
-  const Eigen::Vector3d up = -gravity_in_local / gravity_norm;
+  *up = -gravity_in_local / gravity_norm;
+  return true;
+}
 
+Eigen::Vector3d Centroid(const std::vector<Eigen::Vector3d>& points) {
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points_in_local) centroid += p;
-  centroid /= static_cast<double>(points_in_local.size());
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points_in_local) {
-    covariance += (p - centroid) * (p - centroid).transpose();
+  for (const Eigen::Vector3d& p : points) centroid += p;
+  return centroid / static_cast<double>(points.size());
+}
+
+Eigen::Matrix3d Scatter(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centroid) {
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points) scatter += (p - centroid) * (p - centroid).transpose();
+  return scatter;
+}
+
+// Slope and roughness of the plane (normal, centroid) through the points.
+void FinishPlane(const std::vector<Eigen::Vector3d>& points, Eigen::Vector3d normal,
+                 const Eigen::Vector3d& centroid, const Eigen::Vector3d& up, PlaneFitResult* result) {
+  normal.normalize();
+  if (normal.dot(up) < 0.0) normal = -normal;
+  result->status = PlaneFitStatus::kOk;
+  result->normal_in_local = normal;
+  result->centroid_in_local_m = centroid;
+  result->slope_deg = AngleRad(normal, up) * kRadToDeg;
+  double sum_squares = 0.0;
+  result->roughness_max_m = 0.0;
+  for (const Eigen::Vector3d& p : points) {
+    const double distance = std::abs(normal.dot(p - centroid));
+    sum_squares += distance * distance;
+    result->roughness_max_m = std::max(result->roughness_max_m, distance);
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+  result->roughness_rms_m = std::sqrt(sum_squares / static_cast<double>(points.size()));
+}
+
+}  // namespace
+
+PlaneFitResult FitPlane(const std::vector<Eigen::Vector3d>& points_in_local,
+                        const Eigen::Vector3d& gravity_in_local, int min_points) {
+  PlaneFitResult result;
+  Eigen::Vector3d up;
+  if (!CheckPlaneInput(points_in_local, gravity_in_local, min_points, &result, &up)) return result;
+  const Eigen::Vector3d centroid = Centroid(points_in_local);
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(Scatter(points_in_local, centroid));
   const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
   if (!(eigenvalues(2) > 0.0) || eigenvalues(1) <= kCollinearEigenvalueRatio * eigenvalues(2)) {
     result.status = PlaneFitStatus::kDegenerate;
     return result;
   }
-  Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
-  if (normal.dot(up) < 0.0) normal = -normal;
+  FinishPlane(points_in_local, solver.eigenvectors().col(0), centroid, up, &result);
+  return result;
+}
 
-  result.status = PlaneFitStatus::kOk;
-  result.normal_in_local = normal;
-  result.centroid_in_local_m = centroid;
-  result.slope_deg = AngleRad(normal, up) * kRadToDeg;
-  double sum_squares = 0.0;
-  for (const Eigen::Vector3d& p : points_in_local) {
-    const double distance = std::abs(normal.dot(p - centroid));
-    sum_squares += distance * distance;
-    result.roughness_max_m = std::max(result.roughness_max_m, distance);
+PlaneFitResult FitPlaneWithCovariance(const std::vector<Eigen::Vector3d>& points_in_local,
+                                      const std::vector<Eigen::Matrix3d>& covariances_in_local,
+                                      const Eigen::Vector3d& gravity_in_local, int min_points) {
+  // The Euclidean fit gives the statuses (and the answer when there is no noise).
+  PlaneFitResult result = FitPlane(points_in_local, gravity_in_local, min_points);
+  if (result.status != PlaneFitStatus::kOk) return result;
+  if (covariances_in_local.size() != points_in_local.size() ||
+      !std::all_of(covariances_in_local.begin(), covariances_in_local.end(),
+                   [](const Eigen::Matrix3d& c) { return c.allFinite(); })) {
+    result = PlaneFitResult();
+    result.num_points = static_cast<int>(points_in_local.size());
+    result.status = PlaneFitStatus::kInvalidInput;
+    return result;
   }
-  result.roughness_rms_m = std::sqrt(sum_squares / static_cast<double>(points_in_local.size()));
+  Eigen::Matrix3d noise = Eigen::Matrix3d::Zero();
+  for (const Eigen::Matrix3d& c : covariances_in_local) noise += 0.5 * (c + c.transpose());
+  noise /= static_cast<double>(covariances_in_local.size());
+  const double trace = noise.trace();
+  if (!(trace > 0.0)) return result;  // no noise: the Euclidean fit is the answer
+  // A small isotropic part keeps the metric positive definite when the
+  // covariances are of rank 2 (it changes the normal by about 1e-9 rad).
+  noise += 1e-9 * trace * Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d up = -gravity_in_local.normalized();
+  const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix3d> solver(
+      Scatter(points_in_local, result.centroid_in_local_m), noise);
+  if (solver.info() != Eigen::Success || !solver.eigenvectors().col(0).allFinite()) {
+    result = PlaneFitResult();
+    result.num_points = static_cast<int>(points_in_local.size());
+    result.status = PlaneFitStatus::kDegenerate;
+    return result;
+  }
+  FinishPlane(points_in_local, solver.eigenvectors().col(0), result.centroid_in_local_m, up,
+              &result);
   return result;
 }
 
@@ -254,10 +315,47 @@ double SlopeSigmaFromTilt(const Eigen::Matrix3d& tilt_covariance, const Eigen::V
 
 }  // namespace
 
+bool TriangulationCovariance(const Eigen::Vector3d& bearing1_in_cam1,
+                             const Eigen::Vector3d& bearing2_in_cam2, const Rigid3d& cam2_from_cam1,
+                             double sigma_rad, Eigen::Matrix3d* covariance_in_cam1) {
+  if (!IsFinite(bearing1_in_cam1) || !IsFinite(bearing2_in_cam2) || !IsFinite(cam2_from_cam1) ||
+      !std::isfinite(sigma_rad) || bearing1_in_cam1.norm() == 0.0 ||
+      bearing2_in_cam2.norm() == 0.0) {
+    return false;
+  }
+  const Eigen::Vector3d b1 = bearing1_in_cam1.normalized();
+  const Eigen::Vector3d b2 = bearing2_in_cam2.normalized();
+  const TriangulationOptions triangulation = PredictorTriangulationOptions();
+  // Step of the central differences, radians: large enough against rounding
+  // at 1e3 m ranges, small against the curvature of the triangulation.
+  constexpr double kStepRad = 1e-6;
+  Eigen::Matrix<double, 3, 4> jacobian;
+  for (int k = 0; k < 4; ++k) {
+    const bool first = k < 2;
+    Eigen::Vector3d e1, e2;
+    TangentBasis(first ? b1 : b2, &e1, &e2);
+    const Eigen::Vector3d step = kStepRad * ((k % 2 == 0) ? e1 : e2);
+    Eigen::Vector3d plus, minus;
+    const Eigen::Vector3d b1_plus = first ? Eigen::Vector3d(b1 + step) : b1;
+    const Eigen::Vector3d b1_minus = first ? Eigen::Vector3d(b1 - step) : b1;
+    const Eigen::Vector3d b2_plus = first ? b2 : Eigen::Vector3d(b2 + step);
+    const Eigen::Vector3d b2_minus = first ? b2 : Eigen::Vector3d(b2 - step);
+    if (TriangulateMidpoint(b1_plus, b2_plus, cam2_from_cam1, triangulation, &plus, nullptr) !=
+            TriangulationStatus::kOk ||
+        TriangulateMidpoint(b1_minus, b2_minus, cam2_from_cam1, triangulation, &minus, nullptr) !=
+            TriangulationStatus::kOk) {
+      return false;
+    }
+    jacobian.col(k) = (plus - minus) / (2.0 * kStepRad);
+  }
+  *covariance_in_cam1 = sigma_rad * sigma_rad * jacobian * jacobian.transpose();
+  return true;
+}
+
 double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
                             const std::vector<Eigen::Vector3d>& points_in_cam1,
                             const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& up_in_cam1,
-                            SlopeSigmaTerms* terms) {
+                            SlopeSigmaTerms* terms, const Eigen::Vector3d* normal_in_cam1) {
   SlopeSigmaTerms local_terms;
   SlopeSigmaTerms& out = terms != nullptr ? *terms : local_terms;
   out = SlopeSigmaTerms();
@@ -270,7 +368,15 @@ double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
   out.status = plane.status;
   if (plane.status != PlaneFitStatus::kOk) return kInfinity;
   const Eigen::Vector3d up = up_in_cam1.normalized();
-  const Eigen::Vector3d& normal = plane.normal_in_local;  // in cam1 here
+  Eigen::Vector3d normal = plane.normal_in_local;  // in cam1 here
+  if (normal_in_cam1 != nullptr) {
+    if (!IsFinite(*normal_in_cam1) || normal_in_cam1->norm() == 0.0) {
+      out.status = PlaneFitStatus::kInvalidInput;
+      return kInfinity;
+    }
+    normal = normal_in_cam1->normalized();
+    if (normal.dot(up) < 0.0) normal = -normal;
+  }
   const Rigid3d pose(cam2_from_cam1.rotation.normalized(), cam2_from_cam1.translation);
   const TriangulationOptions triangulation = PredictorTriangulationOptions();
 
@@ -287,37 +393,16 @@ double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
   Eigen::Vector3d u, v;
   TangentBasis(normal, &u, &v);
   const double sigma_angle_rad = options.pixel_sigma_px / options.focal_px;
-  // Step of the central differences, radians: large enough against rounding
-  // at 1e3 m ranges, small against the curvature of the triangulation.
-  constexpr double kStepRad = 1e-6;
   Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();  // A^T A
   Eigen::Matrix3d meat = Eigen::Matrix3d::Zero();           // A^T diag(sigma^2) A
   for (size_t i = 0; i < n; ++i) {
-    Eigen::Matrix<double, 3, 4> jacobian;
-    for (int k = 0; k < 4; ++k) {
-      const bool first = k < 2;
-      Eigen::Vector3d e1, e2;
-      TangentBasis(first ? bearings1[i] : bearings2[i], &e1, &e2);
-      const Eigen::Vector3d step = kStepRad * ((k % 2 == 0) ? e1 : e2);
-      Eigen::Vector3d plus, minus;
-      const TriangulationStatus status_plus =
-          first ? TriangulateMidpoint(bearings1[i] + step, bearings2[i], pose, triangulation,
-                                      &plus, nullptr)
-                : TriangulateMidpoint(bearings1[i], bearings2[i] + step, pose, triangulation,
-                                      &plus, nullptr);
-      const TriangulationStatus status_minus =
-          first ? TriangulateMidpoint(bearings1[i] - step, bearings2[i], pose, triangulation,
-                                      &minus, nullptr)
-                : TriangulateMidpoint(bearings1[i], bearings2[i] - step, pose, triangulation,
-                                      &minus, nullptr);
-      if (status_plus != TriangulationStatus::kOk || status_minus != TriangulationStatus::kOk) {
-        out.status = PlaneFitStatus::kDegenerate;
-        return kInfinity;
-      }
-      jacobian.col(k) = (plus - minus) / (2.0 * kStepRad);
+    Eigen::Matrix3d point_covariance;
+    if (!TriangulationCovariance(bearings1[i], bearings2[i], pose, sigma_angle_rad,
+                                 &point_covariance)) {
+      out.status = PlaneFitStatus::kDegenerate;
+      return kInfinity;
     }
-    const Eigen::Vector4d along_normal = jacobian.transpose() * normal;
-    const double sigma_perp_squared = sigma_angle_rad * sigma_angle_rad * along_normal.squaredNorm();
+    const double sigma_perp_squared = normal.dot(point_covariance * normal);
     const Eigen::Vector3d offset = points_in_cam1[i] - plane.centroid_in_local_m;
     const Eigen::Vector3d row(1.0, u.dot(offset), v.dot(offset));
     normal_matrix += row * row.transpose();

@@ -71,6 +71,18 @@ TriangulationStatus TriangulateMidpoint(const Eigen::Vector3d& bearing1_in_cam1,
 double EpipolarAngleRad(const Eigen::Vector3d& bearing1_in_cam1,
                         const Eigen::Vector3d& bearing2_in_cam2, const Rigid3d& cam2_from_cam1);
 
+// Covariance (3x3, m^2, in cam1) of the midpoint-triangulated point of two
+// bearings when each bearing has isotropic angular noise of sigma_rad per axis
+// of its tangent plane: sigma_rad^2 J J^T, with J (3x4) the derivative of the
+// point with respect to the four tangent perturbations (central differences).
+// About range^2 sigma / baseline_perp along the line of sight and
+// range sigma across it. Returns false (and leaves *covariance_in_cam1 as it
+// was) for non-finite or zero-length input or when a perturbed pair cannot be
+// triangulated (parallel rays, behind a camera).
+bool TriangulationCovariance(const Eigen::Vector3d& bearing1_in_cam1,
+                             const Eigen::Vector3d& bearing2_in_cam2, const Rigid3d& cam2_from_cam1,
+                             double sigma_rad, Eigen::Matrix3d* covariance_in_cam1);
+
 // Sampson distance of the correspondence under the essential matrix
 // E = [t]x R, in pixels of a pinhole camera of focal length focal_px: with
 // x1 = b1 / b1.z and x2 = b2 / b2.z (normalised image points),
@@ -119,6 +131,23 @@ struct PlaneFitResult {
 // On a status other than kOk only status and num_points are meaningful.
 PlaneFitResult FitPlane(const std::vector<Eigen::Vector3d>& points_in_local,
                         const Eigen::Vector3d& gravity_in_local, int min_points);
+
+// Plane fit for points with known, anisotropic noise (errors in variables).
+// Two-view points are much less certain along the line of sight than across
+// it; TLS then tilts the plane toward the line of sight (in the NOVA-C
+// geometry, 0.3 px of matching noise adds about 8 deg to a 7 deg slope). This
+// fit takes the normal that minimises
+//   sum_i (n . (p_i - c))^2 / (n^T C n),   C = mean of the covariances,
+// the generalized eigenvector of (scatter, C) with the smallest eigenvalue:
+// the expected scatter along n is sum of the true off-plane spread plus
+// N n^T C n, so the ratio is smallest at the true normal whatever the shape of
+// C (consistent where TLS is not). The centroid is the plain mean, and
+// roughness is measured along the new normal as in FitPlane. Statuses as
+// FitPlane's, plus kInvalidInput when the covariances are not one per point or
+// not finite. With all covariances zero the result is FitPlane's.
+PlaneFitResult FitPlaneWithCovariance(const std::vector<Eigen::Vector3d>& points_in_local,
+                                      const std::vector<Eigen::Matrix3d>& covariances_in_local,
+                                      const Eigen::Vector3d& gravity_in_local, int min_points);
 
 // ---------------------------------------------------------------------------
 // Predicted slope uncertainty
@@ -175,12 +204,16 @@ struct SlopeSigmaTerms {
 // ~3 m) the TLS fit is no longer linear: the real std is 0.64 of the
 // prediction and the mean slope is biased by about +8 deg, because the noise
 // along the line of sight stretches the cloud toward it.
+// The plane's normal is the TLS fit of the points unless normal_in_cam1 is
+// given (the normal of another estimator, e.g. FitPlaneWithCovariance).
 // Returns +infinity (and terms->status says why) when the plane cannot be
-// fitted (fewer than 3 points, collinear, non-finite) or a point cannot be
-// triangulated back (zero parallax, behind a camera). Options must be valid.
+// fitted (fewer than 3 points, collinear, non-finite, a zero normal given) or a
+// point cannot be triangulated back (zero parallax, behind a camera). Options
+// must be valid.
 double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
                             const std::vector<Eigen::Vector3d>& points_in_cam1,
                             const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& up_in_cam1,
-                            SlopeSigmaTerms* terms = nullptr);
+                            SlopeSigmaTerms* terms = nullptr,
+                            const Eigen::Vector3d* normal_in_cam1 = nullptr);
 
 }  // namespace hdabench::hda

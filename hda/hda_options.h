@@ -1,12 +1,16 @@
 // Parameters of the flight HDA method, with the NOVA-C paper's values as
-// defaults (Hazard Detection and Avoidance for the NOVA-C Lander, AAS 22-105).
+// defaults where the paper gives them (Hazard Detection and Avoidance for the
+// NOVA-C Lander, AAS 22-105) and bench choices, stated as such, elsewhere.
 // hda/ links only OpenCV, Eigen and calib's camera model, and reads no files.
 #pragma once
 
 #include <string>
 #include <vector>
 
+#include "hda/geometry.h"
+#include "hda/matching.h"
 #include "hda/quadtree.h"
+#include "hda/roi_prediction.h"
 
 namespace hdabench::hda {
 
@@ -18,17 +22,40 @@ struct HdaOptions {
 
   // Quadtree on image 1 (hda/quadtree.h): site size, block limits.
   QuadtreeOptions quadtree;
+  // ROI prediction into image 2 (hda/roi_prediction.h): the navigation and LRF
+  // uncertainties, also used by the nav-based rejection and the slope sigma.
+  PredictionOptions prediction;
+  // ORB, matching, sub-pixel refinement, epipolar RANSAC (hda/matching.h).
+  MatchingOptions matching;
+  // Triangulation (hda/geometry.h): the smallest usable parallax.
+  TriangulationOptions triangulation;
 
-  // Features and matching.
-  int orb_features_per_roi = 500;     // ORB keypoints requested per ROI
-  double ratio_test = 0.8;            // Lowe ratio for descriptor matches
-  double ransac_threshold_px = 1.0;   // epipolar RANSAC inlier threshold, pixels
-  double ransac_confidence = 0.999;   // RANSAC confidence, in (0, 1)
-  int min_points = 10;                // fewer triangulated points: "too few points"
+  // Navigation-based rejection (bench choices; the paper gives no values).
+  // A match is dropped when its epipolar angle under the nav pose exceeds
+  //   k * sqrt(2 (sigma_px / f)^2 + sigma_att^2 + (sigma_pos / d)^2)
+  // (k = prediction.sigma_multiplier, sigma_px = assumed_pixel_sigma_px), or
+  // when its triangulated depth along the ray differs from the depth of a level
+  // ground plane through the LRF spot by more than
+  //   max_relief_m + k * (range sigma + depth sigma of the match),
+  // with the depth sigma range^2 sigma_px / (f baseline_perp).
+  double assumed_pixel_sigma_px = 0.5;  // matching noise before it is measured, pixels
+  double max_relief_m = 50.0;           // terrain height range tolerated around the LRF spot's level, metres
 
-  // Time budget (paper: about 5 s of imaging and 10 s of computation).
+  // Plane fit and status.
+  int min_points = 10;                  // fewer triangulated points: "too few points"
+  double pixel_sigma_floor_px = 0.15;   // the measured matching noise is never taken below this, pixels
+                                        // (ORB + Lucas-Kanade against truth on the synthetic scenes: 0.15 px per axis)
+  double max_slope_sigma_deg = 3.0;     // predicted slope sigma above this: "degenerate", degrees
+  double max_roughness_rms_m = 0.15;    // noise-corrected RMS relief above this: "unsafe roughness", metres
+                                        // (half the hazard height: 2-sigma relief reaches it)
+
+  // Time budget (paper: about 5 s of imaging and 10 s of computation on a
+  // 1 GHz single-board computer). The wall-time budget on this machine is
+  // compute_budget_s * processor_scale; the default scale 0.1 states that one
+  // core of this machine does the work of the flight board about ten times as
+  // fast (docs/flight-method.md, "Time budget").
   double compute_budget_s = 10.0;     // seconds of computation on the flight computer
-  double processor_scale = 1.0;       // this machine's speed relative to the 1 GHz board
+  double processor_scale = 0.1;       // this machine's time for one second of the flight board's work
 
   // Every violated constraint, one message each ("field = value: expected ...";
   // nested options prefixed, e.g. "quadtree.site_size_m = ...").

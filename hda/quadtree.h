@@ -23,7 +23,7 @@ struct QuadtreeOptions {
   double min_block_fraction = 0.9;   // minimum block side = this fraction of the site's projected side, in (0, 1]
   double max_block_stddev = 12.0;    // brightness std below this stops splitting, 8-bit levels (DN)
   double min_block_mean = 40.0;      // mean brightness below this is shadow: rejected, 8-bit levels (DN)
-  double max_roi_stddev = 30.0;      // std above this at the minimum size: rejected as variable, 8-bit levels (DN)
+  double max_roi_stddev = 40.0;      // std above this at the minimum size: rejected as variable, 8-bit levels (DN)
 
   // Every violated constraint, one message each ("field = value: expected ...").
   // Empty when the options are usable.

@@ -46,6 +46,20 @@ struct TruthCommandOptions {
 };
 int RunTruth(const TruthCommandOptions& options, std::ostream& out, std::ostream& err);
 
+struct RunFlightOptions {
+  std::string dataset_dir;
+  std::optional<std::pair<int, int>> frames;  // default: reference::DefaultFramePair
+  std::string out_dir;                        // created if missing; files of the same names replaced
+  std::optional<double> processor_scale;      // HdaOptions::processor_scale; default: the options'
+  std::optional<double> budget_s;             // HdaOptions::compute_budget_s; default: the options'
+  bool figures = true;                        // write figures/ (PNG)
+  bool quiet = false;                         // no progress lines on err
+};
+// hdabench run: the flight method on two frames of a dataset, its outputs
+// written into out_dir (docs/flight-results.md) and the report with the
+// per-ROI table printed to out.
+int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& err);
+
 struct DemoOptions {
   std::string out_dir = "hdabench-demo";  // replaced on each run; the dataset goes in out_dir/dataset
   std::uint64_t seed = 1;                 // same seed, same bytes

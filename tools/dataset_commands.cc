@@ -10,6 +10,7 @@
 #include "datasets/dataset.h"
 #include "datasets/example.h"
 #include "datasets/navigation.h"
+#include "tools/command_support.h"
 #include "tools/commands.h"
 #include "tools/exit_codes.h"
 
@@ -83,16 +84,8 @@ void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int 
 
 int RunDatasetCheck(const DatasetCheckOptions& options, std::ostream& out, std::ostream& err) {
   const std::string& dir = options.dataset_dir;
-  std::error_code ec;
-  const fs::file_status status = fs::status(dir, ec);
-  if (ec || !fs::exists(status)) {
-    err << "hdabench dataset check: " << dir << ": no such folder\n";
-    return kExitInput;
-  }
-  if (!fs::is_directory(status)) {
-    err << "hdabench dataset check: " << dir << ": is not a folder; expected a dataset folder\n";
-    return kExitInput;
-  }
+  const int folder = CheckDatasetFolder(dir, "dataset check", err);
+  if (folder != kExitOk) return folder;
   const datasets::DatasetLoadResult result = datasets::LoadDataset(dir);
   if (!result.Ok()) {
     err << result.problems.size() << " problem(s) in " << dir << ":\n";

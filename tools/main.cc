@@ -11,6 +11,7 @@
 #include <CLI/CLI.hpp>
 
 #include "calib/error.h"
+#include "hda/hda_options.h"
 #include "tools/commands.h"
 #include "tools/exit_codes.h"
 #include "tools/version.h"
@@ -94,6 +95,29 @@ int Main(int argc, char** argv) {
   truth->add_option("--roi", roi_text, "x,y,w,h in pixels")->required();
   truth->add_flag("--json", truth_options.json, "Print JSON instead of a table");
 
+  RunFlightOptions run_options;
+  std::string run_frames_text;
+  double processor_scale = hda::HdaOptions().processor_scale;
+  double budget_s = hda::HdaOptions().compute_budget_s;
+  bool no_figures = false;
+  CLI::App* run = app.add_subcommand(
+      "run", "Run the flight HDA method on two frames of a dataset: results, figures, per-ROI table");
+  run->add_option("DATASET", run_options.dataset_dir, "Dataset folder")->required();
+  run->add_option("--frames", run_frames_text,
+                  "Two different frame indices i,j (default: frame 0 and the frame whose baseline is\n"
+                  "closest to the paper's 30 m at 566 m)");
+  run->add_option("--out", run_options.out_dir, "Output folder (created if missing; files replaced)")
+      ->required();
+  CLI::Option* scale_option =
+      run->add_option("--processor-scale", processor_scale,
+                      "This machine's seconds per second of the flight computer's work")
+          ->capture_default_str();
+  CLI::Option* budget_option =
+      run->add_option("--budget-s", budget_s, "Computation budget on the flight computer, seconds")
+          ->capture_default_str();
+  run->add_flag("--no-figures", no_figures, "Do not write figures/");
+  run->add_flag("--quiet", run_options.quiet, "No progress lines");
+
   DemoOptions demo_options;
   CLI::App* demo = app.add_subcommand(
       "demo", "The main job on the built-in default: generate the default synthetic dataset and check it");
@@ -125,6 +149,16 @@ int Main(int argc, char** argv) {
       check_options.frames = std::make_pair(pair[0], pair[1]);
     }
     return RunDatasetCheck(check_options, std::cout, std::cerr);
+  }
+  if (run->parsed()) {
+    if (!run_frames_text.empty()) {
+      const std::vector<int> pair = ParseIntList(run_frames_text, 2, "--frames", "i,j");
+      run_options.frames = std::make_pair(pair[0], pair[1]);
+    }
+    if (scale_option->count() > 0) run_options.processor_scale = processor_scale;
+    if (budget_option->count() > 0) run_options.budget_s = budget_s;
+    run_options.figures = !no_figures;
+    return RunFlight(run_options, std::cout, std::cerr);
   }
   if (create->parsed()) return RunDatasetCreate(create_options, std::cout, std::cerr);
   if (demo->parsed()) return RunDemo(demo_options, std::cout, std::cerr);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <iomanip>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -13,6 +14,7 @@
 #include "datasets/dataset.h"
 #include "datasets/synth/synth.h"
 #include "datasets/synth/truth.h"
+#include "tools/command_support.h"
 #include "tools/commands.h"
 #include "tools/exit_codes.h"
 
@@ -78,14 +80,10 @@ int RunTruth(const TruthCommandOptions& options, std::ostream& out, std::ostream
   datasets::LoadOptions load;
   load.decode_images = false;
   load.keep_truth = true;
-  const datasets::DatasetLoadResult loaded = datasets::LoadDataset(options.dataset_dir, load);
-  if (!loaded.Ok()) {
-    err << "hdabench truth: " << loaded.problems.size() << " problem(s) in " << options.dataset_dir
-        << " (see hdabench dataset check):\n";
-    for (const datasets::Problem& p : loaded.problems) err << "  " << p.ToString() << "\n";
-    return kExitInput;
-  }
-  const datasets::Dataset& dataset = *loaded.dataset;
+  const std::optional<datasets::Dataset> loaded =
+      LoadDatasetOrReport(options.dataset_dir, load, "truth", err);
+  if (!loaded.has_value()) return kExitInput;
+  const datasets::Dataset& dataset = *loaded;
   if (options.frame < 0 || options.frame >= static_cast<int>(dataset.frames.size())) {
     err << "hdabench truth: --frame " << options.frame << " is not a frame of the dataset (0.."
         << dataset.frames.size() - 1 << ")\n";

@@ -104,7 +104,7 @@ TEST(RunQuadtree, SixteenBitImageGivesTheSameResultInEightBitLevels) {
 
 TEST(RunQuadtree, MinimumSizeBlockBelowRoiStddevIsAccepted) {
   // Alternating 80 / 120 columns: stddev 20, above max_block_stddev (12) but
-  // within max_roi_stddev (30); 16 px cannot be split with a 16 px minimum.
+  // within max_roi_stddev (40); 16 px cannot be split with a 16 px minimum.
   cv::Mat image(16, 16, CV_8UC1);
   for (int col = 0; col < 16; ++col) image.col(col).setTo(col % 2 == 0 ? 80 : 120);
   const QuadtreeResult result = RunQuadtree(image, 16, QuadtreeOptions());

@@ -58,7 +58,10 @@ TEST(PredictRoi, LateralTranslationShiftsByFocalTimesBaselineOverRange) {
   // Camera 2 is 30 m to the right (+x of camera 1) at 566 m from the ground
   // plane: the ground moves left by f * 30 / 566 = 53.0035 px.
   const double baseline_m = 30.0;
-  const PredictionOptions options;  // defaults: 1 m, 0.1 deg, 1 m, 3 sigma, 8 px minimum
+  PredictionOptions options;  // 1 m, 0.1 deg, 1 m, 3 sigma, 8 px minimum: a margin over the minimum
+  options.nav_position_sigma_m = 1.0;
+  options.nav_attitude_sigma_deg = 0.1;
+  options.range_sigma_m = 1.0;
   const PredictedRoi predicted = PredictRoi(CentreRoi(), Pinhole1000(),
                                             Translated({baseline_m, 0, 0}), kRangeM, options);
   ASSERT_EQ(predicted.status, PredictionStatus::kOk);

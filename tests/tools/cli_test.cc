@@ -38,13 +38,13 @@ CommandResult RunHdabench(const std::vector<std::string>& args) {
 TEST(Cli, HelpListsEveryCommandAndExitsZero) {
   const CommandResult run = RunHdabench({"--help"});
   EXPECT_EQ(run.exit_code, 0) << run.out;
-  for (const char* command : {"version", "dataset", "demo", "synth", "truth", "Exit codes"}) {
+  for (const char* command : {"version", "dataset", "demo", "run", "synth", "truth", "Exit codes"}) {
     EXPECT_NE(run.out.find(command), std::string::npos) << command << "\n" << run.out;
   }
 }
 
 TEST(Cli, EverySubcommandHasHelp) {
-  for (const char* command : {"version", "dataset", "dataset check", "dataset create", "demo", "synth", "truth"}) {
+  for (const char* command : {"version", "dataset", "dataset check", "dataset create", "demo", "run", "synth", "truth"}) {
     const CommandResult run = RunHdabench(SplitWords(std::string(command) + " --help"));
     EXPECT_EQ(run.exit_code, 0) << command << "\n" << run.out;
     EXPECT_NE(run.out.find("Usage"), std::string::npos) << command << "\n" << run.out;

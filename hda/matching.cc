@@ -1,0 +1,404 @@
+#include "hda/matching.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/video/tracking.hpp>
+
+#include "calib/error.h"
+#include "calib/options_check.h"
+
+namespace hdabench::hda {
+
+namespace {
+
+// Pixels added to the ORB crop beyond ORB's edge threshold: cvRound of the
+// level sizes and the mask's resampling at the box edge.
+constexpr int kOrbExtraPadPx = 2;
+// ORB descriptors: 256 bits.
+constexpr int kOrbDescriptorBytes = 32;
+constexpr size_t kOrbDescriptorWords = 4;
+// Largest ORB patch and LK window accepted, pixels (a sanity bound).
+constexpr int kMaxWindowPx = 255;
+// The essential matrix needs five correspondences.
+constexpr int kMinRansacPoints = 5;
+// Pyramid levels of the sub-pixel refinement above the full resolution: the
+// ORB match is already within about a pixel, one level is plenty.
+constexpr int kRefineMaxLevel = 1;
+constexpr int kRefineMaxIterations = 30;
+constexpr double kRefineEpsilonPx = 0.001;
+// Step in normalised image coordinates for the local focal length (central
+// differences: the error is O(step^2)).
+constexpr double kFocalStep = 1e-4;
+
+void ThrowIfInvalid(const std::vector<std::string>& errors) {
+  if (errors.empty()) return;
+  std::string message = "MatchRoiPair: invalid MatchingOptions: ";
+  for (size_t i = 0; i < errors.size(); ++i) {
+    if (i > 0) message += "; ";
+    message += errors[i];
+  }
+  throw InputError(message);
+}
+
+void CheckImage(const cv::Mat& image, const char* name, const calib::CameraModel& camera) {
+  if (image.type() != CV_8UC1) {
+    throw InputError(std::string("MatchRoiPair: ") + name + " type " +
+                     cv::typeToString(image.type()) + " is not supported: expected CV_8UC1");
+  }
+  if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {
+    throw InputError(std::string("MatchRoiPair: ") + name + " size " + std::to_string(image.cols) +
+                     "x" + std::to_string(image.rows) + " differs from the camera's imager " +
+                     std::to_string(camera.WidthPx()) + "x" + std::to_string(camera.HeightPx()));
+  }
+}
+
+cv::Rect Padded(const cv::Rect& box, int pad, const cv::Size& image_size) {
+  return cv::Rect(box.x - pad, box.y - pad, box.width + 2 * pad, box.height + 2 * pad) &
+         cv::Rect(cv::Point(0, 0), image_size);
+}
+
+// Keypoints and descriptors of ORB in `box` (inside the image), full-image
+// coordinates.
+struct BoxFeatures {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;
+};
+
+BoxFeatures DetectInBox(const cv::Mat& image, const cv::Rect& box, const MatchingOptions& options) {
+  BoxFeatures features;
+  // ORB drops keypoints closer than its edge threshold (the patch size) to the
+  // border of each pyramid level: padding the box by the patch keeps every
+  // full-resolution keypoint up to the box edge. At level l the threshold is
+  // patch * scale^l pixels of the full image, so coarse-level keypoints within
+  // patch * (scale^l - 1) of the box edge are lost (12 px at level 2 with the
+  // defaults): padding for them too would cost 40 % more ORB time (FAST runs
+  // on the whole crop) for 7 % more keypoints. The padding comes from the
+  // image itself where there is image.
+  const int patch = options.orb_patch_size_px;
+  const int pad = patch + kOrbExtraPadPx;
+  const cv::Rect crop = Padded(box, pad, image.size());
+  // Levels too small for any keypoint to survive the edge threshold (small
+  // boxes, crops clipped by the image border) are not built: they would only
+  // cost time, and a level of zero pixels would make ORB fail. Their share of
+  // orb_features_per_roi goes to the other levels.
+  int levels = 0;
+  const int min_side = std::min(crop.width, crop.height);
+  while (levels < options.orb_levels &&
+         cvRound(min_side / std::pow(options.orb_scale_factor, levels)) > 2 * patch) {
+    ++levels;
+  }
+  if (levels == 0) return features;
+
+  cv::Mat mask = cv::Mat::zeros(crop.size(), CV_8UC1);
+  mask(box - crop.tl()).setTo(255);
+  cv::Ptr<cv::ORB> orb = cv::ORB::create(
+      options.orb_features_per_roi, static_cast<float>(options.orb_scale_factor), levels, patch,
+      /*firstLevel=*/0, /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, patch, options.orb_fast_threshold);
+  orb->detectAndCompute(image(crop), mask, features.keypoints, features.descriptors);
+  const cv::Point2f offset(static_cast<float>(crop.x), static_cast<float>(crop.y));
+  for (cv::KeyPoint& keypoint : features.keypoints) keypoint.pt += offset;
+  return features;
+}
+
+// Bits set in each byte of x (SWAR: no dependence on a popcount instruction,
+// which x86-64's baseline lacks).
+inline std::uint64_t ByteBitCounts(std::uint64_t x) {
+  x = x - ((x >> 1) & 0x5555555555555555ULL);
+  x = (x & 0x3333333333333333ULL) + ((x >> 2) & 0x3333333333333333ULL);
+  return (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0fULL;
+}
+
+// Hamming distance of two 256-bit ORB descriptors.
+inline int HammingDistance(const std::uint64_t* a, const std::uint64_t* b) {
+  // Each byte of the sum counts at most 32 bits: no carry between bytes.
+  const std::uint64_t counts = ByteBitCounts(a[0] ^ b[0]) + ByteBitCounts(a[1] ^ b[1]) +
+                               ByteBitCounts(a[2] ^ b[2]) + ByteBitCounts(a[3] ^ b[3]);
+  return static_cast<int>((counts * 0x0101010101010101ULL) >> 56);
+}
+
+// Index pairs (image 1, image 2) passing the ratio test and, if asked, the
+// cross-check, in image-1 keypoint order. Brute force in one pass over all
+// pairs: the best two image-2 descriptors of each image-1 descriptor and the
+// best image-1 descriptor of each image-2 one, ties going to the lower index.
+// The same matches as cv::BFMatcher(NORM_HAMMING) knnMatch(k = 2) and match()
+// the other way, at a quarter of the cost (one pass instead of two, no call
+// per pair).
+std::vector<cv::DMatch> MatchDescriptors(const cv::Mat& descriptors1, const cv::Mat& descriptors2,
+                                         const MatchingOptions& options) {
+  std::vector<cv::DMatch> kept;
+  if (descriptors1.empty() || descriptors2.empty()) return kept;
+  CV_Assert(descriptors1.type() == CV_8UC1 && descriptors1.cols == kOrbDescriptorBytes &&
+            descriptors2.type() == CV_8UC1 && descriptors2.cols == kOrbDescriptorBytes);
+  const auto words = [](const cv::Mat& descriptors) {
+    std::vector<std::uint64_t> packed(static_cast<size_t>(descriptors.rows) * kOrbDescriptorWords);
+    for (int r = 0; r < descriptors.rows; ++r) {
+      std::memcpy(&packed[static_cast<size_t>(r) * kOrbDescriptorWords], descriptors.ptr(r),
+                  kOrbDescriptorBytes);
+    }
+    return packed;
+  };
+  const std::vector<std::uint64_t> words1 = words(descriptors1), words2 = words(descriptors2);
+  const size_t count1 = static_cast<size_t>(descriptors1.rows);
+  const size_t count2 = static_cast<size_t>(descriptors2.rows);
+  constexpr int kNone = std::numeric_limits<int>::max();
+  std::vector<int> best_for2(count2, kNone), best_index_for2(count2, -1);
+  struct Candidates {
+    int best = kNone, second = kNone, index = -1;
+  };
+  std::vector<Candidates> candidates(count1);
+  for (size_t i = 0; i < count1; ++i) {
+    const std::uint64_t* a = &words1[i * kOrbDescriptorWords];
+    Candidates& c = candidates[i];
+    for (size_t j = 0; j < count2; ++j) {
+      const int d = HammingDistance(a, &words2[j * kOrbDescriptorWords]);
+      if (d < c.second) {
+        if (d < c.best) {
+          c.second = c.best;
+          c.best = d;
+          c.index = static_cast<int>(j);
+        } else {
+          c.second = d;
+        }
+      }
+      if (d < best_for2[j]) {
+        best_for2[j] = d;
+        best_index_for2[j] = static_cast<int>(i);
+      }
+    }
+  }
+  for (size_t i = 0; i < count1; ++i) {
+    const Candidates& c = candidates[i];
+    // Only one candidate in image 2 (second == kNone): nothing to be ambiguous with.
+    if (c.second != kNone && !(c.best < options.ratio_test * c.second)) continue;
+    if (options.cross_check &&
+        best_index_for2[static_cast<size_t>(c.index)] != static_cast<int>(i)) {
+      continue;
+    }
+    kept.emplace_back(static_cast<int>(i), c.index, static_cast<float>(c.best));
+  }
+  return kept;
+}
+
+// A window of `size` inside an image of `image_size` that contains `crop`
+// (itself inside the image and no larger than `size`).
+cv::Rect Enlarged(const cv::Rect& crop, const cv::Size& size, const cv::Size& image_size) {
+  return cv::Rect(std::min(crop.x, image_size.width - size.width),
+                  std::min(crop.y, image_size.height - size.height), size.width, size.height);
+}
+
+// Pyramidal Lucas-Kanade from the image-1 keypoints to image 2, starting at the
+// ORB matches. Removes the matches it rejects from points1/points2 and
+// refines the others; returns the number rejected.
+int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1,
+                  const cv::Rect& box2, const MatchingOptions& options,
+                  std::vector<cv::Point2d>* points1, std::vector<cv::Point2d>* points2) {
+  if (points1->empty()) return 0;
+  // LK works on equal-sized images: windows around both padded boxes, with
+  // room for the LK window at the coarsest level. No copies: views.
+  const int pad = (options.refine_window_px + 1) << kRefineMaxLevel;
+  const cv::Rect crop1 = Padded(box1, pad, image1.size());
+  const cv::Rect crop2 = Padded(box2, pad, image2.size());
+  const cv::Size size(std::max(crop1.width, crop2.width), std::max(crop1.height, crop2.height));
+  const cv::Rect window1 = Enlarged(crop1, size, image1.size());
+  const cv::Rect window2 = Enlarged(crop2, size, image2.size());
+
+  std::vector<cv::Point2f> previous, next;
+  previous.reserve(points1->size());
+  next.reserve(points2->size());
+  for (size_t i = 0; i < points1->size(); ++i) {
+    previous.emplace_back(static_cast<float>((*points1)[i].x - window1.x),
+                          static_cast<float>((*points1)[i].y - window1.y));
+    next.emplace_back(static_cast<float>((*points2)[i].x - window2.x),
+                      static_cast<float>((*points2)[i].y - window2.y));
+  }
+  const std::vector<cv::Point2f> initial = next;
+  std::vector<unsigned char> status;
+  std::vector<float> error;
+  cv::calcOpticalFlowPyrLK(image1(window1), image2(window2), previous, next, status, error,
+                           cv::Size(options.refine_window_px, options.refine_window_px),
+                           kRefineMaxLevel,
+                           cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
+                                            kRefineMaxIterations, kRefineEpsilonPx),
+                           cv::OPTFLOW_USE_INITIAL_FLOW);
+
+  int rejected = 0;
+  size_t kept = 0;
+  for (size_t i = 0; i < previous.size(); ++i) {
+    const double x = static_cast<double>(next[i].x), y = static_cast<double>(next[i].y);
+    const double shift =
+        std::hypot(x - static_cast<double>(initial[i].x), y - static_cast<double>(initial[i].y));
+    // Inside the window's pixels (edges at -0.5 and size - 0.5).
+    const bool inside = x >= -0.5 && y >= -0.5 && x <= size.width - 0.5 && y <= size.height - 0.5;
+    if (status[i] == 0 || !(shift <= options.max_refine_shift_px) || !inside) {
+      ++rejected;
+      continue;
+    }
+    (*points1)[kept] = (*points1)[i];
+    (*points2)[kept] = cv::Point2d(x + window2.x, y + window2.y);
+    ++kept;
+  }
+  points1->resize(kept);
+  points2->resize(kept);
+  return rejected;
+}
+
+// Normalised image coordinates (x/z, y/z) of pixels; valid[i] is 0 where the
+// camera cannot unproject pixel i or its ray is not in front of the camera.
+std::vector<cv::Point2d> Normalised(const calib::CameraModel& camera,
+                                    const std::vector<cv::Point2d>& pixels,
+                                    std::vector<unsigned char>* valid) {
+  std::vector<Eigen::Vector2d> pixels_eigen;
+  pixels_eigen.reserve(pixels.size());
+  for (const cv::Point2d& p : pixels) pixels_eigen.emplace_back(p.x, p.y);
+  std::vector<Eigen::Vector3d> bearings;
+  camera.Unproject(pixels_eigen, &bearings, valid);
+  std::vector<cv::Point2d> normalised(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const Eigen::Vector3d& b = bearings[i];
+    if ((*valid)[i] == 0 || !(b.z() > 0)) {
+      (*valid)[i] = 0;
+      continue;
+    }
+    normalised[i] = cv::Point2d(b.x() / b.z(), b.y() / b.z());
+    if (!std::isfinite(normalised[i].x) || !std::isfinite(normalised[i].y)) (*valid)[i] = 0;
+  }
+  return normalised;
+}
+
+// Pixels per unit of normalised image coordinate around `at`: the mean of the
+// two directions (as cv::findEssentialMat averages fx and fy). 0 when the
+// camera cannot project there.
+double LocalFocalPx(const calib::CameraModel& camera, const cv::Point2d& at) {
+  const std::vector<Eigen::Vector3d> points = {{at.x - kFocalStep, at.y, 1.0},
+                                               {at.x + kFocalStep, at.y, 1.0},
+                                               {at.x, at.y - kFocalStep, 1.0},
+                                               {at.x, at.y + kFocalStep, 1.0}};
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<unsigned char> valid;
+  if (camera.Project(points, &pixels, &valid) != 4) return 0.0;
+  return 0.5 * ((pixels[1] - pixels[0]).norm() + (pixels[3] - pixels[2]).norm()) /
+         (2.0 * kFocalStep);
+}
+
+}  // namespace
+
+std::vector<std::string> MatchingOptions::Validate() const {
+  std::vector<std::string> errors;
+  RequireOption(orb_features_per_roi >= kMinRansacPoints, "orb_features_per_roi",
+                orb_features_per_roi, ">= 5 (the essential matrix needs 5 matches)", &errors);
+  RequireOption(orb_levels >= 1, "orb_levels", orb_levels, ">= 1", &errors);
+  RequireOption(orb_scale_factor > 1 && orb_scale_factor <= 4, "orb_scale_factor", orb_scale_factor,
+                "in (1, 4]", &errors);
+  RequireOption(orb_fast_threshold >= 1 && orb_fast_threshold <= 255, "orb_fast_threshold",
+                orb_fast_threshold, "in [1, 255]", &errors);
+  RequireOption(orb_patch_size_px >= 5 && orb_patch_size_px <= kMaxWindowPx, "orb_patch_size_px",
+                orb_patch_size_px, "in [5, 255]", &errors);
+  RequireOption(ratio_test > 0 && ratio_test <= 1, "ratio_test", ratio_test, "in (0, 1]", &errors);
+  RequireOption(
+      refine_window_px >= 5 && refine_window_px <= kMaxWindowPx && refine_window_px % 2 == 1,
+      "refine_window_px", refine_window_px, "odd, in [5, 255]", &errors);
+  RequireOption(max_refine_shift_px > 0, "max_refine_shift_px", max_refine_shift_px, "> 0",
+                &errors);
+  RequireOption(ransac_threshold_px > 0, "ransac_threshold_px", ransac_threshold_px, "> 0",
+                &errors);
+  RequireOption(ransac_confidence > 0 && ransac_confidence < 1, "ransac_confidence",
+                ransac_confidence, "in (0, 1)", &errors);
+  RequireOption(ransac_max_iterations >= 1, "ransac_max_iterations", ransac_max_iterations, ">= 1",
+                &errors);
+  return errors;
+}
+
+const char* ToString(MatchingStatus status) {
+  switch (status) {
+    case MatchingStatus::kOk:
+      return "ok";
+    case MatchingStatus::kTooFewMatches:
+      return "too few matches";
+    case MatchingStatus::kRansacFailed:
+      return "ransac failed";
+  }
+  return "unknown";
+}
+
+RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1_px,
+                        const cv::Rect& box2_px, const calib::CameraModel& camera,
+                        const MatchingOptions& options) {
+  ThrowIfInvalid(options.Validate());
+  CheckImage(image1, "image1", camera);
+  CheckImage(image2, "image2", camera);
+  RoiMatches result;
+  const cv::Rect box1 = box1_px & cv::Rect(cv::Point(0, 0), image1.size());
+  const cv::Rect box2 = box2_px & cv::Rect(cv::Point(0, 0), image2.size());
+  if (box1.empty() || box2.empty()) return result;
+
+  const BoxFeatures features1 = DetectInBox(image1, box1, options);
+  const BoxFeatures features2 = DetectInBox(image2, box2, options);
+  result.keypoints1 = static_cast<int>(features1.keypoints.size());
+  result.keypoints2 = static_cast<int>(features2.keypoints.size());
+  const std::vector<cv::DMatch> matches =
+      MatchDescriptors(features1.descriptors, features2.descriptors, options);
+  result.matches = static_cast<int>(matches.size());
+
+  std::vector<cv::Point2d> points1, points2;
+  points1.reserve(matches.size());
+  points2.reserve(matches.size());
+  for (const cv::DMatch& match : matches) {
+    const cv::Point2f& p1 = features1.keypoints[static_cast<size_t>(match.queryIdx)].pt;
+    const cv::Point2f& p2 = features2.keypoints[static_cast<size_t>(match.trainIdx)].pt;
+    points1.emplace_back(static_cast<double>(p1.x), static_cast<double>(p1.y));
+    points2.emplace_back(static_cast<double>(p2.x), static_cast<double>(p2.y));
+  }
+  if (options.subpixel_refine) {
+    result.refine_rejected = RefineMatches(image1, image2, box1, box2, options, &points1, &points2);
+  }
+  if (static_cast<int>(points1.size()) < kMinRansacPoints) return result;  // kTooFewMatches
+
+  // Normalised coordinates of both points: a match with a pixel the camera
+  // cannot unproject, or whose ray is not in front of it, takes no part.
+  std::vector<unsigned char> valid1, valid2;
+  const std::vector<cv::Point2d> normalised1 = Normalised(camera, points1, &valid1);
+  const std::vector<cv::Point2d> normalised2 = Normalised(camera, points2, &valid2);
+  std::vector<size_t> used;
+  std::vector<cv::Point2d> ransac1, ransac2;
+  cv::Point2d centroid2(0, 0);
+  for (size_t i = 0; i < points1.size(); ++i) {
+    if (valid1[i] == 0 || valid2[i] == 0) continue;
+    used.push_back(i);
+    ransac1.push_back(normalised1[i]);
+    ransac2.push_back(normalised2[i]);
+    centroid2 += normalised2[i];
+  }
+  if (static_cast<int>(used.size()) < kMinRansacPoints) return result;  // kTooFewMatches
+
+  centroid2 *= 1.0 / static_cast<double>(used.size());
+  const double focal_px = LocalFocalPx(camera, centroid2);
+  result.status = MatchingStatus::kRansacFailed;
+  if (!(focal_px > 0 && std::isfinite(focal_px))) return result;
+  cv::Mat inlier_mask;
+  const cv::Mat essential = cv::findEssentialMat(
+      ransac1, ransac2, cv::Mat::eye(3, 3, CV_64F), cv::RANSAC, options.ransac_confidence,
+      options.ransac_threshold_px / focal_px, options.ransac_max_iterations, inlier_mask);
+  // With exactly five points OpenCV returns every solution of the 5-point
+  // solver stacked (3k x 3) and marks all points inliers.
+  if (essential.empty() || essential.cols != 3 || essential.rows % 3 != 0 ||
+      inlier_mask.total() != used.size()) {
+    return result;
+  }
+  result.status = MatchingStatus::kOk;
+  for (size_t k = 0; k < used.size(); ++k) {
+    if (inlier_mask.at<unsigned char>(static_cast<int>(k)) == 0) continue;
+    result.points1_px.push_back(points1[used[k]]);
+    result.points2_px.push_back(points2[used[k]]);
+  }
+  result.ransac_inliers = static_cast<int>(result.points1_px.size());
+  return result;
+}
+
+}  // namespace hdabench::hda

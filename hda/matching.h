@@ -1,0 +1,87 @@
+// Features and matches of one ROI pair (NOVA-C paper, AAS 22-105, "Feature
+// detection and matching"): OpenCV ORB keypoints and descriptors in the image-1
+// ROI and in its predicted image-2 box, brute-force Hamming matching with a
+// ratio test and a cross-check, sub-pixel refinement of each match in image 2,
+// and RANSAC on the epipolar geometry. The navigation-based rejection that
+// follows lives in hda/pipeline.h (it needs the nav pose and the LRF).
+// Pixels follow docs/conventions.md (pixel (0,0) = centre of the top-left
+// pixel). Deterministic: the same inputs give the same matches, in the same
+// order, on every run. Single-threaded except where OpenCV spreads its own work
+// (the LK refinement, pyramid resizing) over the threads cv::setNumThreads
+// allows, which does not change the results.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+#include <opencv2/core/types.hpp>
+
+#include "calib/camera_model.h"
+
+namespace hdabench::hda {
+
+struct MatchingOptions {
+  // ORB (cv::ORB): keypoints are detected only inside the box (a mask), on a
+  // crop padded by the descriptor patch so boxes at any size or position work.
+  int orb_features_per_roi = 500;  // most keypoints kept per box (best FAST/Harris score first)
+  int orb_levels = 3;              // pyramid levels
+  double orb_scale_factor = 1.2;   // pyramid decimation ratio, > 1
+  int orb_fast_threshold = 10;     // FAST threshold, 8-bit levels (DN)
+  int orb_patch_size_px = 31;      // descriptor patch side, pixels (also ORB's edge threshold)
+
+  // Descriptor matching (Hamming distance).
+  double ratio_test = 0.8;    // keep a match when best < ratio_test * second best, in (0, 1]
+  bool cross_check = true;    // keep a match only when it is also image 2's best for that keypoint
+
+  // Sub-pixel refinement: pyramidal Lucas-Kanade (cv::calcOpticalFlowPyrLK)
+  // tracks each image-1 keypoint from its matched position in image 2. A match
+  // whose refinement fails or moves it farther than max_refine_shift_px is
+  // dropped (counted in RoiMatches::refine_rejected).
+  bool subpixel_refine = true;
+  int refine_window_px = 11;         // LK window side, pixels (odd, >= 5)
+  double max_refine_shift_px = 2.0;  // largest accepted move from the ORB position, pixels
+
+  // RANSAC on the epipolar geometry: essential matrix (5-point) on the bearings
+  // from the camera model, inlier threshold in pixels of image 2 (converted
+  // with the camera's local focal length).
+  double ransac_threshold_px = 1.0;
+  double ransac_confidence = 0.999;  // in (0, 1)
+  int ransac_max_iterations = 1000;  // >= 1
+
+  // Every violated constraint, one message each ("field = value: expected ...").
+  std::vector<std::string> Validate() const;
+};
+
+enum class MatchingStatus {
+  kOk,             // RANSAC ran; inliers are in RoiMatches
+  kTooFewMatches,  // fewer than 5 matches reached RANSAC: nothing kept
+  kRansacFailed,   // RANSAC found no model (degenerate configuration): nothing kept
+};
+const char* ToString(MatchingStatus status);  // "ok", "too few matches", "ransac failed"
+
+struct RoiMatches {
+  MatchingStatus status = MatchingStatus::kTooFewMatches;
+  // The RANSAC inliers, parallel arrays, full-image pixel coordinates, in the
+  // order of the image-1 keypoints (cv::ORB's order).
+  std::vector<cv::Point2d> points1_px;
+  std::vector<cv::Point2d> points2_px;
+  // Counts at each stage.
+  int keypoints1 = 0;        // ORB keypoints in the image-1 box
+  int keypoints2 = 0;        // ORB keypoints in the image-2 box
+  int matches = 0;           // after the ratio test and the cross-check
+  int refine_rejected = 0;   // dropped by the sub-pixel refinement
+  int ransac_inliers = 0;    // == points1_px.size()
+};
+
+// Matches ROI `box1_px` of image 1 with box `box2_px` of image 2. The images
+// are CV_8UC1 (callers convert 16-bit images once: ToEightBit in
+// hda/pipeline.h), of the camera's imager size; the boxes must lie inside their images (a box that does not is
+// clipped; an empty one gives kTooFewMatches with zero counts).
+// Throws InputError for invalid options, an unsupported image type, or images
+// whose size differs from the camera's imager.
+RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1_px,
+                        const cv::Rect& box2_px, const calib::CameraModel& camera,
+                        const MatchingOptions& options);
+
+}  // namespace hdabench::hda

@@ -1,0 +1,563 @@
+#include "hda/pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+
+#include "calib/error.h"
+
+namespace hdabench::hda {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+constexpr double kRadToDeg = 180.0 / kPi;
+constexpr double kInfinity = std::numeric_limits<double>::infinity();
+
+std::string Format(double value, int precision = 3) {
+  std::ostringstream s;
+  s.precision(precision);
+  s << std::fixed << value;
+  return s.str();
+}
+
+bool IsFinite(const Rigid3d& pose) {
+  return pose.rotation.coeffs().allFinite() && pose.translation.allFinite() &&
+         pose.rotation.norm() > 0.0;
+}
+
+Rigid3d Normalized(const Rigid3d& pose) {
+  return Rigid3d(pose.rotation.normalized(), pose.translation);
+}
+
+// Pixels per radian of the camera at a pixel: the larger of the two image
+// displacements of a small rotation of its ray about two perpendicular axes.
+// (matching.cc measures pixels per unit of normalised coordinate instead, the
+// scale of its RANSAC threshold.)
+double PixelsPerRadian(const calib::CameraModel& camera, const Eigen::Vector2d& pixel) {
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<unsigned char> valid;
+  if (camera.Unproject({pixel}, &bearings, &valid) != 1) return 0.0;
+  const Eigen::Vector3d b = bearings[0];
+  Eigen::Index axis = 0;
+  b.cwiseAbs().minCoeff(&axis);
+  const Eigen::Vector3d e1 = b.cross(Eigen::Vector3d::Unit(axis)).normalized();
+  const Eigen::Vector3d e2 = b.cross(e1);
+  constexpr double kStepRad = 1e-4;
+  std::vector<Eigen::Vector2d> pixels;
+  if (camera.Project({b + kStepRad * e1, b - kStepRad * e1, b + kStepRad * e2, b - kStepRad * e2},
+                     &pixels, &valid) != 4) {
+    return 0.0;
+  }
+  return std::max((pixels[0] - pixels[1]).norm(), (pixels[2] - pixels[3]).norm()) / (2.0 * kStepRad);
+}
+
+// The ROI's centre pixel (continuous): the centre of its pixel block.
+Eigen::Vector2d BoxCentre(const cv::Rect& box) {
+  return Eigen::Vector2d(box.x + (box.width - 1) / 2.0, box.y + (box.height - 1) / 2.0);
+}
+
+// Level ground through the LRF spot, in cam1: up . p = up . spot.
+struct LevelGround {
+  Eigen::Vector3d up_in_cam1 = Eigen::Vector3d::Zero();
+  double offset = 0.0;  // up . spot (negative: the ground is below the camera)
+  // Distance along the unit bearing to the plane, or +infinity when the ray
+  // does not reach it (parallel, or pointing away).
+  double DepthAlong(const Eigen::Vector3d& bearing) const {
+    const double denominator = up_in_cam1.dot(bearing);
+    if (!(std::abs(denominator) > 1e-9)) return kInfinity;
+    const double depth = offset / denominator;
+    return depth > 0.0 ? depth : kInfinity;
+  }
+};
+
+// Intersection of pixel-edge corner rays of box with the plane (normal n,
+// point c), in cam1, and the area of the quadrilateral they span. 0 when a
+// ray misses the plane.
+double FootprintAreaM2(const calib::CameraModel& camera, const cv::Rect& box,
+                       const Eigen::Vector3d& normal_in_cam1, const Eigen::Vector3d& point_in_cam1) {
+  const double x0 = box.x - 0.5, y0 = box.y - 0.5;
+  const double x1 = box.x + box.width - 0.5, y1 = box.y + box.height - 0.5;
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<unsigned char> valid;
+  if (camera.Unproject({{x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}, &bearings, &valid) != 4) return 0.0;
+  Eigen::Vector3d corners[4];
+  for (int i = 0; i < 4; ++i) {
+    const double denominator = normal_in_cam1.dot(bearings[static_cast<size_t>(i)]);
+    if (!(std::abs(denominator) > 1e-12)) return 0.0;
+    const double depth = normal_in_cam1.dot(point_in_cam1) / denominator;
+    if (!(depth > 0.0)) return 0.0;
+    corners[i] = depth * bearings[static_cast<size_t>(i)];
+  }
+  return 0.5 * (corners[2] - corners[0]).cross(corners[3] - corners[1]).norm();
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(mid), values.end());
+  double median = values[mid];
+  if (values.size() % 2 == 0) {
+    median = 0.5 * (median + *std::max_element(values.begin(),
+                                               values.begin() + static_cast<std::ptrdiff_t>(mid)));
+  }
+  return median;
+}
+
+void CheckInput(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options) {
+  const std::vector<std::string> errors = options.Validate();
+  if (!errors.empty()) {
+    std::string message = "RunHda: invalid options:";
+    for (const std::string& e : errors) message += "\n  " + e;
+    throw InputError(message);
+  }
+  for (const auto& [image, name] : {std::pair<const cv::Mat*, const char*>{&input.image1, "image 1"},
+                                    std::pair<const cv::Mat*, const char*>{&input.image2, "image 2"}}) {
+    if (image->empty()) continue;  // no ROIs, said in the result's note
+    if (image->type() != CV_8UC1 && image->type() != CV_16UC1) {
+      throw InputError(std::string("RunHda: ") + name + " type " + cv::typeToString(image->type()) +
+                       " is not supported: expected CV_8UC1 or CV_16UC1");
+    }
+    if (image->cols != camera.WidthPx() || image->rows != camera.HeightPx()) {
+      throw InputError(std::string("RunHda: ") + name + " is " + std::to_string(image->cols) + "x" +
+                       std::to_string(image->rows) + " pixels: expected the camera's " +
+                       std::to_string(camera.WidthPx()) + "x" + std::to_string(camera.HeightPx()));
+    }
+  }
+  if (!IsFinite(input.local_from_cam1)) {
+    throw InputError("RunHda: local_from_cam1 is not finite (or has a zero quaternion)");
+  }
+  if (!IsFinite(input.cam2_from_cam1)) {
+    throw InputError("RunHda: cam2_from_cam1 is not finite (or has a zero quaternion)");
+  }
+  if (!std::isfinite(input.lrf_range_m) || !(input.lrf_range_m > 0.0)) {
+    throw InputError("RunHda: LRF range = " + Format(input.lrf_range_m) + " m: expected finite and > 0");
+  }
+  if (!input.gravity_in_local_mps2.allFinite() || !(input.gravity_in_local_mps2.norm() > 0.0)) {
+    throw InputError("RunHda: gravity is not finite and non-zero");
+  }
+  if (!input.ils_in_local_m.allFinite()) throw InputError("RunHda: ILS is not finite");
+  if (!input.lrf_origin_in_cam1_m.allFinite() || !input.lrf_beam_in_cam1.allFinite() ||
+      !(input.lrf_beam_in_cam1.norm() > 0.0)) {
+    throw InputError("RunHda: LRF origin or beam is not finite and non-zero");
+  }
+  const Eigen::Vector3d spot =
+      input.lrf_origin_in_cam1_m + input.lrf_range_m * input.lrf_beam_in_cam1.normalized();
+  if (!(spot.z() > 0.0)) {
+    throw InputError("RunHda: the LRF spot is not in front of camera 1 (z = " + Format(spot.z()) +
+                     " m)");
+  }
+}
+
+// Everything the per-ROI steps share.
+struct Context {
+  const calib::CameraModel* camera = nullptr;
+  const HdaOptions* options = nullptr;
+  cv::Mat image1, image2;       // CV_8UC1
+  Rigid3d cam2_from_cam1;       // nav, unit quaternion
+  Rigid3d local_from_cam1;      // nav, unit quaternion
+  Eigen::Vector3d gravity_in_local = Eigen::Vector3d::Zero();
+  Eigen::Vector3d up_in_cam1 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d c2_in_cam1 = Eigen::Vector3d::Zero();  // camera 2's centre
+  LevelGround ground;
+  double focal_px = 0.0;        // pixels per radian at the image centre
+};
+
+// Nav-based rejection and triangulation of one ROI's matches. Fills counts,
+// points, the pixel lists of the survivors, their bearings and parallaxes.
+void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double roi_range_m,
+                          RoiResult* roi, std::vector<Eigen::Vector3d>* bearings1,
+                          std::vector<Eigen::Vector3d>* bearings2,
+                          std::vector<Eigen::Vector3d>* points_in_cam1,
+                          std::vector<double>* parallaxes_deg) {
+  const HdaOptions& options = *ctx.options;
+  const PredictionOptions& nav = options.prediction;
+  const size_t n = matches.points1_px.size();
+  std::vector<Eigen::Vector2d> pixels1(n), pixels2(n);
+  for (size_t i = 0; i < n; ++i) {
+    pixels1[i] = Eigen::Vector2d(matches.points1_px[i].x, matches.points1_px[i].y);
+    pixels2[i] = Eigen::Vector2d(matches.points2_px[i].x, matches.points2_px[i].y);
+  }
+  std::vector<Eigen::Vector3d> b1, b2;
+  std::vector<unsigned char> valid1, valid2;
+  ctx.camera->Unproject(pixels1, &b1, &valid1);
+  ctx.camera->Unproject(pixels2, &b2, &valid2);
+
+  const double k = nav.sigma_multiplier;
+  const double sigma_angle = options.assumed_pixel_sigma_px / ctx.focal_px;
+  const double sigma_attitude = nav.nav_attitude_sigma_deg * kDegToRad;
+  const double sigma_direction = nav.nav_position_sigma_m / roi_range_m;
+  const double epipolar_limit_rad =
+      k * std::sqrt(2.0 * sigma_angle * sigma_angle + sigma_attitude * sigma_attitude +
+                    sigma_direction * sigma_direction);
+  for (size_t i = 0; i < n; ++i) {
+    if (!valid1[i] || !valid2[i]) continue;
+    if (!(EpipolarAngleRad(b1[i], b2[i], ctx.cam2_from_cam1) <= epipolar_limit_rad)) continue;
+    ++roi->counts.epipolar_inliers;
+    Eigen::Vector3d point;
+    double parallax_deg = 0.0;
+    if (TriangulateMidpoint(b1[i], b2[i], ctx.cam2_from_cam1, options.triangulation, &point,
+                            &parallax_deg) != TriangulationStatus::kOk) {
+      continue;
+    }
+    ++roi->counts.triangulated;
+    // Depth along ray 1 against the level ground through the LRF spot.
+    const double depth = point.dot(b1[i]);
+    const double ground_depth = ctx.ground.DepthAlong(b1[i]);
+    if (std::isfinite(ground_depth)) {
+      const double baseline_perp = ctx.c2_in_cam1.cross(b1[i]).norm();
+      const double depth_sigma = baseline_perp > 0.0
+                                     ? depth * depth * sigma_angle / baseline_perp
+                                     : kInfinity;
+      const double incidence = std::abs(ctx.up_in_cam1.dot(b1[i]));
+      const double limit =
+          options.max_relief_m / incidence + k * (nav.range_sigma_m + depth_sigma);
+      if (!(std::abs(depth - ground_depth) <= limit)) continue;
+    }
+    ++roi->counts.depth_inliers;
+    roi->points1_px.push_back(matches.points1_px[i]);
+    roi->points2_px.push_back(matches.points2_px[i]);
+    bearings1->push_back(b1[i]);
+    bearings2->push_back(b2[i]);
+    points_in_cam1->push_back(point);
+    parallaxes_deg->push_back(parallax_deg);
+  }
+}
+
+// Plane fit, uncertainty and status of one ROI from its triangulated points.
+void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bearings1,
+                    const std::vector<Eigen::Vector3d>& bearings2,
+                    const std::vector<Eigen::Vector3d>& points_in_cam1,
+                    const std::vector<double>& parallaxes_deg, RoiResult* roi) {
+  const HdaOptions& options = *ctx.options;
+  const size_t n = points_in_cam1.size();
+  const Eigen::Matrix3d local_r_cam1 = ctx.local_from_cam1.rotation.toRotationMatrix();
+  roi->points_in_local_m.reserve(n);
+  for (const Eigen::Vector3d& p : points_in_cam1) roi->points_in_local_m.push_back(ctx.local_from_cam1 * p);
+  roi->median_parallax_deg = Median(parallaxes_deg);
+  if (static_cast<int>(n) < options.min_points) {
+    roi->status = RoiStatus::kTooFewPoints;
+    roi->reason = std::to_string(n) + " points survived (" + std::to_string(roi->counts.matches) +
+                  " matches, " + std::to_string(roi->counts.ransac_inliers) + " RANSAC inliers, " +
+                  std::to_string(roi->counts.epipolar_inliers) + " nav epipolar inliers): fewer than " +
+                  std::to_string(options.min_points);
+    return;
+  }
+
+  // Matching noise: the spread of the signed Sampson distances under the nav
+  // pose (for equal noise in both images it equals the per-image noise). Their
+  // mean is left out: a nav attitude error shifts every match of the ROI alike,
+  // which moves the site as a whole but not its points against each other.
+  const Eigen::Matrix3d rotation = ctx.cam2_from_cam1.rotation.toRotationMatrix();
+  std::vector<double> signed_residuals;
+  signed_residuals.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    const double d = SampsonErrorPx(bearings1[i], bearings2[i], ctx.cam2_from_cam1, ctx.focal_px);
+    if (!std::isfinite(d)) continue;
+    const double side =
+        bearings2[i].dot(ctx.cam2_from_cam1.translation.cross(rotation * bearings1[i]));
+    signed_residuals.push_back(side < 0.0 ? -d : d);
+  }
+  double spread = 0.0;
+  if (signed_residuals.size() >= 2) {
+    const double mean = std::accumulate(signed_residuals.begin(), signed_residuals.end(), 0.0) /
+                        static_cast<double>(signed_residuals.size());
+    double sum_squares = 0.0;
+    for (const double r : signed_residuals) sum_squares += (r - mean) * (r - mean);
+    spread = std::sqrt(sum_squares / static_cast<double>(signed_residuals.size() - 1));
+  }
+  roi->pixel_sigma_px = std::max(options.pixel_sigma_floor_px, spread);
+  const double sigma_angle = roi->pixel_sigma_px / ctx.focal_px;
+
+  std::vector<Eigen::Matrix3d> covariances_in_local;
+  covariances_in_local.reserve(n);
+  for (size_t i = 0; i < n; ++i) {
+    Eigen::Matrix3d covariance;
+    if (!TriangulationCovariance(bearings1[i], bearings2[i], ctx.cam2_from_cam1, sigma_angle,
+                                 &covariance)) {
+      roi->status = RoiStatus::kDegenerate;
+      roi->reason = "the uncertainty of point " + std::to_string(i + 1) +
+                    " cannot be propagated (rays nearly parallel)";
+      return;
+    }
+    covariances_in_local.push_back(local_r_cam1 * covariance * local_r_cam1.transpose());
+  }
+  const PlaneFitResult plane = FitPlaneWithCovariance(roi->points_in_local_m, covariances_in_local,
+                                                      ctx.gravity_in_local, options.min_points);
+  if (plane.status != PlaneFitStatus::kOk) {
+    roi->status = RoiStatus::kDegenerate;
+    roi->reason = std::string("plane fit: ") + ToString(plane.status);
+    return;
+  }
+  roi->has_fit = true;
+  roi->slope_deg = plane.slope_deg;
+  roi->normal_in_local = plane.normal_in_local;
+  roi->centroid_in_local_m = plane.centroid_in_local_m;
+  roi->roughness_rms_m = plane.roughness_rms_m;
+  roi->roughness_max_m = plane.roughness_max_m;
+  double noise_squares = 0.0;
+  for (const Eigen::Matrix3d& c : covariances_in_local) {
+    noise_squares += plane.normal_in_local.dot(c * plane.normal_in_local);
+  }
+  roi->noise_rms_m = std::sqrt(noise_squares / static_cast<double>(n));
+  roi->roughness_excess_m = std::sqrt(
+      std::max(0.0, roi->roughness_rms_m * roi->roughness_rms_m - roi->noise_rms_m * roi->noise_rms_m));
+
+  const Eigen::Vector3d normal_in_cam1 = local_r_cam1.transpose() * plane.normal_in_local;
+  SlopeSigmaOptions sigma_options;
+  sigma_options.pixel_sigma_px = roi->pixel_sigma_px;
+  sigma_options.focal_px = ctx.focal_px;
+  sigma_options.baseline_sigma_m = options.prediction.nav_position_sigma_m;
+  sigma_options.attitude_sigma_deg = options.prediction.nav_attitude_sigma_deg;
+  roi->slope_sigma_deg = PredictSlopeSigmaDeg(sigma_options, points_in_cam1, ctx.cam2_from_cam1,
+                                              ctx.up_in_cam1, &roi->slope_sigma_terms, &normal_in_cam1);
+  const Eigen::Vector3d centroid_in_cam1 =
+      ctx.local_from_cam1.Inverse() * plane.centroid_in_local_m;
+  roi->area_m2 = FootprintAreaM2(*ctx.camera, roi->box1_px, normal_in_cam1, centroid_in_cam1);
+
+  if (!std::isfinite(roi->slope_sigma_deg) || roi->slope_sigma_deg > options.max_slope_sigma_deg) {
+    roi->status = RoiStatus::kDegenerate;
+    roi->reason = "predicted slope sigma " +
+                  (std::isfinite(roi->slope_sigma_deg) ? Format(roi->slope_sigma_deg, 2) + " deg"
+                                                       : std::string("unbounded")) +
+                  " over " + Format(options.max_slope_sigma_deg, 2) + " deg (median parallax " +
+                  Format(roi->median_parallax_deg, 3) + " deg): slope not observable";
+    return;
+  }
+  if (roi->slope_deg > options.max_slope_deg) {
+    roi->status = RoiStatus::kUnsafeSlope;
+    roi->reason = "slope " + Format(roi->slope_deg, 2) + " deg over " +
+                  Format(options.max_slope_deg, 2) + " deg";
+    return;
+  }
+  // Relief: only what stands out of the noise with confidence. With N points
+  // and known noise, N rms^2 / noise^2 is chi-square with N - 3 degrees of
+  // freedom; its one-sided 97.7 % bound is about 1 + 2 sqrt(2 / (N - 3)).
+  const double chi_bound = 1.0 + 2.0 * std::sqrt(2.0 / std::max(1.0, static_cast<double>(n) - 3.0));
+  const double relief_lower_bound_squared = roi->roughness_rms_m * roi->roughness_rms_m -
+                                            chi_bound * roi->noise_rms_m * roi->noise_rms_m;
+  if (relief_lower_bound_squared > options.max_roughness_rms_m * options.max_roughness_rms_m) {
+    roi->status = RoiStatus::kUnsafeRoughness;
+    roi->reason = "relief " + Format(roi->roughness_excess_m, 3) + " m RMS beyond noise (at least " +
+                  Format(std::sqrt(relief_lower_bound_squared), 3) + " m with 97.7 % confidence) over " +
+                  Format(options.max_roughness_rms_m, 3) + " m";
+    return;
+  }
+  roi->status = RoiStatus::kEvaluated;
+  roi->reason = "safe: slope " + Format(roi->slope_deg, 2) + " +- " + Format(roi->slope_sigma_deg, 2) +
+                " deg, relief " + Format(roi->roughness_excess_m, 3) + " m RMS";
+}
+
+}  // namespace
+
+const char* ToString(RoiStatus status) {
+  switch (status) {
+    case RoiStatus::kEvaluated:
+      return "evaluated";
+    case RoiStatus::kUnsafeSlope:
+      return "unsafe slope";
+    case RoiStatus::kUnsafeRoughness:
+      return "unsafe roughness";
+    case RoiStatus::kDegenerate:
+      return "degenerate";
+    case RoiStatus::kTooFewPoints:
+      return "too few points";
+    case RoiStatus::kNotInImage2:
+      return "not in image 2";
+    case RoiStatus::kNotEvaluated:
+      return "not evaluated";
+  }
+  return "unknown";
+}
+
+std::string HdaResult::Summary() const {
+  int counts[7] = {0, 0, 0, 0, 0, 0, 0};
+  for (const RoiResult& roi : rois) ++counts[static_cast<int>(roi.status)];
+  std::ostringstream s;
+  s << "hda: " << rois.size() << " ROIs";
+  for (int i = 0; i < 7; ++i) s << ", " << counts[i] << " " << ToString(static_cast<RoiStatus>(i));
+  s << "; budget " << Format(budget_s, 2) << " s" << (budget_exhausted ? " (exhausted)" : "");
+  if (!note.empty()) s << "; " << note;
+  return s.str();
+}
+
+double SteadySeconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+double RankingScore(double area_m2, double slope_deg, double roughness_excess_m,
+                    const HdaOptions& options) {
+  const double site_area = options.quadtree.site_size_m * options.quadtree.site_size_m;
+  const double area_term = std::clamp(area_m2 / site_area, 0.0, 4.0) / 4.0;
+  const double slope_term = std::clamp(1.0 - slope_deg / options.max_slope_deg, 0.0, 1.0);
+  const double roughness_term =
+      std::clamp(1.0 - roughness_excess_m / options.max_hazard_height_m, 0.0, 1.0);
+  return (area_term + slope_term + roughness_term) / 3.0;
+}
+
+cv::Mat ToEightBit(const cv::Mat& image, const char* what) {
+  if (image.type() == CV_8UC1) return image;
+  if (image.type() == CV_16UC1) {
+    cv::Mat out;
+    image.convertTo(out, CV_8U, 1.0 / 257.0);
+    return out;
+  }
+  throw InputError(std::string(what) + " type " + cv::typeToString(image.type()) +
+                   " is not supported: expected CV_8UC1 or CV_16UC1");
+}
+
+HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options,
+                 const Clock& clock) {
+  const double start = clock();
+  double mark = start;
+  const auto lap = [&](double* stage) {
+    const double now = clock();
+    *stage += now - mark;
+    mark = now;
+  };
+  CheckInput(input, camera, options);
+  HdaResult result;
+  result.budget_s = options.compute_budget_s * options.processor_scale;
+  if (input.image1.empty() || input.image2.empty()) {
+    result.note = std::string(input.image1.empty() ? "image 1" : "image 2") +
+                  " is empty: no ROI can be found or matched";
+    result.times.total_s = clock() - start;
+    return result;
+  }
+
+  Context ctx;
+  ctx.camera = &camera;
+  ctx.options = &options;
+  ctx.image1 = ToEightBit(input.image1, "RunHda: image 1");
+  ctx.image2 = ToEightBit(input.image2, "RunHda: image 2");
+  lap(&result.times.convert_s);
+  ctx.cam2_from_cam1 = Normalized(input.cam2_from_cam1);
+  ctx.local_from_cam1 = Normalized(input.local_from_cam1);
+  ctx.gravity_in_local = input.gravity_in_local_mps2;
+  ctx.up_in_cam1 =
+      ctx.local_from_cam1.rotation.inverse() * (-input.gravity_in_local_mps2.normalized());
+  ctx.c2_in_cam1 = ctx.cam2_from_cam1.Inverse().translation;
+  const Eigen::Vector2d centre((camera.WidthPx() - 1) / 2.0, (camera.HeightPx() - 1) / 2.0);
+  ctx.focal_px = PixelsPerRadian(camera, centre);
+  if (!(ctx.focal_px > 0.0)) {
+    throw InputError("RunHda: the camera model cannot unproject and project around the image centre");
+  }
+  const Eigen::Vector3d spot_in_cam1 =
+      input.lrf_origin_in_cam1_m + input.lrf_range_m * input.lrf_beam_in_cam1.normalized();
+  ctx.ground.up_in_cam1 = ctx.up_in_cam1;
+  ctx.ground.offset = ctx.up_in_cam1.dot(spot_in_cam1);
+
+  // Quadtree on image 1.
+  const int min_block_px = MinimumBlockSizePx(camera, spot_in_cam1.norm(), options.quadtree);
+  std::vector<unsigned char> valid;
+  result.quadtree = RunQuadtree(ctx.image1, min_block_px, options.quadtree);
+  lap(&result.times.quadtree_s);
+  if (result.quadtree.rois.empty()) {
+    result.note = "the quadtree kept no block: " + result.quadtree.Summary();
+  }
+
+  // Order: nearest to the ILS first (horizontal distance of the ROI centre's
+  // ground point), ties and ROIs whose ray misses the ground by id.
+  const Eigen::Vector3d ils_in_cam1 = ctx.local_from_cam1.Inverse() * input.ils_in_local_m;
+  const size_t num_rois = result.quadtree.rois.size();
+  result.rois.resize(num_rois);
+  std::vector<double> roi_range_m(num_rois, input.lrf_range_m);
+  std::vector<Eigen::Vector2d> centres(num_rois);
+  for (size_t i = 0; i < num_rois; ++i) centres[i] = BoxCentre(result.quadtree.rois[i].box_px);
+  std::vector<Eigen::Vector3d> centre_bearings;
+  camera.Unproject(centres, &centre_bearings, &valid);
+  for (size_t i = 0; i < num_rois; ++i) {
+    RoiResult& roi = result.rois[i];
+    roi.id = result.quadtree.rois[i].id;
+    roi.box1_px = result.quadtree.rois[i].box_px;
+    roi.ils_distance_m = kInfinity;
+    if (!valid[i]) continue;
+    const double depth = ctx.ground.DepthAlong(centre_bearings[i]);
+    if (!std::isfinite(depth)) continue;
+    const Eigen::Vector3d ground = depth * centre_bearings[i];
+    const Eigen::Vector3d offset = ground - ils_in_cam1;
+    roi.ils_distance_m = (offset - ctx.up_in_cam1 * ctx.up_in_cam1.dot(offset)).norm();
+    roi_range_m[i] = depth;
+  }
+  std::vector<size_t> order(num_rois);
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+    return result.rois[a].ils_distance_m < result.rois[b].ils_distance_m;
+  });
+
+  double roi_seconds_total = 0.0;
+  int rois_done = 0;
+  for (size_t rank = 0; rank < num_rois; ++rank) {
+    const size_t i = order[rank];
+    RoiResult& roi = result.rois[i];
+    roi.order = static_cast<int>(rank) + 1;
+    // Kick-out: stop when the next ROI, at the mean cost so far, would not
+    // fit in what is left of the budget.
+    const double roi_start = clock();
+    const double mean_cost = rois_done > 0 ? roi_seconds_total / rois_done : 0.0;
+    if (result.budget_exhausted || roi_start - start + mean_cost > result.budget_s) {
+      result.budget_exhausted = true;
+      roi.status = RoiStatus::kNotEvaluated;
+      roi.reason = "time budget of " + Format(result.budget_s, 3) + " s used up before this ROI";
+      continue;
+    }
+    mark = roi_start;
+
+    const PredictedRoi predicted =
+        PredictRoi(result.quadtree.rois[i], camera, ctx.cam2_from_cam1,
+                   std::max(1e-3, roi_range_m[i] * centre_bearings[i].z()), options.prediction);
+    lap(&result.times.prediction_s);
+    roi.prediction_margin_px = predicted.margin_px;
+    if (predicted.status != PredictionStatus::kOk) {
+      roi.status = RoiStatus::kNotInImage2;
+      roi.reason = std::string("prediction: ") + PredictionStatusName(predicted.status);
+    } else {
+      roi.box2_px = predicted.box_px;
+      const RoiMatches matches =
+          MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, camera, options.matching);
+      lap(&result.times.matching_s);
+      roi.matching_status = matches.status;
+      roi.counts.keypoints1 = matches.keypoints1;
+      roi.counts.keypoints2 = matches.keypoints2;
+      roi.counts.matches = matches.matches;
+      roi.counts.refine_rejected = matches.refine_rejected;
+      roi.counts.ransac_inliers = matches.ransac_inliers;
+      std::vector<Eigen::Vector3d> bearings1, bearings2, points_in_cam1;
+      std::vector<double> parallaxes_deg;
+      RejectAndTriangulate(ctx, matches, roi_range_m[i], &roi, &bearings1, &bearings2,
+                           &points_in_cam1, &parallaxes_deg);
+      lap(&result.times.rejection_s);
+      FitAndClassify(ctx, bearings1, bearings2, points_in_cam1, parallaxes_deg, &roi);
+      lap(&result.times.plane_s);
+    }
+    roi.seconds = clock() - roi_start;
+    roi_seconds_total += roi.seconds;
+    ++rois_done;
+  }
+
+  // Ranking of the safe sites.
+  std::vector<size_t> safe;
+  for (size_t i = 0; i < num_rois; ++i) {
+    RoiResult& roi = result.rois[i];
+    if (roi.status != RoiStatus::kEvaluated) continue;
+    roi.score = RankingScore(roi.area_m2, roi.slope_deg, roi.roughness_excess_m, options);
+    safe.push_back(i);
+  }
+  std::stable_sort(safe.begin(), safe.end(),
+                   [&](size_t a, size_t b) { return result.rois[a].score > result.rois[b].score; });
+  for (size_t r = 0; r < safe.size(); ++r) {
+    result.rois[safe[r]].rank = static_cast<int>(r) + 1;
+    result.ranking.push_back(result.rois[safe[r]].id);
+  }
+  lap(&result.times.ranking_s);
+  result.times.total_s = clock() - start;
+  return result;
+}
+
+}  // namespace hdabench::hda

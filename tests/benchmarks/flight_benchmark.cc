@@ -1,0 +1,139 @@
+// Speed and memory of the flight method (hda::RunHda) on a novac-lateral pair,
+// 1024 x 1024 and 2048 x 2048, on one core (OpenCV's threads set to 1), with
+// the time of each stage. The pairs are generated once with `hdabench synth`
+// (frames 0 to 6: the pair 0-6 is the paper's 30 m baseline) into the build
+// tree and reused. Only the two images and the navigation are kept, and the
+// process's peak resident size is reset before the runs, so its high-water
+// mark is the method's plus the program's and the images'.
+//
+// Run: build/tests/benchmarks/hdabench_benchmarks --benchmark_filter=Flight
+// Counters: stage times in ms per run (quadtree, prediction, matching,
+// rejection, plane), rois, evaluated, and rss_before_mb / peak_rss_mb: the
+// process's resident size before the runs (program, libraries, the two images
+// and what loading the dataset left) and its high-water mark during them (the
+// mark is reset before the runs).
+#include <malloc.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <string>
+
+#include <benchmark/benchmark.h>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "datasets/dataset.h"
+#include "hda/pipeline.h"
+#include "reference/flight_run.h"
+
+namespace hdabench {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A field of /proc/self/status in MB ("VmRSS", "VmHWM"), or -1.
+double StatusMb(const std::string& field) {
+  std::ifstream status("/proc/self/status");
+  std::string key;
+  while (status >> key) {
+    if (key == field + ":") {
+      double kb = 0.0;
+      status >> kb;
+      return kb / 1024.0;
+    }
+  }
+  return -1.0;
+}
+
+// Returns freed heap to the system and resets the process's peak resident
+// size (Linux: "5" into /proc/self/clear_refs), so that VmHWM afterwards is the
+// peak of what runs next.
+void ResetPeakRss() {
+  malloc_trim(0);
+  std::ofstream("/proc/self/clear_refs") << "5";
+}
+
+struct Pair {
+  std::unique_ptr<datasets::Dataset> dataset;
+  hda::HdaInput input;
+};
+
+// The dataset folder for an image size, generated when missing.
+std::string PairDir(int size_px) {
+  const fs::path dir = fs::path(HDABENCH_BENCH_DATA) / ("novac-lateral-" + std::to_string(size_px));
+  if (!fs::exists(dir / "manifest.json")) {
+    fs::remove_all(dir);
+    fs::create_directories(dir.parent_path());
+    const std::string command = std::string(HDABENCH_EXE) + " synth --out " + dir.string() +
+                                " --seed 1 --quiet --image-size " + std::to_string(size_px) +
+                                " --set collection_s=2.4";
+    std::cerr << "generating " << dir << " (once): " << command << "\n";
+    if (std::system(command.c_str()) != 0) {
+      std::cerr << "hdabench synth failed\n";
+      std::exit(1);
+    }
+  }
+  return dir.string();
+}
+
+const Pair& GetPair(int size_px) {
+  static std::map<int, Pair> pairs;
+  auto found = pairs.find(size_px);
+  if (found != pairs.end()) return found->second;
+  const std::string dir = PairDir(size_px);
+  datasets::LoadOptions load;
+  load.decode_images = false;
+  load.check_truth_values = false;
+  datasets::DatasetLoadResult loaded = datasets::LoadDataset(dir, load);
+  if (!loaded.Ok()) {
+    std::cerr << dir << ": " << loaded.Summary() << "\n";
+    std::exit(1);
+  }
+  Pair& pair = pairs[size_px];
+  pair.dataset = std::make_unique<datasets::Dataset>(std::move(*loaded.dataset));
+  pair.dataset->truth = datasets::Truth();
+  const auto frames = reference::DefaultFramePair(*pair.dataset);
+  for (const int frame : {frames.first, frames.second}) {
+    datasets::FrameRecord& record = pair.dataset->frames[static_cast<size_t>(frame)];
+    record.image = cv::imread((fs::path(dir) / record.image_path).string(), cv::IMREAD_UNCHANGED);
+  }
+  pair.input = reference::MakeHdaInput(*pair.dataset, frames.first, frames.second);
+  return pair;
+}
+
+void BM_FlightMethod(benchmark::State& state) {
+  cv::setNumThreads(1);
+  const Pair& pair = GetPair(static_cast<int>(state.range(0)));
+  ResetPeakRss();
+  const double rss_before_mb = StatusMb("VmRSS");
+  const hda::HdaOptions options;
+  hda::StageTimes sum;
+  hda::HdaResult result;
+  for (auto _ : state) {
+    result = hda::RunHda(pair.input, pair.dataset->camera, options);
+    sum.quadtree_s += result.times.quadtree_s;
+    sum.prediction_s += result.times.prediction_s;
+    sum.matching_s += result.times.matching_s;
+    sum.rejection_s += result.times.rejection_s;
+    sum.plane_s += result.times.plane_s;
+    benchmark::DoNotOptimize(result.rois.data());
+  }
+  const double runs = static_cast<double>(state.iterations());
+  state.counters["quadtree_ms"] = 1e3 * sum.quadtree_s / runs;
+  state.counters["prediction_ms"] = 1e3 * sum.prediction_s / runs;
+  state.counters["matching_ms"] = 1e3 * sum.matching_s / runs;
+  state.counters["rejection_ms"] = 1e3 * sum.rejection_s / runs;
+  state.counters["plane_ms"] = 1e3 * sum.plane_s / runs;
+  state.counters["rois"] = static_cast<double>(result.rois.size());
+  state.counters["evaluated"] = static_cast<double>(result.ranking.size());
+  state.counters["rss_before_mb"] = rss_before_mb;
+  state.counters["peak_rss_mb"] = StatusMb("VmHWM");
+}
+BENCHMARK(BM_FlightMethod)->Arg(1024)->Arg(2048)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+}  // namespace hdabench

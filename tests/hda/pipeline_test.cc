@@ -1,0 +1,347 @@
+#include "hda/pipeline.h"
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include <Eigen/Geometry>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "calib/error.h"
+#include "tests/support/test_support.h"
+
+namespace hdabench::hda {
+namespace {
+
+using testing_support::CurrentTestSeed;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+constexpr int kSizePx = 512;
+constexpr double kFocalPx = 1000.0;
+constexpr double kHeightM = 200.0;  // camera 1 above the local origin, looking straight down
+
+calib::CameraModel Camera() {
+  const double c = (kSizePx - 1) / 2.0;
+  return calib::CameraModel("LENSMODEL_PINHOLE", {kFocalPx, kFocalPx, c, c}, kSizePx, kSizePx);
+}
+
+// A textured ground as a continuous function of the image-1 pixel: a sum of
+// random plane waves (wavelengths 4 to 24 px, random directions and phases),
+// mean 120 DN and std about 25 DN. Image 2 evaluates it through the plane's
+// homography exactly (a resampling warp such as cv::warpPerspective rounds
+// source positions to 1/32 px, which biases sub-pixel disparities by enough
+// to tilt a 64 px site by a degree).
+struct Texture {
+  explicit Texture(std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> uniform(0.0, 1.0);
+    for (Wave& wave : waves) {
+      const double wavelength_px = 4.0 + 20.0 * uniform(rng);
+      const double direction = 2.0 * kPi * uniform(rng);
+      wave.kx = 2.0 * kPi / wavelength_px * std::cos(direction);
+      wave.ky = 2.0 * kPi / wavelength_px * std::sin(direction);
+      wave.phase = 2.0 * kPi * uniform(rng);
+    }
+  }
+  // Brightness at image-1 pixel (x, y), 8-bit levels.
+  double At(double x, double y) const {
+    double sum = 0.0;
+    for (const Wave& wave : waves) sum += std::cos(wave.kx * x + wave.ky * y + wave.phase);
+    return 120.0 + 25.0 * sum / std::sqrt(0.5 * static_cast<double>(kWaves));
+  }
+  // The image whose pixel (x, y) shows the ground at image-1 pixel
+  // image1_from_image(x, y) (a homography, homogeneous).
+  cv::Mat Render(const Eigen::Matrix3d& image1_from_image) const {
+    cv::Mat image(kSizePx, kSizePx, CV_8UC1);
+    for (int r = 0; r < kSizePx; ++r) {
+      for (int c = 0; c < kSizePx; ++c) {
+        const Eigen::Vector3d p = image1_from_image * Eigen::Vector3d(c, r, 1.0);
+        image.at<unsigned char>(r, c) = cv::saturate_cast<unsigned char>(At(p.x() / p.z(), p.y() / p.z()));
+      }
+    }
+    return image;
+  }
+  static constexpr int kWaves = 32;
+  struct Wave {
+    double kx = 0.0, ky = 0.0, phase = 0.0;
+  };
+  Wave waves[kWaves];
+};
+
+// The scene: camera 1 at (0, 0, kHeightM) in the local frame (ENU), looking
+// down (camera x = east, y = south, z = down); the ground is the plane
+// through the local origin whose normal is tilted from up by slope_deg toward
+// north. Camera 2 is at camera 1's centre + c2_in_cam1 with the same attitude.
+// Image 2 shows the same texture through the plane's homography.
+struct Scene {
+  HdaInput input;
+  double slope_deg = 0.0;
+};
+
+Scene MakeScene(double slope_deg, const Eigen::Vector3d& c2_in_cam1, std::uint64_t seed) {
+  Scene scene;
+  scene.slope_deg = slope_deg;
+  Eigen::Matrix3d local_r_cam;
+  local_r_cam << 1, 0, 0, 0, -1, 0, 0, 0, -1;
+  const Eigen::Vector3d centre_in_local(0.0, 0.0, kHeightM);
+  scene.input.local_from_cam1 = Rigid3d(Eigen::Quaterniond(local_r_cam), centre_in_local);
+  scene.input.cam2_from_cam1 = Rigid3d(Eigen::Quaterniond::Identity(), -c2_in_cam1);
+  const double s = slope_deg * kDegToRad;
+  const Eigen::Vector3d normal_in_local(0.0, std::sin(s), std::cos(s));
+  // Plane n . X = d in cam1 (X = points of the plane in camera 1's frame).
+  const Eigen::Vector3d normal_in_cam = local_r_cam.transpose() * normal_in_local;
+  const double d = normal_in_cam.dot(local_r_cam.transpose() * (Eigen::Vector3d::Zero() - centre_in_local));
+  // x2 ~ K (I + t n^T / d) K^-1 x1 with t = -c2 (R = I).
+  Eigen::Matrix3d k;
+  const double c = (kSizePx - 1) / 2.0;
+  k << kFocalPx, 0, c, 0, kFocalPx, c, 0, 0, 1;
+  const Eigen::Matrix3d h =
+      k * (Eigen::Matrix3d::Identity() + (-c2_in_cam1) * normal_in_cam.transpose() / d) * k.inverse();
+  const Texture texture(seed);
+  scene.input.image1 = texture.Render(Eigen::Matrix3d::Identity());
+  scene.input.image2 = texture.Render(h.inverse());
+  scene.input.lrf_range_m = d / normal_in_cam.z();
+  scene.input.ils_in_local_m = Eigen::Vector3d::Zero();
+  return scene;
+}
+
+// Lateral motion: 10.6 m east at 200 m, the paper's baseline-to-range ratio.
+Eigen::Vector3d Lateral() { return Eigen::Vector3d(kHeightM * 30.0 / 566.0, 0.0, 0.0); }
+
+// The method's options for these scenes: image 2 is computed exactly, so the
+// matching noise is about 0.02 px (MatchingRoiPair.RefinementRecoversASubPixelShift), far below the
+// default floor of 0.15 px measured on rendered scenes; the floor is set to
+// 0.05 px so that the predicted sigma describes these images.
+HdaOptions ExactImageOptions() {
+  HdaOptions options;
+  options.pixel_sigma_floor_px = 0.05;
+  return options;
+}
+
+int CountStatus(const HdaResult& result, RoiStatus status) {
+  return static_cast<int>(std::count_if(result.rois.begin(), result.rois.end(),
+                                        [&](const RoiResult& roi) { return roi.status == status; }));
+}
+
+TEST(RunHda, RecoversTheSlopeOfATiltedPlaneWithinItsPredictedSigma) {
+  const Scene scene = MakeScene(6.0, Lateral(), CurrentTestSeed());
+  const HdaResult result = RunHda(scene.input, Camera(), ExactImageOptions());
+  ASSERT_GE(result.rois.size(), 16u) << result.quadtree.Summary();
+  int fitted = 0;
+  for (const RoiResult& roi : result.rois) {
+    if (!roi.has_fit) continue;
+    ++fitted;
+    const double error = std::abs(roi.slope_deg - scene.slope_deg);
+    // The warp is exact and the nav pose too: only matching noise remains.
+    EXPECT_LE(error, 3.0 * roi.slope_sigma_deg + 0.05) << "ROI " << roi.id << ": " << roi.reason;
+    // Inner sites keep about 200 points; border ones half of them.
+    EXPECT_LT(roi.slope_sigma_deg, 1.5) << "ROI " << roi.id;
+    EXPECT_GE(roi.counts.depth_inliers, 20) << "ROI " << roi.id;
+    EXPECT_LT(roi.roughness_excess_m, 0.15) << "ROI " << roi.id;  // a plane has no relief
+    // The footprint of a 64 px block at 200 m with f = 1000 px: 12.8 m across.
+    EXPECT_NEAR(roi.area_m2, 12.8 * 12.8 / std::cos(6.0 * kDegToRad), 0.1 * 12.8 * 12.8);
+  }
+  EXPECT_GE(fitted, static_cast<int>(result.rois.size()) * 3 / 4) << result.Summary();
+  EXPECT_EQ(CountStatus(result, RoiStatus::kEvaluated), fitted) << result.Summary();
+  // Every safe site is ranked, best score first.
+  ASSERT_EQ(static_cast<int>(result.ranking.size()), fitted);
+  double previous = 2.0;
+  for (size_t r = 0; r < result.ranking.size(); ++r) {
+    const RoiResult& roi = result.rois[static_cast<size_t>(result.ranking[r] - 1)];
+    EXPECT_EQ(roi.rank, static_cast<int>(r) + 1);
+    EXPECT_LE(roi.score, previous);
+    previous = roi.score;
+  }
+}
+
+TEST(RunHda, APlaneSteeperThanTheLimitIsUnsafe) {
+  const Scene scene = MakeScene(16.0, Lateral(), CurrentTestSeed());
+  const HdaResult result = RunHda(scene.input, Camera(), ExactImageOptions());
+  const int unsafe = CountStatus(result, RoiStatus::kUnsafeSlope);
+  EXPECT_GE(unsafe, static_cast<int>(result.rois.size()) * 3 / 4) << result.Summary();
+  EXPECT_EQ(CountStatus(result, RoiStatus::kEvaluated), 0) << result.Summary();
+  EXPECT_TRUE(result.ranking.empty());
+}
+
+TEST(RunHda, MotionAlongTheBoresightIsFlaggedDegenerateNotGivenAConfidentSlope) {
+  // Camera 2 descends 10.6 m straight toward the ground: near the image
+  // centre the rays of the two images are almost parallel.
+  const Scene scene = MakeScene(6.0, Eigen::Vector3d(0.0, 0.0, kHeightM * 30.0 / 566.0),
+                                CurrentTestSeed());
+  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  ASSERT_FALSE(result.rois.empty());
+  for (const RoiResult& roi : result.rois) {
+    if (roi.status == RoiStatus::kEvaluated || roi.status == RoiStatus::kUnsafeSlope) {
+      // A slope given as confident must be right.
+      EXPECT_LE(std::abs(roi.slope_deg - scene.slope_deg), 3.0 * roi.slope_sigma_deg + 0.05)
+          << "ROI " << roi.id << ": " << roi.reason;
+    }
+  }
+  EXPECT_GE(CountStatus(result, RoiStatus::kDegenerate) + CountStatus(result, RoiStatus::kTooFewPoints),
+            static_cast<int>(result.rois.size()) / 2)
+      << result.Summary();
+}
+
+TEST(RunHda, AWrongNavigationPoseRejectsTheMatches) {
+  Scene scene = MakeScene(6.0, Lateral(), CurrentTestSeed());
+  // The IMU says the camera also pitched by 0.5 deg: 8.7 px of epipolar error.
+  scene.input.cam2_from_cam1.rotation =
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.5 * kDegToRad, Eigen::Vector3d::UnitX()));
+  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  ASSERT_FALSE(result.rois.empty());
+  for (const RoiResult& roi : result.rois) {
+    EXPECT_LT(roi.counts.epipolar_inliers, roi.counts.ransac_inliers / 4 + 1) << "ROI " << roi.id;
+    EXPECT_FALSE(roi.status == RoiStatus::kEvaluated) << "ROI " << roi.id;
+  }
+}
+
+TEST(RunHda, AnAllBlackImageGivesNoRoiAndSaysWhy) {
+  Scene scene = MakeScene(0.0, Lateral(), CurrentTestSeed());
+  scene.input.image1 = cv::Mat::zeros(kSizePx, kSizePx, CV_8UC1);
+  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  EXPECT_TRUE(result.rois.empty());
+  EXPECT_EQ(result.quadtree.rejected_dark, 1);
+  EXPECT_EQ(result.note,
+            "the quadtree kept no block: quadtree: 0 ROIs, 1 blocks visited, 1 dark, 0 variable, "
+            "0 small, min block 45 px");
+  EXPECT_NE(result.Summary().find("hda: 0 ROIs"), std::string::npos);
+}
+
+TEST(RunHda, AnEmptyImageGivesNoRoiAndSaysWhy) {
+  Scene scene = MakeScene(0.0, Lateral(), CurrentTestSeed());
+  scene.input.image2 = cv::Mat();
+  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  EXPECT_TRUE(result.rois.empty());
+  EXPECT_EQ(result.note, "image 2 is empty: no ROI can be found or matched");
+}
+
+TEST(RunHda, SixteenBitImagesGiveTheSameResultAsEightBit) {
+  const Scene scene = MakeScene(4.0, Lateral(), CurrentTestSeed());
+  Scene wide = scene;
+  scene.input.image1.convertTo(wide.input.image1, CV_16U, 257.0);
+  scene.input.image2.convertTo(wide.input.image2, CV_16U, 257.0);
+  const HdaResult a = RunHda(scene.input, Camera(), HdaOptions());
+  const HdaResult b = RunHda(wide.input, Camera(), HdaOptions());
+  ASSERT_EQ(a.rois.size(), b.rois.size());
+  for (size_t i = 0; i < a.rois.size(); ++i) {
+    EXPECT_EQ(a.rois[i].status, b.rois[i].status);
+    EXPECT_EQ(a.rois[i].slope_deg, b.rois[i].slope_deg);
+  }
+}
+
+TEST(RunHda, TheSameInputGivesTheSameResult) {
+  const Scene scene = MakeScene(5.0, Lateral(), CurrentTestSeed());
+  const HdaResult a = RunHda(scene.input, Camera(), HdaOptions());
+  const HdaResult b = RunHda(scene.input, Camera(), HdaOptions());
+  ASSERT_EQ(a.rois.size(), b.rois.size());
+  EXPECT_EQ(a.ranking, b.ranking);
+  for (size_t i = 0; i < a.rois.size(); ++i) {
+    const RoiResult& x = a.rois[i];
+    const RoiResult& y = b.rois[i];
+    EXPECT_EQ(x.status, y.status);
+    EXPECT_EQ(x.reason, y.reason);
+    EXPECT_EQ(x.points1_px, y.points1_px);
+    EXPECT_EQ(x.points2_px, y.points2_px);
+    EXPECT_EQ(x.slope_deg, y.slope_deg);
+    EXPECT_EQ(x.slope_sigma_deg, y.slope_sigma_deg);
+    EXPECT_EQ(x.roughness_rms_m, y.roughness_rms_m);
+    EXPECT_EQ(x.score, y.score);
+  }
+}
+
+TEST(RunHda, RoisAreProcessedNearestTheIlsFirst) {
+  Scene scene = MakeScene(3.0, Lateral(), CurrentTestSeed());
+  // The ILS under the top-left corner of the image.
+  scene.input.ils_in_local_m = Eigen::Vector3d(-50.0, 50.0, 0.0);
+  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  ASSERT_GE(result.rois.size(), 2u);
+  std::vector<const RoiResult*> by_order;
+  for (const RoiResult& roi : result.rois) by_order.push_back(&roi);
+  std::sort(by_order.begin(), by_order.end(),
+            [](const RoiResult* a, const RoiResult* b) { return a->order < b->order; });
+  for (size_t i = 0; i < by_order.size(); ++i) {
+    EXPECT_EQ(by_order[i]->order, static_cast<int>(i) + 1);
+    if (i > 0) {
+      EXPECT_LE(by_order[i - 1]->ils_distance_m, by_order[i]->ils_distance_m);
+    }
+  }
+  // The first one is the block at the top-left.
+  EXPECT_EQ(by_order.front()->box1_px.tl(), cv::Point(0, 0));
+}
+
+TEST(RunHda, ATinyBudgetKicksOutTheFarthestRoisAsNotEvaluated) {
+  const Scene scene = MakeScene(3.0, Lateral(), CurrentTestSeed());
+  // A clock that advances 10 ms per reading: deterministic, so the kick-out
+  // point is exact. 0.5 s of budget on this scale.
+  double now = 0.0;
+  const Clock clock = [&now]() { return now += 0.01; };
+  HdaOptions options;
+  options.compute_budget_s = 5.0;
+  options.processor_scale = 0.1;
+  const HdaResult result = RunHda(scene.input, Camera(), options, clock);
+  EXPECT_TRUE(result.budget_exhausted);
+  const int skipped = CountStatus(result, RoiStatus::kNotEvaluated);
+  EXPECT_GT(skipped, 0);
+  EXPECT_LT(skipped, static_cast<int>(result.rois.size()));
+  int last_done = 0, first_skipped = static_cast<int>(result.rois.size()) + 1;
+  for (const RoiResult& roi : result.rois) {
+    if (roi.status == RoiStatus::kNotEvaluated) {
+      first_skipped = std::min(first_skipped, roi.order);
+      EXPECT_EQ(roi.reason, "time budget of 0.500 s used up before this ROI");
+      EXPECT_FALSE(roi.has_fit);
+    } else {
+      last_done = std::max(last_done, roi.order);
+    }
+  }
+  EXPECT_LT(last_done, first_skipped);  // nearest to the ILS first, then kicked out
+  EXPECT_NE(result.Summary().find("(exhausted)"), std::string::npos);
+}
+
+TEST(RunHda, BadInputsAreNamed) {
+  const Scene scene = MakeScene(3.0, Lateral(), CurrentTestSeed());
+  const auto expect_error = [&](HdaInput input, const std::string& message) {
+    try {
+      RunHda(input, Camera(), HdaOptions());
+      ADD_FAILURE() << "no error for: " << message;
+    } catch (const InputError& e) {
+      EXPECT_EQ(std::string(e.what()), message);
+    }
+  };
+  HdaInput input = scene.input;
+  input.image1 = cv::Mat(kSizePx, kSizePx, CV_32FC1, cv::Scalar(1.0f));
+  expect_error(input, "RunHda: image 1 type CV_32FC1 is not supported: expected CV_8UC1 or CV_16UC1");
+  input = scene.input;
+  input.image2 = cv::Mat(100, 200, CV_8UC1, cv::Scalar(100));
+  expect_error(input, "RunHda: image 2 is 200x100 pixels: expected the camera's 512x512");
+  input = scene.input;
+  input.lrf_range_m = 0.0;
+  expect_error(input, "RunHda: LRF range = 0.000 m: expected finite and > 0");
+  input = scene.input;
+  input.cam2_from_cam1.translation.x() = std::nan("");
+  expect_error(input, "RunHda: cam2_from_cam1 is not finite (or has a zero quaternion)");
+  input = scene.input;
+  input.gravity_in_local_mps2 = Eigen::Vector3d::Zero();
+  expect_error(input, "RunHda: gravity is not finite and non-zero");
+  HdaOptions options;
+  options.min_points = 1;
+  try {
+    RunHda(scene.input, Camera(), options);
+    ADD_FAILURE() << "no error for bad options";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "RunHda: invalid options:\n  min_points = 1: expected >= 3 (a plane needs 3 points)");
+  }
+}
+
+TEST(RankingScore, RewardsAreaAndPenalisesSlopeAndRelief) {
+  const HdaOptions options;
+  EXPECT_DOUBLE_EQ(RankingScore(400.0, 0.0, 0.0, options), 1.0);
+  EXPECT_DOUBLE_EQ(RankingScore(100.0, 5.0, 0.15, options), (0.25 + 0.5 + 0.5) / 3.0);
+  EXPECT_DOUBLE_EQ(RankingScore(1e6, 20.0, 1.0, options), 1.0 / 3.0);  // terms clamped
+  EXPECT_GT(RankingScore(200.0, 2.0, 0.0, options), RankingScore(200.0, 4.0, 0.0, options));
+}
+
+}  // namespace
+}  // namespace hdabench::hda

@@ -1,0 +1,171 @@
+// `hdabench run` as a user meets it: the files it writes, their determinism,
+// and its errors, on a small synthetic dataset.
+#include <filesystem>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/support/test_support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using hdabench::testing_support::CommandResult;
+using hdabench::testing_support::FreshTestDir;
+using hdabench::testing_support::ReadText;
+using hdabench::testing_support::SplitLines;
+
+// The small synthetic dataset every test runs on: 256 x 256 px with a 15 deg
+// field of view, so that a 10 m site is about 17 px and the quadtree finds a
+// few dozen ROIs of every kind (a few seconds to generate). CTest runs each
+// test in its own process: the first one generates it into a staging folder
+// renamed into place, the others reuse it. The folder name carries the
+// binary's time stamp, so a rebuilt generator makes a new dataset.
+const fs::path& Dataset() {
+  static const fs::path dir = [] {
+    const auto stamp =
+        static_cast<unsigned long long>(fs::last_write_time(HDABENCH_EXE).time_since_epoch().count());
+    const fs::path target = fs::path(HDABENCH_TEST_TMP) / ("run_dataset_" + std::to_string(stamp));
+    if (fs::exists(target / "manifest.json")) return target;
+    const fs::path staging = target.string() + ".staging-" + std::to_string(::getpid());
+    fs::remove_all(staging);
+    fs::create_directories(staging);
+    const CommandResult synth = hdabench::testing_support::RunHdabench(
+        {"synth", "--out", (staging / "dataset").string(), "--image-size", "256", "--seed", "3",
+         "--set", "horizontal_fov_deg=15", "--quiet"},
+        staging);
+    EXPECT_EQ(synth.exit_code, 0) << synth.out << synth.err;
+    std::error_code ec;
+    fs::rename(staging / "dataset", target, ec);  // fails when another test got there first
+    fs::remove_all(staging, ec);
+    return target;
+  }();
+  return dir;
+}
+
+// Runs `hdabench ARGS` with its output files in the test's own folder.
+CommandResult Hdabench(const std::vector<std::string>& args) {
+  const fs::path scratch =
+      fs::path(HDABENCH_TEST_TMP) / (hdabench::testing_support::CurrentTestName() + ".run");
+  fs::create_directories(scratch);
+  return hdabench::testing_support::RunHdabench(args, scratch);
+}
+
+TEST(RunCommand, WritesEveryFileAndTheSameResultOnEveryRun) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult first = Hdabench({"run", Dataset().string(), "--out", (dir / "a").string()});
+  ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
+  EXPECT_NE(first.err.find("hdabench run: loading"), std::string::npos) << first.err;
+  EXPECT_EQ(first.out.rfind("hda: ", 0), 0u) << first.out;
+  EXPECT_NE(first.out.find("frames 0,6"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find("truth slope (deg)"), std::string::npos) << first.out;
+  EXPECT_NE(first.out.find("slope error"), std::string::npos) << first.out;
+
+  for (const char* name : {"result.json", "timings.json", "rois.csv", "figures/quadtree.png",
+                           "figures/matches.png"}) {
+    EXPECT_TRUE(fs::is_regular_file(dir / "a" / name)) << name;
+  }
+  const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "a" / "result.json"));
+  EXPECT_EQ(result["format"], "hdabench-flight-result");
+  EXPECT_EQ(result["frames"], nlohmann::json::array({0, 6}));
+  const size_t num_rois = result["rois"].size();
+  EXPECT_GT(num_rois, 0u);
+  EXPECT_EQ(SplitLines(ReadText(dir / "a" / "rois.csv")).size(), num_rois + 1);
+  size_t clouds = 0;
+  for (const nlohmann::json& roi : result["rois"]) {
+    if (roi["ply"].is_null()) continue;
+    ++clouds;
+    EXPECT_TRUE(fs::is_regular_file(dir / "a" / roi["ply"].get<std::string>())) << roi["ply"];
+  }
+  EXPECT_GT(clouds, 0u);
+  EXPECT_TRUE(nlohmann::json::parse(ReadText(dir / "a" / "timings.json")).contains("stages"));
+
+  // A second run into another folder gives the same result bytes; a third
+  // into the first folder replaces its files with the same bytes.
+  const CommandResult second =
+      Hdabench({"run", Dataset().string(), "--out", (dir / "b").string(), "--quiet", "--no-figures"});
+  ASSERT_EQ(second.exit_code, 0) << second.out << second.err;
+  EXPECT_EQ(second.err, "");
+  EXPECT_FALSE(fs::exists(dir / "b" / "figures"));
+  const CommandResult third = Hdabench({"run", Dataset().string(), "--out", (dir / "a").string(), "--quiet"});
+  ASSERT_EQ(third.exit_code, 0) << third.out << third.err;
+  for (const char* name : {"result.json", "rois.csv"}) {
+    EXPECT_EQ(ReadText(dir / "a" / name), ReadText(dir / "b" / name)) << name;
+  }
+  for (const auto& entry : fs::directory_iterator(dir / "a" / "points")) {
+    EXPECT_EQ(ReadText(entry.path()), ReadText(dir / "b" / "points" / entry.path().filename()))
+        << entry.path();
+  }
+}
+
+TEST(RunCommand, BudgetFlagsReachTheResult) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult run = Hdabench({"run", Dataset().string(), "--out", dir.string(), "--quiet",
+                                 "--no-figures", "--processor-scale", "0.5", "--budget-s", "4"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "result.json"));
+  EXPECT_EQ(result["options"]["processor_scale"], 0.5);
+  EXPECT_EQ(result["options"]["compute_budget_s"], 4.0);
+  EXPECT_EQ(result["budget_s"], 2.0);
+  const CommandResult negative =
+      Hdabench({"run", Dataset().string(), "--out", dir.string(), "--processor-scale", "-1"});
+  EXPECT_EQ(negative.exit_code, 2) << negative.out << negative.err;
+  EXPECT_NE(negative.err.find("processor_scale"), std::string::npos) << negative.err;
+}
+
+TEST(RunCommand, EqualFramesAreAUsageError) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult run = Hdabench({"run", Dataset().string(), "--frames", "0,0", "--out", dir.string()});
+  EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
+  EXPECT_NE(run.err.find("--frames 0,0: the two frames must differ"), std::string::npos) << run.err;
+  const CommandResult malformed =
+      Hdabench({"run", Dataset().string(), "--frames", "1-2", "--out", dir.string()});
+  EXPECT_EQ(malformed.exit_code, 2) << malformed.out << malformed.err;
+  EXPECT_NE(malformed.err.find("--frames"), std::string::npos) << malformed.err;
+}
+
+TEST(RunCommand, AFrameOutsideTheDatasetIsNamed) {
+  const CommandResult run =
+      Hdabench({"run", Dataset().string(), "--frames", "0,99", "--out", FreshTestDir().string()});
+  EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
+  EXPECT_NE(run.err.find("frame 99 is not in"), std::string::npos) << run.err;
+}
+
+TEST(RunCommand, AMissingDatasetIsAnInputErrorNamingIt) {
+  const fs::path dir = FreshTestDir();
+  const fs::path absent = dir / "absent";
+  const CommandResult run = Hdabench({"run", absent.string(), "--out", (dir / "out").string()});
+  EXPECT_EQ(run.exit_code, 3) << run.out << run.err;
+  EXPECT_NE(run.err.find(absent.string()), std::string::npos) << run.err;
+  // A folder that is not a dataset: its problems, the same exit code.
+  fs::create_directories(dir / "empty");
+  const CommandResult empty = Hdabench({"run", (dir / "empty").string(), "--out", (dir / "out").string()});
+  EXPECT_EQ(empty.exit_code, 3) << empty.out << empty.err;
+  EXPECT_NE(empty.err.find("problem(s) in"), std::string::npos) << empty.err;
+}
+
+TEST(RunCommand, AnOutputFolderUnderAFileIsAnInputError) {
+  const fs::path file = FreshTestDir() / "file";
+  hdabench::testing_support::WriteText(file, "x");
+  const fs::path out = file / "out";
+  const CommandResult run = Hdabench({"run", Dataset().string(), "--out", out.string()});
+  EXPECT_EQ(run.exit_code, 3) << run.out << run.err;
+  EXPECT_NE(run.err.find(out.string()), std::string::npos) << run.err;
+}
+
+TEST(RunCommand, HasHelp) {
+  const CommandResult run = Hdabench({"run", "--help"});
+  EXPECT_EQ(run.exit_code, 0);
+  for (const char* text : {"Usage", "--frames", "--out", "--processor-scale", "--budget-s",
+                           "--no-figures", "--quiet"}) {
+    EXPECT_NE(run.out.find(text), std::string::npos) << text << "\n" << run.out;
+  }
+}
+
+}  // namespace

@@ -377,11 +377,12 @@ const char* ToString(RoiStatus status) {
 }
 
 std::string HdaResult::Summary() const {
-  int counts[7] = {0, 0, 0, 0, 0, 0, 0};
+  constexpr int kNumStatuses = static_cast<int>(RoiStatus::kNotEvaluated) + 1;
+  int counts[kNumStatuses] = {};
   for (const RoiResult& roi : rois) ++counts[static_cast<int>(roi.status)];
   std::ostringstream s;
   s << "hda: " << rois.size() << " ROIs";
-  for (int i = 0; i < 7; ++i) s << ", " << counts[i] << " " << ToString(static_cast<RoiStatus>(i));
+  for (int i = 0; i < kNumStatuses; ++i) s << ", " << counts[i] << " " << ToString(static_cast<RoiStatus>(i));
   s << "; budget " << Format(budget_s, 2) << " s" << (budget_exhausted ? " (exhausted)" : "");
   if (!note.empty()) s << "; " << note;
   return s.str();
@@ -467,7 +468,11 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
   const Eigen::Vector3d ils_in_cam1 = ctx.local_from_cam1.Inverse() * input.ils_in_local_m;
   const size_t num_rois = result.quadtree.rois.size();
   result.rois.resize(num_rois);
-  std::vector<double> roi_range_m(num_rois, input.lrf_range_m);
+  // Per ROI: the range of its centre's ground point (for the nav thresholds)
+  // and its depth along the optical axis (the prediction's ground plane); the
+  // LRF spot's where the centre's ray misses the level ground.
+  std::vector<double> roi_range_m(num_rois, spot_in_cam1.norm());
+  std::vector<double> roi_axis_depth_m(num_rois, spot_in_cam1.z());
   std::vector<Eigen::Vector2d> centres(num_rois);
   for (size_t i = 0; i < num_rois; ++i) centres[i] = BoxCentre(result.quadtree.rois[i].box_px);
   std::vector<Eigen::Vector3d> centre_bearings;
@@ -484,6 +489,7 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
     const Eigen::Vector3d offset = ground - ils_in_cam1;
     roi.ils_distance_m = (offset - ctx.up_in_cam1 * ctx.up_in_cam1.dot(offset)).norm();
     roi_range_m[i] = depth;
+    if (ground.z() > 0.0) roi_axis_depth_m[i] = ground.z();
   }
   std::vector<size_t> order(num_rois);
   std::iota(order.begin(), order.end(), size_t{0});
@@ -511,7 +517,7 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
 
     const PredictedRoi predicted =
         PredictRoi(result.quadtree.rois[i], camera, ctx.cam2_from_cam1,
-                   std::max(1e-3, roi_range_m[i] * centre_bearings[i].z()), options.prediction);
+                   roi_axis_depth_m[i], options.prediction);
     lap(&result.times.prediction_s);
     roi.prediction_margin_px = predicted.margin_px;
     if (predicted.status != PredictionStatus::kOk) {

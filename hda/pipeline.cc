@@ -36,28 +36,6 @@ Rigid3d Normalized(const Rigid3d& pose) {
   return Rigid3d(pose.rotation.normalized(), pose.translation);
 }
 
-// Pixels per radian of the camera at a pixel: the larger of the two image
-// displacements of a small rotation of its ray about two perpendicular axes.
-// (matching.cc measures pixels per unit of normalised coordinate instead, the
-// scale of its RANSAC threshold.)
-double PixelsPerRadian(const calib::CameraModel& camera, const Eigen::Vector2d& pixel) {
-  std::vector<Eigen::Vector3d> bearings;
-  std::vector<unsigned char> valid;
-  if (camera.Unproject({pixel}, &bearings, &valid) != 1) return 0.0;
-  const Eigen::Vector3d b = bearings[0];
-  Eigen::Index axis = 0;
-  b.cwiseAbs().minCoeff(&axis);
-  const Eigen::Vector3d e1 = b.cross(Eigen::Vector3d::Unit(axis)).normalized();
-  const Eigen::Vector3d e2 = b.cross(e1);
-  constexpr double kStepRad = 1e-4;
-  std::vector<Eigen::Vector2d> pixels;
-  if (camera.Project({b + kStepRad * e1, b - kStepRad * e1, b + kStepRad * e2, b - kStepRad * e2},
-                     &pixels, &valid) != 4) {
-    return 0.0;
-  }
-  return std::max((pixels[0] - pixels[1]).norm(), (pixels[2] - pixels[3]).norm()) / (2.0 * kStepRad);
-}
-
 // The ROI's centre pixel (continuous): the centre of its pixel block.
 Eigen::Vector2d BoxCentre(const cv::Rect& box) {
   return Eigen::Vector2d(box.x + (box.width - 1) / 2.0, box.y + (box.height - 1) / 2.0);
@@ -355,6 +333,25 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
 }
 
 }  // namespace
+
+double PixelsPerRadian(const calib::CameraModel& camera, const Eigen::Vector2d& pixel) {
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<unsigned char> valid;
+  if (camera.Unproject({pixel}, &bearings, &valid) != 1) return 0.0;
+  const Eigen::Vector3d b = bearings[0];
+  Eigen::Index axis = 0;
+  b.cwiseAbs().minCoeff(&axis);
+  const Eigen::Vector3d e1 = b.cross(Eigen::Vector3d::Unit(axis)).normalized();
+  const Eigen::Vector3d e2 = b.cross(e1);
+  constexpr double kStepRad = 1e-4;
+  std::vector<Eigen::Vector2d> pixels;
+  if (camera.Project({b + kStepRad * e1, b - kStepRad * e1, b + kStepRad * e2, b - kStepRad * e2},
+                     &pixels, &valid) != 4) {
+    return 0.0;
+  }
+  return std::max((pixels[0] - pixels[1]).norm(), (pixels[2] - pixels[3]).norm()) / (2.0 * kStepRad);
+}
+
 
 const char* ToString(RoiStatus status) {
   switch (status) {

@@ -158,6 +158,12 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
 double RankingScore(double area_m2, double slope_deg, double roughness_excess_m,
                     const HdaOptions& options);
 
+// Pixels per radian of the camera at a pixel: the larger of the two image
+// displacements of a small rotation of its ray about two perpendicular axes
+// (the local focal length of any lens model). 0 when the camera cannot
+// unproject the pixel or project the rotated rays.
+double PixelsPerRadian(const calib::CameraModel& camera, const Eigen::Vector2d& pixel);
+
 // CV_8UC1 view of an image: an 8-bit image as is (no copy), a 16-bit one
 // divided by 257 and rounded. Throws InputError for another type.
 cv::Mat ToEightBit(const cv::Mat& image, const char* what);

@@ -18,6 +18,7 @@
 
 #include "calib/error.h"
 #include "datasets/internal/files.h"
+#include "reference/output_text.h"
 
 namespace hdabench::reference {
 
@@ -25,6 +26,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
+
+// A double as JSON, null when it is not finite (JSON has no NaN or infinity).
+Json Number(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
+std::string Fixed(double value, int digits) { return FixedText(value, digits); }
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // hda::RoiStatus values are 0 .. kNotEvaluated.
 constexpr size_t kNumStatuses = static_cast<size_t>(hda::RoiStatus::kNotEvaluated) + 1;
@@ -32,12 +37,7 @@ constexpr size_t kNumStatuses = static_cast<size_t>(hda::RoiStatus::kNotEvaluate
 // ---------------------------------------------------------------------------
 // Numbers and text
 
-// A double as JSON, null when it is not finite (JSON has no NaN or infinity).
-Json Number(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
 
-// A double as CSV text that reads back identical (nlohmann's shortest
-// round-trip form); empty when it is not finite.
-std::string CsvNumber(double value) { return std::isfinite(value) ? Json(value).dump() : ""; }
 
 Json BoxJson(const cv::Rect& box) { return Json::array({box.x, box.y, box.width, box.height}); }
 
@@ -45,13 +45,6 @@ Json Vector3Json(const Eigen::Vector3d& v) {
   return Json::array({Number(v.x()), Number(v.y()), Number(v.z())});
 }
 
-// Fixed-point text with `digits` decimals; "-" when not finite.
-std::string Fixed(double value, int digits) {
-  if (!std::isfinite(value)) return "-";
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", digits, value);
-  return buffer;
-}
 
 bool HasBox2(const hda::RoiResult& roi) { return roi.box2_px.area() > 0; }
 
@@ -186,44 +179,7 @@ Json RoiJson(const FlightRun& run, size_t i) {
 // ---------------------------------------------------------------------------
 // The text table
 
-// Columns aligned to their widest cell; `left` columns are left-aligned, the
-// others right-aligned; a rule of dashes under the header.
-std::string FormatTable(const std::vector<std::vector<std::string>>& rows,
-                        const std::vector<bool>& left) {
-  std::vector<size_t> widths(left.size(), 0);
-  for (const auto& row : rows) {
-    for (size_t c = 0; c < row.size(); ++c) widths[c] = std::max(widths[c], row[c].size());
-  }
-  std::ostringstream out;
-  const auto print_row = [&](const std::vector<std::string>& row) {
-    std::string line;
-    for (size_t c = 0; c < row.size(); ++c) {
-      const std::string pad(widths[c] - row[c].size(), ' ');
-      line += (c > 0 ? "  " : "") + (left[c] ? row[c] + pad : pad + row[c]);
-    }
-    while (!line.empty() && line.back() == ' ') line.pop_back();
-    out << line << "\n";
-  };
-  for (size_t r = 0; r < rows.size(); ++r) {
-    print_row(rows[r]);
-    if (r == 0) {
-      std::vector<std::string> rule;
-      for (const size_t w : widths) rule.emplace_back(w, '-');
-      print_row(rule);
-    }
-  }
-  return out.str();
-}
 
-// p-quantile of sorted values, linear between order statistics.
-double Quantile(const std::vector<double>& sorted, double p) {
-  if (sorted.empty()) return 0.0;
-  const double position = p * static_cast<double>(sorted.size() - 1);
-  const size_t below = static_cast<size_t>(std::floor(position));
-  const size_t above = std::min(below + 1, sorted.size() - 1);
-  const double fraction = position - static_cast<double>(below);
-  return sorted[below] + fraction * (sorted[above] - sorted[below]);
-}
 
 // ---------------------------------------------------------------------------
 // Figures
@@ -428,6 +384,24 @@ void RemoveStaleRoiFiles(const fs::path& dir, const std::string& folder, const s
 
 }  // namespace
 
+FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
+                    const hda::HdaOptions& options) {
+  const hda::HdaInput input = MakeHdaInput(dataset, frame1, frame2);
+  FlightRun run;
+  run.dataset_name = dataset.name;
+  run.frame1 = frame1;
+  run.frame2 = frame2;
+  run.lens_model = dataset.camera.LensModelName();
+  run.image_width_px = dataset.camera.WidthPx();
+  run.image_height_px = dataset.camera.HeightPx();
+  run.baseline_m = dataset.BaselineM(frame1, frame2);
+  run.lrf_range_m = input.lrf_range_m;
+  run.options = options;
+  run.result = hda::RunHda(input, dataset.camera, options);
+  run.truths = TruthOfRois(dataset, frame1, run.result);
+  return run;
+}
+
 bool FlightRun::AnyTruth() const {
   return std::any_of(truths.begin(), truths.end(), [](const RoiTruthValue& t) { return t.available; });
 }
@@ -597,7 +571,7 @@ std::string FlightReport(const FlightRun& run) {
   }
   std::vector<bool> left(rows.front().size(), false);
   left[1] = true;
-  out << FormatTable(rows, left);
+  out << FormatTextTable(rows, left);
   if (!truth) return out.str();
   const SlopeErrorStats stats = ComputeSlopeErrorStats(run);
   if (stats.count == 0) {

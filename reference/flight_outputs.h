@@ -45,6 +45,13 @@ struct FlightRun {
   bool AnyTruth() const;
 };
 
+// Runs the flight method on frames (frame1, frame2) of a dataset loaded with
+// its images (and its truth, for the truth of the ROIs): MakeHdaInput, RunHda,
+// TruthOfRois, and what the run was made on. Throws InputError as
+// MakeHdaInput and RunHda do.
+FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
+                    const hda::HdaOptions& options);
+
 // result.json: the deterministic record of the run (no wall times), doubles
 // printed so they read back identical, null for what does not apply and for
 // non-finite values. Two runs on the same inputs give the same bytes (unless

@@ -4,6 +4,9 @@
 #include <system_error>
 #include <utility>
 
+#include "calib/error.h"
+#include "reference/flight_outputs.h"
+#include "reference/flight_run.h"
 #include "tools/exit_codes.h"
 
 namespace hdabench::tools {
@@ -35,6 +38,50 @@ std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
     return std::nullopt;
   }
   return std::move(loaded.dataset);
+}
+
+PairLoad LoadDatasetPair(const std::string& dataset_dir,
+                         const std::optional<std::pair<int, int>>& frames,
+                         const std::string& out_dir, const std::string& command,
+                         std::ostream& err, const std::function<void(const std::string&)>& progress) {
+  PairLoad result;
+  const std::string prefix = "hdabench " + command + ": ";
+  if (frames.has_value() && frames->first == frames->second) {
+    err << prefix << "--frames " << frames->first << "," << frames->second
+        << ": the two frames must differ\n";
+    result.exit_code = kExitUsage;
+    return result;
+  }
+  result.exit_code = CheckDatasetFolder(dataset_dir, command, err);
+  if (result.exit_code != kExitOk) return result;
+  try {
+    reference::PrepareOutputFolder(out_dir);
+  } catch (const InputError& e) {
+    err << prefix << "--out " << e.what() << "\n";
+    result.exit_code = kExitInput;
+    return result;
+  }
+  progress("loading " + dataset_dir);
+  datasets::LoadOptions load;
+  load.keep_images = true;
+  load.keep_truth = true;
+  result.dataset = LoadDatasetOrReport(dataset_dir, load, command, err);
+  if (!result.dataset.has_value()) {
+    result.exit_code = kExitInput;
+    return result;
+  }
+  const int num_frames = static_cast<int>(result.dataset->frames.size());
+  result.frames = frames.has_value() ? *frames : reference::DefaultFramePair(*result.dataset);
+  for (const int frame : {result.frames.first, result.frames.second}) {
+    if (frame < 0 || frame >= num_frames) {
+      err << prefix << "--frames: frame " << frame << " is not in " << dataset_dir
+          << ", which has frames 0.." << num_frames - 1 << "\n";
+      result.dataset.reset();
+      result.exit_code = kExitUsage;
+      return result;
+    }
+  }
+  return result;
 }
 
 }  // namespace hdabench::tools

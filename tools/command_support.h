@@ -2,9 +2,11 @@
 // messages and exit codes everywhere.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <ostream>
 #include <string>
+#include <utility>
 
 #include "datasets/dataset.h"
 
@@ -20,5 +22,23 @@ int CheckDatasetFolder(const std::string& dir, const std::string& command, std::
 std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
                                                      const datasets::LoadOptions& load,
                                                      const std::string& command, std::ostream& err);
+
+// A dataset loaded with its images and truth, and the frame pair to use.
+struct PairLoad {
+  int exit_code = 0;  // kExitOk, or the code the command exits with (the message is printed)
+  std::optional<datasets::Dataset> dataset;
+  std::pair<int, int> frames{0, 1};
+};
+
+// What `run` and `compare` do before their work: checks that the frames (when
+// given) differ and the dataset folder exists, prepares the output folder,
+// loads the dataset with images and truth, and takes the given frames (checked
+// against the dataset) or reference::DefaultFramePair. Prints
+// "hdabench <command>: ..." on a problem: equal or missing frames exit
+// kExitUsage, an unusable dataset or output folder kExitInput.
+PairLoad LoadDatasetPair(const std::string& dataset_dir,
+                         const std::optional<std::pair<int, int>>& frames,
+                         const std::string& out_dir, const std::string& command,
+                         std::ostream& err, const std::function<void(const std::string&)>& progress);
 
 }  // namespace hdabench::tools

@@ -60,15 +60,36 @@ struct RunFlightOptions {
 // per-ROI table printed to out.
 int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& err);
 
+struct CompareCommandOptions {
+  std::string dataset_dir;
+  std::optional<std::pair<int, int>> frames;  // default: reference::DefaultFramePair
+  std::string methods = "all";                // comma-separated (reference::ParseMethodList) or "all"
+  std::string out_dir;                        // created if missing; files of the same names replaced
+  std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: the options'
+  std::string colmap_executable = "colmap";   // a name looked up on PATH, or a path
+  double colmap_timeout_s = 600.0;            // per COLMAP step
+  bool colmap_all_frames = false;             // colmap-free on every frame of the collection window
+  bool opengv_dense = false;                  // OpenGV on denser ORB matches than the flight's
+  bool figures = true;                        // write flight/figures/ (PNG)
+  bool quiet = false;                         // no progress lines on err
+};
+// hdabench compare: the flight method and the reference methods on two frames
+// of a dataset, per ROI; outputs in out_dir (docs/compare-results.md), the
+// Markdown table printed to out. Exit codes: 0 every method ran; 4 a method
+// failed for the run (its column says why; every other output is written);
+// 2 bad flags; 3 an unusable dataset or output folder.
+int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, std::ostream& err);
+
 struct DemoOptions {
   std::string out_dir = "hdabench-demo";  // replaced on each run; the dataset goes in out_dir/dataset
   std::uint64_t seed = 1;                 // same seed, same bytes
   int image_size_px = 0;                  // 0: the default camera's 1024
   int threads = 0;                        // 0: all cores
 };
-// The main job on the built-in default. Today: generate the default synthetic
-// dataset (hdabench synth, preset novac-lateral) and check it (later: the full
-// reference comparison on it).
+// The main job on the built-in default: generate the default synthetic
+// dataset (hdabench synth, preset novac-lateral) into out_dir/dataset, then
+// compare every method on it (hdabench compare) into out_dir/compare and print
+// the table.
 int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err);
 
 }  // namespace hdabench::tools

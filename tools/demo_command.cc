@@ -33,10 +33,11 @@ int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
       << ")\n";
   const int created = RunSynth(synth, out, err);
   if (created != kExitOk) return created;
-  out << "== Checking " << dataset_dir.string() << "\n";
-  DatasetCheckOptions check;
-  check.dataset_dir = dataset_dir.string();
-  return RunDatasetCheck(check, out, err);
+  out << "== Comparing every method on " << dataset_dir.string() << "\n";
+  CompareCommandOptions compare;
+  compare.dataset_dir = dataset_dir.string();
+  compare.out_dir = (fs::path(options.out_dir) / "compare").string();
+  return RunCompareCommand(compare, out, err);
 }
 
 }  // namespace hdabench::tools

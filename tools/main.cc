@@ -118,9 +118,47 @@ int Main(int argc, char** argv) {
   run->add_flag("--no-figures", no_figures, "Do not write figures/");
   run->add_flag("--quiet", run_options.quiet, "No progress lines");
 
+  CompareCommandOptions compare_options;
+  std::string compare_frames_text;
+  bool compare_no_figures = false;
+  CLI::App* compare = app.add_subcommand(
+      "compare",
+      "Compare the flight method with COLMAP, OpenGV, Ceres and the truth per ROI on two frames");
+  compare->add_option("DATASET", compare_options.dataset_dir, "Dataset folder")->required();
+  compare->add_option("--frames", compare_frames_text,
+                      "Two different frame indices i,j (default: as hdabench run)");
+  compare->add_option("--methods", compare_options.methods,
+                      "Comma-separated methods, or all: flight, flight-refined, colmap-nav,\n"
+                      "colmap-free, opengv-stewenius, opengv-nister, opengv-eight-point,\n"
+                      "opengv-eigensolver, opengv-two-point (flight always runs)")
+      ->capture_default_str();
+  compare->add_option("--out", compare_options.out_dir,
+                      "Output folder (created if missing; files replaced)")
+      ->required();
+  double compare_site_size_m = hda::HdaOptions().quadtree.site_size_m;
+  CLI::Option* site_option =
+      compare->add_option("--site-size-m", compare_site_size_m,
+                          "Side of a landing site, metres (sets the quadtree's smallest ROI)")
+          ->capture_default_str();
+  compare->add_option("--colmap", compare_options.colmap_executable,
+                      "The colmap program: a name on PATH or a path")
+      ->capture_default_str();
+  compare->add_option("--colmap-timeout-s", compare_options.colmap_timeout_s,
+                      "Time limit of each COLMAP step, seconds")
+      ->capture_default_str();
+  compare->add_flag("--colmap-all-frames", compare_options.colmap_all_frames,
+                    "colmap-free on every frame of the collection window, not only the pair");
+  compare->add_flag("--opengv-dense", compare_options.opengv_dense,
+                    "OpenGV on denser ORB matches (2000 keypoints per ROI, FAST threshold 5)\n"
+                    "instead of the flight matcher's");
+  compare->add_flag("--no-figures", compare_no_figures, "Do not write flight/figures/");
+  compare->add_flag("--quiet", compare_options.quiet, "No progress lines");
+
   DemoOptions demo_options;
   CLI::App* demo = app.add_subcommand(
-      "demo", "The main job on the built-in default: generate the default synthetic dataset and check it");
+      "demo",
+      "The main job on the built-in default: generate the default synthetic dataset and compare\n"
+      "every method on it");
   demo->add_option("--out", demo_options.out_dir, "Output folder (replaced on each run)")->capture_default_str();
   demo->add_option("--seed", demo_options.seed, "Random seed")->capture_default_str();
   demo->add_option("--image-size", demo_options.image_size_px, "Square imager side in pixels (default 1024)");
@@ -149,6 +187,15 @@ int Main(int argc, char** argv) {
       check_options.frames = std::make_pair(pair[0], pair[1]);
     }
     return RunDatasetCheck(check_options, std::cout, std::cerr);
+  }
+  if (compare->parsed()) {
+    if (!compare_frames_text.empty()) {
+      const std::vector<int> pair = ParseIntList(compare_frames_text, 2, "--frames", "i,j");
+      compare_options.frames = std::make_pair(pair[0], pair[1]);
+    }
+    compare_options.figures = !compare_no_figures;
+    if (site_option->count() > 0) compare_options.site_size_m = compare_site_size_m;
+    return RunCompareCommand(compare_options, std::cout, std::cerr);
   }
   if (run->parsed()) {
     if (!run_frames_text.empty()) {

@@ -22,11 +22,6 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   const auto progress = [&](const std::string& line) {
     if (!options.quiet) err << "hdabench run: " << line << "\n";
   };
-  if (options.frames.has_value() && options.frames->first == options.frames->second) {
-    err << "hdabench run: --frames " << options.frames->first << "," << options.frames->second
-        << ": the two frames must differ\n";
-    return kExitUsage;
-  }
   hda::HdaOptions hda_options;
   if (options.processor_scale.has_value()) hda_options.processor_scale = *options.processor_scale;
   if (options.budget_s.has_value()) hda_options.compute_budget_s = *options.budget_s;
@@ -37,52 +32,20 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
     return kExitUsage;
   }
 
-  const int folder = CheckDatasetFolder(options.dataset_dir, "run", err);
-  if (folder != kExitOk) return folder;
-  try {
-    reference::PrepareOutputFolder(options.out_dir);
-  } catch (const InputError& e) {
-    err << "hdabench run: --out " << e.what() << "\n";
-    return kExitInput;
-  }
-
-  progress("loading " + options.dataset_dir);
-  datasets::LoadOptions load;
-  load.keep_images = true;
-  load.keep_truth = true;
-  const std::optional<datasets::Dataset> loaded =
-      LoadDatasetOrReport(options.dataset_dir, load, "run", err);
-  if (!loaded.has_value()) return kExitInput;
-  const datasets::Dataset& dataset = *loaded;
-  const int num_frames = static_cast<int>(dataset.frames.size());
-  const std::pair<int, int> frames =
-      options.frames.has_value() ? *options.frames : reference::DefaultFramePair(dataset);
-  for (const int frame : {frames.first, frames.second}) {
-    if (frame < 0 || frame >= num_frames) {
-      err << "hdabench run: --frames: frame " << frame << " is not in " << options.dataset_dir
-          << ", which has frames 0.." << num_frames - 1 << "\n";
-      return kExitUsage;
-    }
-  }
+  const PairLoad pair = LoadDatasetPair(options.dataset_dir, options.frames, options.out_dir, "run",
+                                        err, progress);
+  if (pair.exit_code != kExitOk) return pair.exit_code;
+  const datasets::Dataset& dataset = *pair.dataset;
+  const std::pair<int, int> frames = pair.frames;
 
   progress("flight method on frames " + std::to_string(frames.first) + "," +
            std::to_string(frames.second));
-  const hda::HdaInput input = reference::MakeHdaInput(dataset, frames.first, frames.second);
-  reference::FlightRun run;
-  run.dataset_name = dataset.name;
-  run.frame1 = frames.first;
-  run.frame2 = frames.second;
-  run.lens_model = dataset.camera.LensModelName();
-  run.image_width_px = dataset.camera.WidthPx();
-  run.image_height_px = dataset.camera.HeightPx();
-  run.baseline_m = dataset.BaselineM(frames.first, frames.second);
-  run.lrf_range_m = input.lrf_range_m;
-  run.options = hda_options;
   // The flight method runs on one core, as on the flight computer (OpenCV's
   // parallel loops would otherwise use every core; results do not change).
   cv::setNumThreads(1);
-  run.result = hda::RunHda(input, dataset.camera, hda_options);
-  run.truths = reference::TruthOfRois(dataset, frames.first, run.result);
+  const reference::FlightRun run =
+      reference::RunFlight(dataset, frames.first, frames.second, hda_options);
+  const hda::HdaInput input = reference::MakeHdaInput(dataset, frames.first, frames.second);
 
   progress("writing " + options.out_dir);
   std::vector<std::string> written;

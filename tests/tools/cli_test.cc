@@ -77,11 +77,16 @@ TEST(Cli, MissingDatasetFolderExitsThree) {
   EXPECT_NE(run.out.find(dir.string()), std::string::npos) << run.out;
 }
 
-TEST(Cli, DemoCreatesAndChecksTheDefaultDatasetDeterministically) {
+TEST(Cli, DemoCreatesTheDefaultDatasetDeterministicallyAndComparesOnIt) {
   const fs::path dir = FreshTestDir();
   const CommandResult first = RunHdabench({"demo", "--out", (dir / "a").string(), "--image-size", "96"});
   ASSERT_EQ(first.exit_code, 0) << first.out;
   EXPECT_TRUE(fs::exists(dir / "a" / "dataset" / "manifest.json"));
+  // The comparison ran on it and printed its table.
+  EXPECT_TRUE(fs::exists(dir / "a" / "compare" / "compare.json"));
+  EXPECT_NE(first.out.find("| ROI | truth | flight | flight-refined | colmap-nav | colmap-free |"),
+            std::string::npos)
+      << first.out;
   // A second run into the same folder replaces it with identical bytes.
   const CommandResult again = RunHdabench({"demo", "--out", (dir / "a").string(), "--image-size", "96"});
   ASSERT_EQ(again.exit_code, 0) << again.out;

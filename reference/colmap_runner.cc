@@ -1,0 +1,763 @@
+#include "reference/colmap_runner.h"
+
+#include <sqlite3.h>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include <Eigen/SVD>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "calib/error.h"
+#include "calib/options_check.h"
+#include "reference/colmap_adapter.h"
+#include "reference/colmap_model.h"
+#include "reference/process.h"
+
+namespace hdabench::reference {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+constexpr char kNavMethod[] = "colmap-nav";
+constexpr char kFreeMethod[] = "colmap-free";
+
+double SecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+std::string FormatDouble(double value) {
+  char buffer[64];
+  const auto [end, ec] = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  (void)ec;
+  return std::string(buffer, end);
+}
+
+std::string JoinParams(const std::vector<double>& params) {
+  std::string text;
+  for (size_t i = 0; i < params.size(); ++i) text += (i > 0 ? "," : "") + FormatDouble(params[i]);
+  return text;
+}
+
+std::string ImageName(size_t index) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "frame_%03zu.png", index);
+  return buffer;
+}
+
+// How COLMAP's images relate to the original ones.
+struct CameraSetup {
+  ColmapCameraParams colmap;  // what COLMAP is given
+  bool resampled = false;     // images resampled to a pinhole camera
+  // The pinhole camera of the resampled images, hdabench pixels.
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  std::string note;
+};
+
+// The pinhole camera used to resample a model without a COLMAP equivalent.
+CameraSetup PinholeFor(const calib::CameraModel& camera, const std::string& why) {
+  CameraSetup setup;
+  setup.resampled = true;
+  const double w = camera.WidthPx(), h = camera.HeightPx();
+  if (camera.HasCore()) {
+    const std::vector<double>& in = camera.Intrinsics();
+    setup.fx = in[0];
+    setup.fy = in[1];
+    setup.cx = in[2];
+    setup.cy = in[3];
+  } else {
+    // Focal length at the imager centre: the angle between the bearings of
+    // two pixels one pixel apart on either side of it.
+    setup.cx = 0.5 * (w - 1.0);
+    setup.cy = 0.5 * (h - 1.0);
+    std::vector<Eigen::Vector2d> pixels = {{setup.cx - 1, setup.cy},
+                                           {setup.cx + 1, setup.cy},
+                                           {setup.cx, setup.cy - 1},
+                                           {setup.cx, setup.cy + 1}};
+    std::vector<Eigen::Vector3d> bearings;
+    std::vector<unsigned char> valid;
+    if (camera.Unproject(pixels, &bearings, &valid) != 4) {
+      throw InputError("colmap: camera " + camera.LensModelName() +
+                       ": cannot unproject the imager centre to derive a pinhole camera");
+    }
+    const auto angle = [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+      return std::atan2(a.cross(b).norm(), a.dot(b));
+    };
+    setup.fx = 2.0 / angle(bearings[0], bearings[1]);
+    setup.fy = 2.0 / angle(bearings[2], bearings[3]);
+  }
+  if (!(setup.fx > 0 && setup.fy > 0 && std::isfinite(setup.fx) && std::isfinite(setup.fy))) {
+    throw InputError("colmap: camera " + camera.LensModelName() +
+                     ": no usable focal length for the pinhole resampling");
+  }
+  const Eigen::Vector2d c = PixelToColmap(Eigen::Vector2d(setup.cx, setup.cy));
+  setup.colmap.model = "PINHOLE";
+  setup.colmap.params = {setup.fx, setup.fy, c.x(), c.y()};
+  setup.note = why + "; images resampled to PINHOLE fx=" + FormatDouble(setup.fx) +
+               " fy=" + FormatDouble(setup.fy) + " through the mrcal model";
+  return setup;
+}
+
+CameraSetup SetupCamera(const calib::CameraModel& camera) {
+  try {
+    CameraSetup setup;
+    setup.colmap = ToColmapCamera(camera);
+    setup.note = camera.LensModelName() + " given to COLMAP as " + setup.colmap.model;
+    return setup;
+  } catch (const UnsupportedError& e) {
+    return PinholeFor(camera, e.what());
+  }
+}
+
+// Reads an image as 8-bit grey (16-bit divided by 257, rounded; colour to grey).
+cv::Mat ReadGrey8(const std::string& path, const calib::CameraModel& camera) {
+  if (!fs::is_regular_file(path)) throw InputError(path + ": image file does not exist");
+  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (image.empty()) throw InputError(path + ": cannot read the image");
+  if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {
+    throw InputError(path + ": image is " + std::to_string(image.cols) + " x " +
+                     std::to_string(image.rows) + " px, the camera's imager " +
+                     std::to_string(camera.WidthPx()) + " x " + std::to_string(camera.HeightPx()));
+  }
+  if (image.channels() == 3) {
+    cv::cvtColor(image, image, cv::COLOR_BGR2GRAY);
+  } else if (image.channels() == 4) {
+    cv::cvtColor(image, image, cv::COLOR_BGRA2GRAY);
+  } else if (image.channels() != 1) {
+    throw InputError(path + ": image has " + std::to_string(image.channels()) +
+                     " channels: expected 1, 3 or 4");
+  }
+  if (image.depth() == CV_16U) {
+    cv::Mat eight;
+    image.convertTo(eight, CV_8U, 1.0 / 257.0);
+    return eight;
+  }
+  if (image.depth() != CV_8U) throw InputError(path + ": image is neither 8 nor 16 bit");
+  return image;
+}
+
+// The resampling maps: for each pixel of the pinhole image, where to read the
+// original image.
+void ResamplingMaps(const calib::CameraModel& camera, const CameraSetup& setup, cv::Mat* map_x,
+                    cv::Mat* map_y) {
+  const int w = camera.WidthPx(), h = camera.HeightPx();
+  std::vector<Eigen::Vector3d> rays;
+  rays.reserve(static_cast<size_t>(w) * static_cast<size_t>(h));
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      rays.emplace_back((u - setup.cx) / setup.fx, (v - setup.cy) / setup.fy, 1.0);
+    }
+  }
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<unsigned char> valid;
+  camera.Project(rays, &pixels, &valid);
+  map_x->create(h, w, CV_32FC1);
+  map_y->create(h, w, CV_32FC1);
+  for (int v = 0; v < h; ++v) {
+    for (int u = 0; u < w; ++u) {
+      const size_t i = static_cast<size_t>(v) * static_cast<size_t>(w) + static_cast<size_t>(u);
+      map_x->at<float>(v, u) = valid[i] ? static_cast<float>(pixels[i].x()) : -1.0f;
+      map_y->at<float>(v, u) = valid[i] ? static_cast<float>(pixels[i].y()) : -1.0f;
+    }
+  }
+}
+
+// COLMAP pixels of COLMAP's image 1 to hdabench pixels of the original image
+// 1; valid[i] = 0 where the mapping fails.
+std::vector<Eigen::Vector2d> ToOriginalPixels(const std::vector<Eigen::Vector2d>& colmap_pixels,
+                                              const calib::CameraModel& camera,
+                                              const CameraSetup& setup,
+                                              std::vector<unsigned char>* valid) {
+  std::vector<Eigen::Vector2d> pixels;
+  for (const Eigen::Vector2d& p : colmap_pixels) pixels.push_back(PixelFromColmap(p));
+  if (!setup.resampled) {
+    valid->assign(pixels.size(), 1);
+    return pixels;
+  }
+  std::vector<Eigen::Vector3d> rays;
+  for (const Eigen::Vector2d& p : pixels) {
+    rays.emplace_back((p.x() - setup.cx) / setup.fx, (p.y() - setup.cy) / setup.fy, 1.0);
+  }
+  std::vector<Eigen::Vector2d> original;
+  camera.Project(rays, &original, valid);
+  return original;
+}
+
+// ---------------------------------------------------------------------------
+// COLMAP's database: the ids it gave the images and the camera.
+
+struct DatabaseIds {
+  std::map<std::string, std::uint32_t> image_ids;  // by name
+  std::map<std::string, std::uint32_t> image_cameras;
+  std::uint32_t camera_id = 0;
+  int camera_count = 0;
+  // Verified (inlier) matches per image pair, keyed by COLMAP's pair id.
+  std::map<std::int64_t, std::int64_t> verified_matches;
+};
+
+// COLMAP's pair id of two image ids (smaller id first).
+std::int64_t PairId(std::uint32_t a, std::uint32_t b) {
+  if (a > b) std::swap(a, b);
+  return static_cast<std::int64_t>(a) * 2147483647LL + static_cast<std::int64_t>(b);
+}
+
+// Empty on success, else the error.
+std::string ReadDatabaseIds(const std::string& path, DatabaseIds* ids) {
+  sqlite3* db = nullptr;
+  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+    const std::string error = db != nullptr ? sqlite3_errmsg(db) : "out of memory";
+    sqlite3_close(db);
+    return path + ": cannot open COLMAP's database: " + error;
+  }
+  std::string error;
+  const auto query = [&](const char* sql, const auto& on_row) {
+    sqlite3_stmt* statement = nullptr;
+    if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) {
+      error = path + ": " + sqlite3_errmsg(db) + " in '" + sql + "'";
+      sqlite3_finalize(statement);
+      return;
+    }
+    int rc = SQLITE_ROW;
+    while ((rc = sqlite3_step(statement)) == SQLITE_ROW) on_row(statement);
+    if (rc != SQLITE_DONE) error = path + ": " + sqlite3_errmsg(db) + " in '" + sql + "'";
+    sqlite3_finalize(statement);
+  };
+  query("SELECT image_id, name, camera_id FROM images", [&](sqlite3_stmt* s) {
+    const unsigned char* name = sqlite3_column_text(s, 1);
+    const std::string text = name != nullptr ? reinterpret_cast<const char*>(name) : "";
+    ids->image_ids[text] = static_cast<std::uint32_t>(sqlite3_column_int64(s, 0));
+    ids->image_cameras[text] = static_cast<std::uint32_t>(sqlite3_column_int64(s, 2));
+  });
+  if (error.empty()) {
+    query("SELECT camera_id FROM cameras", [&](sqlite3_stmt* s) {
+      ids->camera_id = static_cast<std::uint32_t>(sqlite3_column_int64(s, 0));
+      ++ids->camera_count;
+    });
+  }
+  if (error.empty()) {
+    query("SELECT pair_id, rows FROM two_view_geometries", [&](sqlite3_stmt* s) {
+      ids->verified_matches[sqlite3_column_int64(s, 0)] = sqlite3_column_int64(s, 1);
+    });
+  }
+  sqlite3_close(db);
+  return error;
+}
+
+// ---------------------------------------------------------------------------
+// Running the steps.
+
+class StepRunner {
+ public:
+  StepRunner(std::string executable, const fs::path& logs, const ColmapOptions& options,
+             ColmapResults* results)
+      : executable_(std::move(executable)), logs_(logs), options_(options), results_(results) {}
+
+  // Runs `colmap <name> <args>`; on failure *failure gets the one-line reason.
+  bool Run(const std::string& name, const std::vector<std::string>& args, std::string* failure) {
+    ColmapStep step;
+    step.name = name;
+    char prefix[16];
+    std::snprintf(prefix, sizeof(prefix), "%02d-", ++count_);
+    step.log_file = (logs_ / (prefix + name + ".log")).string();
+    std::vector<std::string> argv = {executable_, name};
+    argv.insert(argv.end(), args.begin(), args.end());
+    argv.push_back("--log_to_stderr");
+    argv.push_back("1");
+    {
+      std::ofstream log(step.log_file, std::ios::trunc);
+      log << "#";
+      for (const std::string& a : argv) log << ' ' << a;
+      log << "\n";
+    }
+    ProcessOptions process;
+    process.log_file = step.log_file;
+    process.timeout_s = options_.timeout_s;
+    process.environment = {{"GLOG_log_dir", logs_.string()}, {"GLOG_logtostderr", "1"}};
+    const ProcessResult run = RunProcess(argv, process);
+    step.seconds = run.seconds;
+    step.ok = run.Ok();
+    if (!step.ok) {
+      step.error = run.error;
+      *failure = "colmap " + name + " failed: " + run.error + " (log: " + step.log_file + ")";
+    }
+    results_->steps.push_back(step);
+    return step.ok;
+  }
+  // Log file of the most recent step.
+  std::string LastLog() const {
+    return results_->steps.empty() ? "" : results_->steps.back().log_file;
+  }
+
+ private:
+  std::string executable_;
+  fs::path logs_;
+  const ColmapOptions& options_;
+  ColmapResults* results_;
+  int count_ = 0;
+};
+
+void Fail(PairReconstruction* method, const std::string& failure) {
+  method->ok = false;
+  method->failure = failure;
+  method->points.clear();
+  method->has_pose = false;
+}
+
+std::vector<std::string> SiftMatchingArgs(const ColmapOptions& o) {
+  return {"--SiftMatching.use_gpu",     "0",
+          "--SiftMatching.num_threads", std::to_string(o.threads),
+          "--SiftMatching.max_ratio",   FormatDouble(o.sift_max_ratio),
+          "--SiftMatching.max_error",   FormatDouble(o.sift_max_error_px)};
+}
+
+std::vector<std::string> MapperArgs(const ColmapOptions& o) {
+  return {"--Mapper.num_threads",
+          std::to_string(o.threads),
+          "--Mapper.ba_refine_focal_length",
+          "0",
+          "--Mapper.ba_refine_principal_point",
+          "0",
+          "--Mapper.ba_refine_extra_params",
+          "0",
+          "--Mapper.tri_ignore_two_view_tracks",
+          "0",
+          "--Mapper.tri_min_angle",
+          FormatDouble(o.min_tri_angle_deg),
+          "--Mapper.filter_min_tri_angle",
+          FormatDouble(o.min_tri_angle_deg)};
+}
+
+// Points of `model` observed in image `image1_id`, moved into the local frame
+// by local_from_world (scale s, rotation R, translation t).
+std::vector<ReconstructedPoint> PointsSeenInImage1(const ColmapModel& model,
+                                                   std::uint32_t image1_id, double scale,
+                                                   const Eigen::Matrix3d& rotation,
+                                                   const Eigen::Vector3d& translation,
+                                                   const calib::CameraModel& camera,
+                                                   const CameraSetup& setup) {
+  const ColmapImage* image1 = model.FindImage(image1_id);
+  std::vector<ReconstructedPoint> points;
+  if (image1 == nullptr) return points;
+  std::vector<Eigen::Vector2d> colmap_pixels;
+  std::vector<Eigen::Vector3d> xyz;
+  for (const ColmapPoint3D& p : model.points3D) {
+    for (const ColmapTrackElement& e : p.track) {
+      if (e.image_id != image1_id) continue;
+      colmap_pixels.push_back(image1->points2D[e.point2D_idx].xy);
+      xyz.push_back(p.xyz);
+      break;  // one observation per image
+    }
+  }
+  std::vector<unsigned char> valid;
+  const std::vector<Eigen::Vector2d> pixels =
+      ToOriginalPixels(colmap_pixels, camera, setup, &valid);
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    if (!valid[i]) continue;
+    ReconstructedPoint point;
+    point.point_in_local_m = scale * (rotation * xyz[i]) + translation;
+    point.pixel1 = pixels[i];
+    points.push_back(point);
+  }
+  return points;
+}
+
+std::string ReadLog(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Reads the model in `dir`; on failure *failure says why, naming the step.
+bool ReadModel(const fs::path& dir, const std::string& step, const std::string& log,
+               ColmapModel* model, std::string* failure) {
+  try {
+    *model = ReadColmapModel(dir.string());
+    return true;
+  } catch (const InputError& e) {
+    *failure = "colmap " + step + ": unusable model: " + e.what() + " (log: " + log + ")";
+    return false;
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> ColmapOptions::Validate() const {
+  std::vector<std::string> errors;
+  if (executable.empty()) errors.push_back("executable = '': expected a program name or path");
+  RequireOption(timeout_s > 0, "timeout_s", timeout_s, "> 0", &errors);
+  RequireOption(threads >= 1, "threads", threads, ">= 1", &errors);
+  RequireOption(sift_max_image_size_px >= 16, "sift_max_image_size_px", sift_max_image_size_px,
+                ">= 16", &errors);
+  RequireOption(sift_max_num_features >= 10, "sift_max_num_features", sift_max_num_features,
+                ">= 10", &errors);
+  RequireOption(sift_max_ratio > 0 && sift_max_ratio <= 1, "sift_max_ratio", sift_max_ratio,
+                "in (0, 1]", &errors);
+  RequireOption(sift_max_error_px > 0, "sift_max_error_px", sift_max_error_px, "> 0", &errors);
+  RequireOption(min_tri_angle_deg > 0 && min_tri_angle_deg < 90, "min_tri_angle_deg",
+                min_tri_angle_deg, "in (0, 90)", &errors);
+  RequireOption(init_min_tri_angle_deg > 0 && init_min_tri_angle_deg < 90, "init_min_tri_angle_deg",
+                init_min_tri_angle_deg, "in (0, 90)", &errors);
+  RequireOption(init_min_num_inliers >= 10, "init_min_num_inliers", init_min_num_inliers, ">= 10",
+                &errors);
+  return errors;
+}
+
+ColmapCameraParams ToColmapCamera(const calib::CameraModel& camera) {
+  const std::string& name = camera.LensModelName();
+  const std::vector<double>& in = camera.Intrinsics();
+  ColmapCameraParams out;
+  if (name == "LENSMODEL_PINHOLE") {
+    out.model = "PINHOLE";
+  } else if (name == "LENSMODEL_OPENCV4") {
+    out.model = "OPENCV";
+  } else if (name == "LENSMODEL_OPENCV5" || name == "LENSMODEL_OPENCV8") {
+    out.model = "FULL_OPENCV";
+  } else {
+    throw UnsupportedError(
+        "colmap: lens model " + name +
+        " has no COLMAP equivalent (COLMAP takes PINHOLE, OPENCV4, OPENCV5 and OPENCV8 as they "
+        "are; OPENCV12's thin-prism terms, CAHVOR(E), splined and projective-family models "
+        "differ)");
+  }
+  out.params = in;
+  const Eigen::Vector2d c = PixelToColmap(Eigen::Vector2d(in[2], in[3]));
+  out.params[2] = c.x();
+  out.params[3] = c.y();
+  out.params.resize(static_cast<size_t>(ColmapCameraParamCount(out.model)), 0.0);
+  return out;
+}
+
+ColmapResults RunColmap(const ColmapInput& input, const ColmapOptions& options) {
+  const Clock::time_point start = Clock::now();
+  {
+    const std::vector<std::string> errors = options.Validate();
+    if (!errors.empty()) {
+      std::string message = "RunColmap: invalid ColmapOptions: ";
+      for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
+      throw InputError(message);
+    }
+  }
+  if (input.image_paths.size() < 2) {
+    throw InputError("RunColmap: " + std::to_string(input.image_paths.size()) +
+                     " image(s) given: expected at least 2 (image 1 and image 2)");
+  }
+  if (input.local_from_cam.size() != input.image_paths.size()) {
+    throw InputError("RunColmap: " + std::to_string(input.local_from_cam.size()) +
+                     " navigation poses for " + std::to_string(input.image_paths.size()) +
+                     " images: expected one each");
+  }
+  if (!input.camera.has_value()) throw InputError("RunColmap: no camera model given");
+  if (input.workspace.empty()) throw InputError("RunColmap: no workspace folder given");
+  const calib::CameraModel& camera = *input.camera;
+
+  ColmapResults results;
+  results.nav_requested = options.run_nav;
+  results.free_requested = options.run_free;
+  results.nav.method = kNavMethod;
+  results.free.method = kFreeMethod;
+  if (!options.run_nav) results.nav.failure = "not requested";
+  if (!options.run_free) results.free.failure = "not requested";
+  if (!options.run_nav && !options.run_free) return results;
+
+  // Workspace.
+  const fs::path workspace(input.workspace);
+  const fs::path images_dir = workspace / "images";
+  const fs::path logs_dir = workspace / "logs";
+  const fs::path database = workspace / "database.db";
+  try {
+    fs::create_directories(workspace);
+    for (const fs::path& old : {images_dir, logs_dir, workspace / "nav", workspace / "free",
+                                database, workspace / "database.db-journal"}) {
+      fs::remove_all(old);
+    }
+    fs::create_directories(images_dir);
+    fs::create_directories(logs_dir);
+  } catch (const fs::filesystem_error& e) {
+    throw InputError(input.workspace + ": cannot prepare the COLMAP workspace: " + e.what());
+  }
+  results.nav.log_dir = logs_dir.string();
+  results.free.log_dir = logs_dir.string();
+
+  // Images: 8-bit grey PNG, resampled when COLMAP has no equivalent camera.
+  const CameraSetup setup = SetupCamera(camera);
+  results.camera_note = setup.note;
+  const size_t num_used = options.run_free && options.use_all_frames ? input.image_paths.size() : 2;
+  cv::Mat map_x, map_y;
+  if (setup.resampled) ResamplingMaps(camera, setup, &map_x, &map_y);
+  for (size_t i = 0; i < num_used; ++i) {
+    cv::Mat image = ReadGrey8(input.image_paths[i], camera);
+    if (setup.resampled) {
+      cv::Mat resampled;
+      cv::remap(image, resampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
+                cv::Scalar(0));
+      image = resampled;
+    }
+    const fs::path out = images_dir / ImageName(i);
+    if (!cv::imwrite(out.string(), image)) throw InputError(out.string() + ": cannot write image");
+  }
+
+  const auto fail_both = [&](const std::string& failure) {
+    if (options.run_nav) Fail(&results.nav, failure);
+    if (options.run_free) Fail(&results.free, failure);
+    results.shared_seconds = SecondsSince(start);
+    results.nav.seconds = options.run_nav ? results.shared_seconds : 0.0;
+    results.free.seconds = options.run_free ? results.shared_seconds : 0.0;
+  };
+
+  const std::string executable = FindExecutable(options.executable);
+  if (executable.empty()) {
+    fail_both("colmap executable '" + options.executable + "' not found" +
+              (options.executable.find('/') == std::string::npos ? " on PATH" : "") +
+              " or not executable (ColmapOptions::executable)");
+    return results;
+  }
+
+  StepRunner steps(executable, logs_dir, options, &results);
+  std::string failure;
+  const std::vector<std::string> extract_args = {"--database_path",
+                                                 database.string(),
+                                                 "--image_path",
+                                                 images_dir.string(),
+                                                 "--ImageReader.single_camera",
+                                                 "1",
+                                                 "--ImageReader.camera_model",
+                                                 setup.colmap.model,
+                                                 "--ImageReader.camera_params",
+                                                 JoinParams(setup.colmap.params),
+                                                 "--SiftExtraction.use_gpu",
+                                                 "0",
+                                                 "--SiftExtraction.num_threads",
+                                                 std::to_string(options.threads),
+                                                 "--SiftExtraction.max_image_size",
+                                                 std::to_string(options.sift_max_image_size_px),
+                                                 "--SiftExtraction.max_num_features",
+                                                 std::to_string(options.sift_max_num_features)};
+  std::vector<std::string> match_args = {"--database_path", database.string()};
+  for (const std::string& a : SiftMatchingArgs(options)) match_args.push_back(a);
+  if (!steps.Run("feature_extractor", extract_args, &failure) ||
+      !steps.Run("exhaustive_matcher", match_args, &failure)) {
+    fail_both(failure);
+    return results;
+  }
+  DatabaseIds ids;
+  const std::string db_error = ReadDatabaseIds(database.string(), &ids);
+  std::string id_failure;
+  if (!db_error.empty()) {
+    id_failure = "colmap feature_extractor: " + db_error;
+  } else if (ids.camera_count != 1) {
+    id_failure = "colmap feature_extractor: " + database.string() + " holds " +
+                 std::to_string(ids.camera_count) + " cameras, expected 1";
+  } else {
+    for (size_t i = 0; i < num_used; ++i) {
+      if (ids.image_ids.count(ImageName(i)) == 0) {
+        id_failure = "colmap feature_extractor: " + database.string() + " lacks image " +
+                     ImageName(i) + " (log: " + results.steps.front().log_file + ")";
+        break;
+      }
+    }
+  }
+  if (id_failure.empty()) {
+    // Without verified matches between images 1 and 2 nothing can be
+    // triangulated (and COLMAP 3.8's point_triangulator aborts on an empty
+    // bundle adjustment).
+    const auto pair = ids.verified_matches.find(
+        PairId(ids.image_ids.at(ImageName(0)), ids.image_ids.at(ImageName(1))));
+    if (pair == ids.verified_matches.end() || pair->second == 0) {
+      id_failure =
+          "colmap exhaustive_matcher: no points: no verified matches between images 1 "
+          "and 2 (log: " +
+          results.steps.back().log_file + ")";
+    }
+  }
+  if (!id_failure.empty()) {
+    fail_both(id_failure);
+    return results;
+  }
+  results.shared_seconds = SecondsSince(start);
+  const std::uint32_t image1_id = ids.image_ids.at(ImageName(0));
+  const std::uint32_t image2_id = ids.image_ids.at(ImageName(1));
+
+  ColmapCamera colmap_camera;
+  colmap_camera.id = ids.camera_id;
+  colmap_camera.model = setup.colmap.model;
+  colmap_camera.width = static_cast<std::uint64_t>(camera.WidthPx());
+  colmap_camera.height = static_cast<std::uint64_t>(camera.HeightPx());
+  colmap_camera.params = setup.colmap.params;
+
+  const Rigid3d nav_cam2_from_cam1 = input.local_from_cam[1].Inverse() * input.local_from_cam[0];
+
+  // colmap-nav: point_triangulator with the nav poses fixed.
+  if (options.run_nav) {
+    const Clock::time_point nav_start = Clock::now();
+    const fs::path nav_input = workspace / "nav" / "input";
+    const fs::path nav_model = workspace / "nav" / "model";
+    fs::create_directories(nav_input);
+    fs::create_directories(nav_model);
+    ColmapModel model;
+    model.cameras.push_back(colmap_camera);
+    for (size_t i = 0; i < 2; ++i) {
+      ColmapImage image;
+      image.id = ids.image_ids.at(ImageName(i));
+      image.camera_id = ids.image_cameras.at(ImageName(i));
+      const std::array<double, 7> pose = ColmapFromCamFromWorld(input.local_from_cam[i].Inverse());
+      std::copy(pose.begin(), pose.begin() + 4, image.qvec.begin());
+      std::copy(pose.begin() + 4, pose.end(), image.tvec.begin());
+      image.name = ImageName(i);
+      model.images.push_back(image);
+    }
+    WriteColmapTextModel(model, nav_input.string());
+    std::vector<std::string> args = {"--database_path",   database.string(), "--image_path",
+                                     images_dir.string(), "--input_path",    nav_input.string(),
+                                     "--output_path",     nav_model.string()};
+    for (const std::string& a : MapperArgs(options)) args.push_back(a);
+    ColmapModel result;
+    if (!steps.Run("point_triangulator", args, &failure)) {
+      // COLMAP 3.8 aborts (CHECK) in its bundle adjustment when it
+      // triangulated nothing: say so instead of "signal 6".
+      if (ReadLog(steps.LastLog()).find("bundle_adjuster.Solve") != std::string::npos) {
+        failure =
+            "colmap point_triangulator: no points triangulated (COLMAP aborted in its "
+            "bundle adjustment; log: " +
+            steps.LastLog() + ")";
+      }
+      Fail(&results.nav, failure);
+    } else if (!ReadModel(nav_model, "point_triangulator", steps.LastLog(), &result, &failure)) {
+      Fail(&results.nav, failure);
+    } else {
+      results.nav.points = PointsSeenInImage1(result, image1_id, 1.0, Eigen::Matrix3d::Identity(),
+                                              Eigen::Vector3d::Zero(), camera, setup);
+      if (results.nav.points.empty()) {
+        Fail(&results.nav, "colmap point_triangulator: no points observed in image 1 (" +
+                               std::to_string(result.points3D.size()) +
+                               " points in the model; log: " + steps.LastLog() + ")");
+      } else {
+        results.nav.ok = true;
+        results.nav.failure.clear();
+      }
+    }
+    // The nav pose, not an estimate of the method's own.
+    results.nav.has_pose = false;
+    results.nav.cam2_from_cam1 = nav_cam2_from_cam1;
+    results.nav.seconds = results.shared_seconds + SecondsSince(nav_start);
+  }
+
+  // colmap-free: mapper, then the similarity into the local frame.
+  if (options.run_free) {
+    const Clock::time_point free_start = Clock::now();
+    const fs::path free_dir = workspace / "free";
+    fs::create_directories(free_dir);
+    std::vector<std::string> args = {"--database_path",
+                                     database.string(),
+                                     "--image_path",
+                                     images_dir.string(),
+                                     "--output_path",
+                                     free_dir.string(),
+                                     "--Mapper.multiple_models",
+                                     "0",
+                                     "--Mapper.init_image_id1",
+                                     std::to_string(image1_id),
+                                     "--Mapper.init_image_id2",
+                                     std::to_string(image2_id),
+                                     "--Mapper.init_min_tri_angle",
+                                     FormatDouble(options.init_min_tri_angle_deg),
+                                     "--Mapper.init_min_num_inliers",
+                                     std::to_string(options.init_min_num_inliers)};
+    for (const std::string& a : MapperArgs(options)) args.push_back(a);
+    ColmapModel model;
+    if (!steps.Run("mapper", args, &failure)) {
+      Fail(&results.free, failure);
+    } else if (!fs::is_directory(free_dir / "0")) {
+      Fail(&results.free, "colmap mapper: no model written in " + free_dir.string() +
+                              " (log: " + steps.LastLog() + ")");
+    } else if (!ReadModel(free_dir / "0", "mapper", steps.LastLog(), &model, &failure)) {
+      Fail(&results.free, failure);
+    } else {
+      // Registered frames with their nav poses.
+      std::vector<Rigid3d> cam_from_world, cam_from_local;
+      const ColmapImage* model1 = model.FindImage(image1_id);
+      const ColmapImage* model2 = model.FindImage(image2_id);
+      for (size_t i = 0; i < num_used; ++i) {
+        const ColmapImage* image = model.FindImage(ids.image_ids.at(ImageName(i)));
+        if (image == nullptr) continue;
+        cam_from_world.push_back(
+            CamFromWorldFromColmap({image->qvec[0], image->qvec[1], image->qvec[2], image->qvec[3],
+                                    image->tvec[0], image->tvec[1], image->tvec[2]}));
+        cam_from_local.push_back(input.local_from_cam[i].Inverse());
+      }
+      if (model1 == nullptr || model2 == nullptr) {
+        Fail(&results.free, std::string("colmap mapper: image ") + (model1 == nullptr ? "1" : "2") +
+                                " was not registered (log: " + steps.LastLog() + ")");
+      } else {
+        // Rotation: chordal mean of R_local_from_world estimates.
+        Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+        Eigen::Vector3d mean_world = Eigen::Vector3d::Zero(), mean_local = Eigen::Vector3d::Zero();
+        std::vector<Eigen::Vector3d> centres_world, centres_local;
+        for (size_t k = 0; k < cam_from_world.size(); ++k) {
+          sum +=
+              cam_from_local[k].RotationMatrix().transpose() * cam_from_world[k].RotationMatrix();
+          centres_world.push_back(cam_from_world[k].Inverse().translation);
+          centres_local.push_back(cam_from_local[k].Inverse().translation);
+          mean_world += centres_world.back();
+          mean_local += centres_local.back();
+        }
+        const double n = static_cast<double>(cam_from_world.size());
+        mean_world /= n;
+        mean_local /= n;
+        const Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+        Eigen::Matrix3d fix = Eigen::Matrix3d::Identity();
+        if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) fix(2, 2) = -1.0;
+        const Eigen::Matrix3d rotation = svd.matrixU() * fix * svd.matrixV().transpose();
+        double spread_world = 0.0, spread_local = 0.0;
+        for (size_t k = 0; k < centres_world.size(); ++k) {
+          spread_world += (centres_world[k] - mean_world).squaredNorm();
+          spread_local += (centres_local[k] - mean_local).squaredNorm();
+        }
+        if (!(spread_world > 0) || !(spread_local > 0) || !std::isfinite(spread_world)) {
+          Fail(&results.free,
+               "colmap mapper: degenerate alignment: the camera centres (model or "
+               "navigation) coincide (log: " +
+                   steps.LastLog() + ")");
+        } else {
+          const double scale = std::sqrt(spread_local / spread_world);
+          const Eigen::Vector3d translation = mean_local - scale * rotation * mean_world;
+          results.free.points =
+              PointsSeenInImage1(model, image1_id, scale, rotation, translation, camera, setup);
+          const Rigid3d w1 = CamFromWorldFromColmap(
+              {model1->qvec[0], model1->qvec[1], model1->qvec[2], model1->qvec[3], model1->tvec[0],
+               model1->tvec[1], model1->tvec[2]});
+          const Rigid3d w2 = CamFromWorldFromColmap(
+              {model2->qvec[0], model2->qvec[1], model2->qvec[2], model2->qvec[3], model2->tvec[0],
+               model2->tvec[1], model2->tvec[2]});
+          Rigid3d relative = w2 * w1.Inverse();
+          relative.translation *= scale;
+          results.free.cam2_from_cam1 = relative;
+          if (results.free.points.empty()) {
+            Fail(&results.free, "colmap mapper: no points observed in image 1 (" +
+                                    std::to_string(model.points3D.size()) +
+                                    " points in the model; log: " + steps.LastLog() + ")");
+          } else {
+            results.free.ok = true;
+            results.free.failure.clear();
+            results.free.has_pose = true;
+          }
+        }
+      }
+    }
+    results.free.seconds = results.shared_seconds + SecondsSince(free_start);
+  }
+  return results;
+}
+
+}  // namespace hdabench::reference

@@ -1,0 +1,508 @@
+#include "reference/colmap_runner.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/error.h"
+#include "datasets/synth/synth.h"
+#include "datasets/synth/terrain.h"
+#include "hda/geometry.h"
+#include "reference/process.h"
+#include "tests/support/synth_scene.h"
+#include "tests/support/test_support.h"
+
+namespace hdabench::reference {
+namespace {
+
+namespace fs = std::filesystem;
+using testing_support::FreshTestDir;
+using testing_support::ReadText;
+using testing_support::WriteText;
+
+constexpr double kPi = 3.14159265358979323846;
+double Deg(double rad) { return rad * 180.0 / kPi; }
+
+// The NOVA-C lateral pair, small: 512 x 512 px (focal about 955 px), two
+// frames 2.4 s apart at 13 m/s (31.2 m of baseline) at about 565 m slant
+// range, exact navigation, so that errors are COLMAP's alone.
+struct Scene {
+  std::unique_ptr<datasets::Dataset> dataset;
+  fs::path dir;
+  std::vector<std::string> image_paths;
+  std::vector<Rigid3d> local_from_cam;
+  cv::Mat truth1;  // CV_32FC3, truth point per pixel of image 1 (local frame)
+  double focal_px = 0.0;
+  double baseline_m = 0.0;
+  double range_m = 0.0;
+};
+
+Scene* g_scene = nullptr;
+
+class ColmapRunner : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    if (g_scene != nullptr) return;
+    datasets::synth::SynthOptions options = testing_support::ExactNavLateralPreset();
+    options.image_size_px = 512;
+    options.collection_s = 2.4;
+    options.frame_rate_hz = 1.0 / 2.4;
+    const datasets::synth::TerrainOptions terrain = testing_support::TerrainOf(options);
+    auto scene = std::make_unique<Scene>();
+    scene->dataset = std::make_unique<datasets::Dataset>(
+        datasets::synth::GenerateSynthDataset(options, terrain, 1));
+    const datasets::Dataset& d = *scene->dataset;
+    // One folder per process: CTest may run the tests of this suite in parallel.
+    scene->dir = fs::path(HDABENCH_TEST_TMP) / ("ColmapRunnerScene-" + std::to_string(::getpid()));
+    fs::remove_all(scene->dir);
+    fs::create_directories(scene->dir);
+    for (size_t i = 0; i < d.frames.size(); ++i) {
+      const fs::path path = scene->dir / ("image" + std::to_string(i) + ".png");
+      cv::imwrite(path.string(), d.frames[i].image);
+      scene->image_paths.push_back(path.string());
+      scene->local_from_cam.push_back(d.CamFromLocal(static_cast<int>(i)).Inverse());
+    }
+    for (const datasets::TruthPoints& t : d.truth.points) {
+      if (t.frame == 0) scene->truth1 = t.points_in_local_m;
+    }
+    scene->focal_px = d.camera.Intrinsics()[0];
+    scene->baseline_m = d.BaselineM(0, 1);
+    const cv::Vec3f centre = scene->truth1.at<cv::Vec3f>(256, 256);
+    scene->range_m =
+        (Eigen::Vector3d(centre[0], centre[1], centre[2]) - d.CameraCenterInLocal(0)).norm();
+    g_scene = scene.release();
+  }
+
+  static void TearDownTestSuite() {
+    if (g_scene == nullptr) return;
+    std::error_code ignored;
+    fs::remove_all(g_scene->dir, ignored);
+    delete g_scene;
+    g_scene = nullptr;
+  }
+
+  static ColmapInput PairInput(const fs::path& workspace) {
+    ColmapInput input;
+    input.image_paths = {g_scene->image_paths[0], g_scene->image_paths[1]};
+    input.local_from_cam = {g_scene->local_from_cam[0], g_scene->local_from_cam[1]};
+    input.camera = g_scene->dataset->camera;
+    input.workspace = workspace.string();
+    return input;
+  }
+};
+
+// Truth point at a pixel of image 1, bilinear; false where a corner has none.
+bool TruthAt(const cv::Mat& truth, const Eigen::Vector2d& pixel, Eigen::Vector3d* point) {
+  const int x0 = static_cast<int>(std::floor(pixel.x()));
+  const int y0 = static_cast<int>(std::floor(pixel.y()));
+  if (x0 < 0 || y0 < 0 || x0 + 1 >= truth.cols || y0 + 1 >= truth.rows) return false;
+  const double fx = pixel.x() - x0, fy = pixel.y() - y0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int dy = 0; dy <= 1; ++dy) {
+    for (int dx = 0; dx <= 1; ++dx) {
+      const cv::Vec3f v = truth.at<cv::Vec3f>(y0 + dy, x0 + dx);
+      if (!std::isfinite(v[0])) return false;
+      const double w = (dx ? fx : 1 - fx) * (dy ? fy : 1 - fy);
+      sum += w * Eigen::Vector3d(v[0], v[1], v[2]);
+    }
+  }
+  *point = sum;
+  return true;
+}
+
+double Median(std::vector<double> values) {
+  if (values.empty()) return std::nan("");
+  std::nth_element(values.begin(), values.begin() + values.size() / 2, values.end());
+  return values[values.size() / 2];
+}
+
+std::vector<double> TruthDistances(const PairReconstruction& method) {
+  std::vector<double> distances;
+  for (const ReconstructedPoint& p : method.points) {
+    Eigen::Vector3d truth;
+    if (TruthAt(g_scene->truth1, p.pixel1, &truth)) {
+      distances.push_back((p.point_in_local_m - truth).norm());
+    }
+  }
+  return distances;
+}
+
+// Depth error of a two-view point for a disparity error of `pixels`:
+// range^2 * pixels / (focal * baseline).
+double DepthErrorM(double pixels) {
+  return g_scene->range_m * g_scene->range_m * pixels / (g_scene->focal_px * g_scene->baseline_m);
+}
+
+// Slopes of plane fits in the 64 x 64 px windows of image 1 holding at least
+// `min_points` points: |method slope - truth slope| per window, degrees.
+std::vector<double> WindowSlopeErrors(const PairReconstruction& method, int min_points) {
+  const Eigen::Vector3d gravity = g_scene->dataset->gravity_in_local_mps2;
+  std::vector<double> errors;
+  const cv::Mat& truth = g_scene->truth1;
+  for (int wy = 0; wy + 64 <= truth.rows; wy += 64) {
+    for (int wx = 0; wx + 64 <= truth.cols; wx += 64) {
+      std::vector<Eigen::Vector3d> points, truth_points;
+      for (const ReconstructedPoint& p : method.points) {
+        if (p.pixel1.x() >= wx - 0.5 && p.pixel1.x() < wx + 63.5 && p.pixel1.y() >= wy - 0.5 &&
+            p.pixel1.y() < wy + 63.5) {
+          points.push_back(p.point_in_local_m);
+        }
+      }
+      if (static_cast<int>(points.size()) < min_points) continue;
+      for (int y = wy; y < wy + 64; ++y) {
+        for (int x = wx; x < wx + 64; ++x) {
+          const cv::Vec3f v = truth.at<cv::Vec3f>(y, x);
+          if (std::isfinite(v[0])) truth_points.emplace_back(v[0], v[1], v[2]);
+        }
+      }
+      const hda::PlaneFitResult fit = hda::FitPlane(points, gravity, 3);
+      const hda::PlaneFitResult truth_fit = hda::FitPlane(truth_points, gravity, 3);
+      if (fit.status != hda::PlaneFitStatus::kOk || truth_fit.status != hda::PlaneFitStatus::kOk) {
+        continue;
+      }
+      errors.push_back(std::abs(fit.slope_deg - truth_fit.slope_deg));
+    }
+  }
+  return errors;
+}
+
+double RotationErrorDeg(const Rigid3d& a, const Rigid3d& b) {
+  return Deg(a.rotation.angularDistance(b.rotation));
+}
+
+double DirectionErrorDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return Deg(std::atan2(a.cross(b).norm(), a.dot(b)));
+}
+
+TEST_F(ColmapRunner, NavAndFreeReconstructTheSyntheticPair) {
+  ASSERT_TRUE(FindExecutable("colmap").size() > 0) << "colmap is not installed";
+  const fs::path dir = FreshTestDir();
+  ColmapOptions options;
+  options.timeout_s = 120.0;
+  const ColmapResults results = RunColmap(PairInput(dir / "ws"), options);
+  for (const ColmapStep& step : results.steps) {
+    std::printf("[ colmap   ] %-20s %6.2f s %s\n", step.name.c_str(), step.seconds,
+                step.ok ? "ok" : step.error.c_str());
+  }
+  std::printf("[ colmap   ] camera: %s\n", results.camera_note.c_str());
+  EXPECT_TRUE(results.nav_requested);
+  EXPECT_TRUE(results.free_requested);
+  EXPECT_EQ(results.nav.method, "colmap-nav");
+  EXPECT_EQ(results.free.method, "colmap-free");
+  ASSERT_TRUE(results.nav.ok) << results.nav.failure;
+  ASSERT_TRUE(results.free.ok) << results.free.failure;
+  EXPECT_NE(results.camera_note.find("FULL_OPENCV"), std::string::npos) << results.camera_note;
+  EXPECT_GE(results.nav.seconds, results.shared_seconds);
+  EXPECT_GE(results.free.seconds, results.shared_seconds);
+  EXPECT_TRUE(fs::is_regular_file(dir / "ws" / "database.db"));
+  EXPECT_EQ(results.steps.size(), 4u);
+  for (const ColmapStep& step : results.steps) EXPECT_TRUE(fs::is_regular_file(step.log_file));
+
+  // Geometry of the pair.
+  const double range = g_scene->range_m, baseline = g_scene->baseline_m;
+  EXPECT_NEAR(baseline, 31.2, 0.5);
+  EXPECT_GT(range, 500.0);
+  EXPECT_LT(range, 650.0);
+  // SIFT keypoints on a rendered scene are good to a few tenths of a pixel:
+  // 0.3 px of disparity error is range^2 * 0.3 / (focal * baseline), about
+  // 3 m at 565 m, 955 px and 31 m. The median distance must stay below it.
+  const double depth_bound_m = DepthErrorM(0.3);
+
+  // colmap-nav: the points are where the truth is.
+  const std::vector<double> nav_distances = TruthDistances(results.nav);
+  const double nav_median = Median(nav_distances);
+  std::printf(
+      "[ colmap   ] nav: %zu points, %zu with truth, median distance to truth %.2f m "
+      "(bound %.2f m), %.2f s\n",
+      results.nav.points.size(), nav_distances.size(), nav_median, depth_bound_m,
+      results.nav.seconds);
+  EXPECT_GE(results.nav.points.size(), 300u);
+  EXPECT_GE(nav_distances.size(), results.nav.points.size() * 9 / 10);
+  EXPECT_LT(nav_median, depth_bound_m);
+  EXPECT_FALSE(results.nav.has_pose);  // the nav pose, not an estimate
+  const Rigid3d nav_pose = g_scene->dataset->Cam2FromCam1(0, 1);
+  EXPECT_LT(RotationErrorDeg(results.nav.cam2_from_cam1, nav_pose), 1e-9);
+  EXPECT_LT((results.nav.cam2_from_cam1.translation - nav_pose.translation).norm(), 1e-9);
+  for (const ReconstructedPoint& p : results.nav.points) {
+    ASSERT_GE(p.pixel1.x(), -0.5);
+    ASSERT_LT(p.pixel1.x(), 511.5);
+    ASSERT_GE(p.pixel1.y(), -0.5);
+    ASSERT_LT(p.pixel1.y(), 511.5);
+  }
+
+  // Slopes of 64 x 64 px windows with at least 20 points. In a window the
+  // points spread about 10 m across their smallest in-plane axis (sd_min) and
+  // their noise along the plane normal is about sigma_depth * cos(45 deg) ~
+  // 1.4 m (1.3 m median distance to truth, line of sight 45 deg off the
+  // normal): the TLS normal tilts by about sigma_perp / (sqrt(N) sd_min) ~
+  // 1.4 / (sqrt(30) * 10) rad ~ 1.5 deg. The median over windows must stay
+  // within twice that, 90 % of the windows within four times (a single
+  // mismatched SIFT point tilts a 20-point fit further, so no bound on the max).
+  const std::vector<double> slope_errors = WindowSlopeErrors(results.nav, 20);
+  std::vector<double> sorted_errors = slope_errors;
+  std::sort(sorted_errors.begin(), sorted_errors.end());
+  ASSERT_GE(sorted_errors.size(), 10u);
+  const double p90 = sorted_errors[sorted_errors.size() * 9 / 10];
+  std::printf(
+      "[ colmap   ] nav: %zu windows, slope error median %.2f deg, 90%% %.2f deg, "
+      "max %.2f deg\n",
+      sorted_errors.size(), Median(sorted_errors), p90, sorted_errors.back());
+  EXPECT_LT(Median(slope_errors), 3.0);
+  EXPECT_LT(p90, 6.0);
+
+  // colmap-free, aligned with the nav poses: its relative pose against truth,
+  // and its points (looser: the mapper's own pose errors add to the depth).
+  const Rigid3d truth_pose = g_scene->dataset->TrueCam2FromCam1(0, 1);
+  EXPECT_TRUE(results.free.has_pose);
+  const double rotation_error = RotationErrorDeg(results.free.cam2_from_cam1, truth_pose);
+  const double direction_error =
+      DirectionErrorDeg(results.free.cam2_from_cam1.translation, truth_pose.translation);
+  const std::vector<double> free_distances = TruthDistances(results.free);
+  const double free_median = Median(free_distances);
+  std::printf(
+      "[ colmap   ] free: %zu points, median distance to truth %.2f m, rotation error "
+      "%.4f deg, translation direction error %.3f deg, baseline %.3f m, %.2f s\n",
+      results.free.points.size(), free_median, rotation_error, direction_error,
+      results.free.cam2_from_cam1.translation.norm(), results.free.seconds);
+  EXPECT_GE(results.free.points.size(), 300u);
+  // A relative rotation error of e rad moves image 2 by e * focal pixels:
+  // 0.02 deg is 0.3 px at 955 px. The direction of a 31 m baseline seen from
+  // 565 m is worse conditioned: 0.5 deg.
+  EXPECT_LT(rotation_error, 0.02);
+  EXPECT_LT(direction_error, 0.5);
+  EXPECT_NEAR(results.free.cam2_from_cam1.translation.norm(), baseline, 1e-6 * baseline);
+  EXPECT_LT(free_median, 2.0 * depth_bound_m);
+}
+
+// COLMAP 3.8's CPU matcher (approximate FLANN kd-trees) gives a slightly
+// different match set on every run, but the extraction is reproducible and,
+// given the database, so is the mapper: rerunning the exact mapper command of
+// the run (first line of its log) twice gives byte-identical models.
+TEST_F(ColmapRunner, GivenTheMatchesTheMapperIsReproducible) {
+  const fs::path dir = FreshTestDir();
+  ColmapOptions options;
+  options.run_nav = false;
+  options.timeout_s = 120.0;
+  const ColmapResults results = RunColmap(PairInput(dir / "ws"), options);
+  ASSERT_TRUE(results.free.ok) << results.free.failure;
+  EXPECT_FALSE(results.nav.ok);
+  EXPECT_EQ(results.nav.failure, "not requested");
+  ASSERT_EQ(results.steps.size(), 3u);
+  ASSERT_EQ(results.steps[2].name, "mapper");
+  const std::string first_line =
+      testing_support::SplitLines(ReadText(results.steps[2].log_file))[0];
+  std::vector<std::string> argv;
+  std::istringstream words(first_line.substr(2));
+  std::string word;
+  while (words >> word) argv.push_back(word);
+  const auto output = std::find(argv.begin(), argv.end(), "--output_path");
+  ASSERT_NE(output, argv.end());
+  for (const std::string run : {"again1", "again2"}) {
+    fs::create_directories(dir / run);
+    *(output + 1) = (dir / run).string();
+    ProcessOptions process;
+    process.log_file = (dir / (run + ".log")).string();
+    process.timeout_s = 60.0;
+    const ProcessResult rerun = RunProcess(argv, process);
+    ASSERT_TRUE(rerun.Ok()) << rerun.error;
+    for (const char* file : {"cameras.bin", "images.bin", "points3D.bin"}) {
+      EXPECT_EQ(ReadText(dir / run / "0" / file), ReadText(dir / "ws" / "free" / "0" / file))
+          << run << " " << file;
+    }
+  }
+}
+
+// The same pair described as LENSMODEL_OPENCV12 with zero thin-prism terms:
+// the same lens, but a model COLMAP has no equivalent for, so the images are
+// resampled to a pinhole camera and the observations mapped back. The points
+// must be as good as with the direct conversion.
+TEST_F(ColmapRunner, ALensModelWithoutColmapEquivalentIsResampled) {
+  const fs::path dir = FreshTestDir();
+  ColmapInput input = PairInput(dir / "ws");
+  std::vector<double> intrinsics = g_scene->dataset->camera.Intrinsics();
+  ASSERT_EQ(g_scene->dataset->camera.LensModelName(), "LENSMODEL_OPENCV8");
+  intrinsics.resize(16, 0.0);
+  input.camera = calib::CameraModel("LENSMODEL_OPENCV12", intrinsics, 512, 512);
+  ColmapOptions options;
+  options.run_free = false;
+  options.timeout_s = 120.0;
+  const ColmapResults results = RunColmap(input, options);
+  ASSERT_TRUE(results.nav.ok) << results.nav.failure;
+  EXPECT_NE(results.camera_note.find("LENSMODEL_OPENCV12 has no COLMAP equivalent"),
+            std::string::npos)
+      << results.camera_note;
+  EXPECT_NE(results.camera_note.find("resampled to PINHOLE"), std::string::npos);
+  const double median = Median(TruthDistances(results.nav));
+  std::printf("[ colmap   ] resampled nav: %zu points, median distance to truth %.2f m\n",
+              results.nav.points.size(), median);
+  EXPECT_GE(results.nav.points.size(), 300u);
+  EXPECT_LT(median, DepthErrorM(0.3));
+}
+
+TEST_F(ColmapRunner, AMissingExecutableFailsBothMethodsNamingIt) {
+  const fs::path dir = FreshTestDir();
+  ColmapOptions options;
+  options.executable = "/nonexistent/colmap";
+  const ColmapResults results = RunColmap(PairInput(dir / "ws"), options);
+  for (const PairReconstruction* m : {&results.nav, &results.free}) {
+    EXPECT_FALSE(m->ok);
+    EXPECT_TRUE(m->points.empty());
+    EXPECT_NE(m->failure.find("'/nonexistent/colmap' not found"), std::string::npos) << m->failure;
+    EXPECT_EQ(m->failure.find('\n'), std::string::npos);
+  }
+  EXPECT_TRUE(results.steps.empty());
+}
+
+TEST_F(ColmapRunner, AFailingStepIsNamedWithItsLog) {
+  const fs::path dir = FreshTestDir();
+  const fs::path fake = dir / "colmap";
+  WriteText(fake, "#!/bin/sh\necho \"fake colmap $1\"\nexit 1\n");
+  fs::permissions(fake, fs::perms::owner_all);
+  ColmapOptions options;
+  options.executable = fake.string();
+  const ColmapResults results = RunColmap(PairInput(dir / "ws"), options);
+  ASSERT_EQ(results.steps.size(), 1u);
+  EXPECT_EQ(results.steps[0].name, "feature_extractor");
+  EXPECT_FALSE(results.steps[0].ok);
+  const std::string log = results.steps[0].log_file;
+  EXPECT_NE(ReadText(log).find("fake colmap feature_extractor"), std::string::npos);
+  for (const PairReconstruction* m : {&results.nav, &results.free}) {
+    EXPECT_FALSE(m->ok);
+    EXPECT_NE(m->failure.find("colmap feature_extractor failed"), std::string::npos) << m->failure;
+    EXPECT_NE(m->failure.find("exited with code 1"), std::string::npos) << m->failure;
+    EXPECT_NE(m->failure.find("(log: " + log + ")"), std::string::npos) << m->failure;
+  }
+}
+
+TEST_F(ColmapRunner, ATimeoutIsAFailureNotAHang) {
+  const fs::path dir = FreshTestDir();
+  const fs::path fake = dir / "colmap";
+  WriteText(fake, "#!/bin/sh\nsleep 10\n");
+  fs::permissions(fake, fs::perms::owner_all);
+  ColmapOptions options;
+  options.executable = fake.string();
+  options.timeout_s = 0.5;
+  const ColmapResults results = RunColmap(PairInput(dir / "ws"), options);
+  EXPECT_FALSE(results.nav.ok);
+  EXPECT_FALSE(results.free.ok);
+  EXPECT_NE(results.nav.failure.find("colmap feature_extractor failed"), std::string::npos);
+  EXPECT_NE(results.nav.failure.find("timed out after 0.5 s"), std::string::npos)
+      << results.nav.failure;
+  EXPECT_LT(results.nav.seconds, 5.0);
+}
+
+// Two uniform grey images: no features, no matches, no points. Both methods
+// fail with a message, nothing crashes.
+TEST_F(ColmapRunner, ImagesWithoutTextureGiveNoPoints) {
+  const fs::path dir = FreshTestDir();
+  const cv::Mat grey(512, 512, CV_8UC1, cv::Scalar(128));
+  cv::imwrite((dir / "a.png").string(), grey);
+  cv::imwrite((dir / "b.png").string(), grey);
+  ColmapInput input = PairInput(dir / "ws");
+  input.image_paths = {(dir / "a.png").string(), (dir / "b.png").string()};
+  ColmapOptions options;
+  options.timeout_s = 60.0;
+  const ColmapResults results = RunColmap(input, options);
+  std::printf("[ colmap   ] nav: %s\n[ colmap   ] free: %s\n", results.nav.failure.c_str(),
+              results.free.failure.c_str());
+  EXPECT_FALSE(results.nav.ok);
+  EXPECT_FALSE(results.free.ok);
+  for (const PairReconstruction* m : {&results.nav, &results.free}) {
+    EXPECT_NE(m->failure.find("no points"), std::string::npos) << m->failure;
+    EXPECT_NE(m->failure.find("exhaustive_matcher"), std::string::npos) << m->failure;
+    EXPECT_NE(m->failure.find("(log: "), std::string::npos) << m->failure;
+  }
+}
+
+TEST_F(ColmapRunner, InvalidInputsThrow) {
+  const fs::path dir = FreshTestDir();
+  ColmapOptions options;
+  ColmapInput one = PairInput(dir / "ws");
+  one.image_paths.pop_back();
+  one.local_from_cam.pop_back();
+  EXPECT_THROW(RunColmap(one, options), InputError);
+  ColmapInput poses = PairInput(dir / "ws");
+  poses.local_from_cam.pop_back();
+  EXPECT_THROW(RunColmap(poses, options), InputError);
+  ColmapInput no_camera = PairInput(dir / "ws");
+  no_camera.camera.reset();
+  EXPECT_THROW(RunColmap(no_camera, options), InputError);
+  ColmapInput missing = PairInput(dir / "ws");
+  missing.image_paths[1] = (dir / "missing.png").string();
+  try {
+    RunColmap(missing, options);
+    ADD_FAILURE() << "no exception";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.png"), std::string::npos) << e.what();
+  }
+  const cv::Mat small(100, 100, CV_8UC1, cv::Scalar(1));
+  cv::imwrite((dir / "small.png").string(), small);
+  ColmapInput wrong_size = PairInput(dir / "ws");
+  wrong_size.image_paths[0] = (dir / "small.png").string();
+  try {
+    RunColmap(wrong_size, options);
+    ADD_FAILURE() << "no exception";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("100 x 100 px, the camera's imager 512 x 512"),
+              std::string::npos)
+        << e.what();
+  }
+  ColmapOptions bad;
+  bad.threads = 0;
+  bad.timeout_s = -1;
+  try {
+    RunColmap(PairInput(dir / "ws"), bad);
+    ADD_FAILURE() << "no exception";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("threads = 0"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("timeout_s = -1"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ToColmapCamera, ConvertsOpenCvFamiliesAndRefusesOthers) {
+  const calib::CameraModel pinhole("LENSMODEL_PINHOLE", {1000, 1001, 511.5, 300}, 1024, 768);
+  ColmapCameraParams c = ToColmapCamera(pinhole);
+  EXPECT_EQ(c.model, "PINHOLE");
+  EXPECT_EQ(c.params, (std::vector<double>{1000, 1001, 512, 300.5}));
+  const calib::CameraModel opencv4("LENSMODEL_OPENCV4",
+                                   {900, 901, 320, 240, -0.1, 0.02, 1e-3, -1e-3}, 640, 480);
+  c = ToColmapCamera(opencv4);
+  EXPECT_EQ(c.model, "OPENCV");
+  EXPECT_EQ(c.params, (std::vector<double>{900, 901, 320.5, 240.5, -0.1, 0.02, 1e-3, -1e-3}));
+  const calib::CameraModel opencv5("LENSMODEL_OPENCV5",
+                                   {900, 901, 320, 240, -0.1, 0.02, 1e-3, -1e-3, 0.004}, 640, 480);
+  c = ToColmapCamera(opencv5);
+  EXPECT_EQ(c.model, "FULL_OPENCV");
+  EXPECT_EQ(c.params,
+            (std::vector<double>{900, 901, 320.5, 240.5, -0.1, 0.02, 1e-3, -1e-3, 0.004, 0, 0, 0}));
+  const calib::CameraModel opencv8(
+      "LENSMODEL_OPENCV8", {900, 901, 320, 240, -0.1, 0.02, 1e-3, -1e-3, 0.004, 0.1, 0.2, 0.3}, 640,
+      480);
+  c = ToColmapCamera(opencv8);
+  EXPECT_EQ(c.model, "FULL_OPENCV");
+  EXPECT_EQ(c.params, (std::vector<double>{900, 901, 320.5, 240.5, -0.1, 0.02, 1e-3, -1e-3, 0.004,
+                                           0.1, 0.2, 0.3}));
+  const calib::CameraModel stereographic("LENSMODEL_STEREOGRAPHIC", {900, 901, 320, 240}, 640, 480);
+  try {
+    ToColmapCamera(stereographic);
+    ADD_FAILURE() << "no exception";
+  } catch (const UnsupportedError& e) {
+    EXPECT_NE(std::string(e.what()).find("LENSMODEL_STEREOGRAPHIC has no COLMAP equivalent"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace hdabench::reference

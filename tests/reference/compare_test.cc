@@ -1,0 +1,380 @@
+#include "reference/compare.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <stdexcept>
+#include <unistd.h>
+#include <filesystem>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "calib/error.h"
+#include "hda/geometry.h"
+#include "reference/compare_outputs.h"
+#include "tests/support/synth_scene.h"
+#include "tests/support/test_support.h"
+
+namespace hdabench::reference {
+namespace {
+
+namespace fs = std::filesystem;
+using testing_support::CommandResult;
+using testing_support::CurrentTestSeed;
+using testing_support::FreshTestDir;
+using testing_support::RunHdabench;
+
+TEST(ParseMethodList, AllNamesAndFlightFirst) {
+  const std::vector<std::string> all = AllMethodNames();
+  ASSERT_EQ(all.size(), 9u);
+  EXPECT_EQ(all.front(), "flight");
+  EXPECT_EQ(ParseMethodList("all"), all);
+  // Flight is added, and the order is the table's whatever the order given.
+  EXPECT_EQ(ParseMethodList("opengv-two-point,colmap-nav"),
+            (std::vector<std::string>{"flight", "colmap-nav", "opengv-two-point"}));
+  EXPECT_EQ(ParseMethodList("flight"), (std::vector<std::string>{"flight"}));
+}
+
+TEST(ParseMethodList, UnknownOrRepeatedNamesAreRefusedWithTheList) {
+  try {
+    ParseMethodList("flight,colmap");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("unknown method 'colmap'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("colmap-nav"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(ParseMethodList("colmap-nav,colmap-nav"), InputError);
+  EXPECT_THROW(ParseMethodList(""), InputError);
+  EXPECT_THROW(ParseMethodList("flight,"), InputError);
+}
+
+TEST(ComputeErrorStats, MedianP90MaxIgnoringNonFinite) {
+  const ErrorStats s = ComputeErrorStats({5, 1, 4, 2, 3, std::nan(""), 10, 6, 7, 8, 9});
+  EXPECT_EQ(s.count, 10);
+  EXPECT_DOUBLE_EQ(s.median, 5.5);
+  EXPECT_DOUBLE_EQ(s.p90, 9.1);  // 1 + 0.9 * 9 = position 8.1 between 9 and 10
+  EXPECT_DOUBLE_EQ(s.max, 10.0);
+  EXPECT_EQ(ComputeErrorStats({}).count, 0);
+}
+
+// A DEM of the plane z = 0.1 x + 2 (slope atan(0.1)) on a 1 m grid.
+datasets::TruthDem TiltedDem() {
+  datasets::TruthDem dem;
+  dem.spacing_m = 1.0;
+  dem.origin_in_local_m = Eigen::Vector2d(-50.0, 50.0);
+  dem.width_cells = dem.height_cells = 101;
+  dem.height_in_local_m = cv::Mat(101, 101, CV_32FC1);
+  for (int r = 0; r < 101; ++r) {
+    for (int c = 0; c < 101; ++c) {
+      const double x = -50.0 + c;
+      dem.height_in_local_m.at<float>(r, c) = static_cast<float>(0.1 * x + 2.0);
+    }
+  }
+  return dem;
+}
+
+TEST(ComputePointAccuracy, DistanceToTheTrueSurfaceAlongItsNormal) {
+  const datasets::TruthDem dem = TiltedDem();
+  const double along_normal = 1.0 / std::sqrt(1.0 + 0.01);  // 1 m up is this far from the plane
+  std::vector<Eigen::Vector3d> points;
+  // Heights above the surface 0.05, 0.2, 0.5, 2 m (and one outside the DEM).
+  for (const double dz : {0.05, 0.2, 0.5, 2.0}) {
+    const double x = 3.3, y = -7.6;
+    points.emplace_back(x, y, 0.1 * x + 2.0 + dz);
+  }
+  points.emplace_back(500.0, 0.0, 0.0);
+  const PointAccuracy a = ComputePointAccuracy(points, dem);
+  ASSERT_TRUE(a.available);
+  EXPECT_EQ(a.num_points, 4);
+  EXPECT_NEAR(a.median_m, 0.5 * (0.2 + 0.5) * along_normal, 1e-5);
+  EXPECT_DOUBLE_EQ(a.within_0_1_m, 0.25);
+  EXPECT_DOUBLE_EQ(a.within_0_3_m, 0.5);
+  EXPECT_DOUBLE_EQ(a.within_1_m, 0.75);
+  EXPECT_FALSE(ComputePointAccuracy({{500.0, 0.0, 0.0}}, dem).available);
+}
+
+// Points on a 10 m patch of known slope at about 565 m, triangulated from two
+// cameras 31 m apart with pixel noise: the noise is stretched along the line
+// of sight (about 10 x), which tilts a TLS fit; FitRoiPoints weights it out.
+TEST(FitRoiPoints, RecoversTheSlopeOfANoisyTwoViewCloud) {
+  std::mt19937_64 rng(CurrentTestSeed());
+  std::normal_distribution<double> noise(0.0, 1.0);
+  std::uniform_real_distribution<double> uniform(-5.0, 5.0);
+  const double slope_deg = 6.0;
+  const double tan_slope = std::tan(slope_deg * M_PI / 180.0);
+  const Eigen::Vector3d c1(0.0, -400.0, 400.0), c2(31.0, -400.0, 400.0);
+  const double sigma_rad = 0.3 / 1900.0;
+  std::vector<Eigen::Vector3d> points;
+  for (int i = 0; i < 400; ++i) {
+    const Eigen::Vector3d p(uniform(rng), uniform(rng), 0.0);
+    Eigen::Vector3d truth = p;
+    truth.z() = tan_slope * p.y();
+    // Depth noise along the line of sight from camera 1, as two-view
+    // triangulation makes it: range^2 sigma / baseline; across: range sigma.
+    const Eigen::Vector3d los = (truth - c1).normalized();
+    const double range = (truth - c1).norm();
+    const Eigen::Vector3d across = los.cross(Eigen::Vector3d::UnitX()).normalized();
+    points.push_back(truth + los * noise(rng) * range * range * sigma_rad / 31.0 +
+                     across * noise(rng) * range * sigma_rad + los.cross(across) * noise(rng) * range * sigma_rad);
+  }
+  const RoiFit fit = FitRoiPoints(points, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10);
+  ASSERT_EQ(fit.status, "ok");
+  EXPECT_EQ(fit.num_points, 400);
+  // Predicted 1-sigma at 400 points is about 0.6 deg (hda::PredictSlopeSigmaDeg
+  // geometry); 3 sigma.
+  EXPECT_NEAR(fit.slope_deg, slope_deg, 1.8);
+  // The plain TLS fit of the same cloud is pulled toward the line of sight.
+  const hda::PlaneFitResult tls = hda::FitPlane(points, Eigen::Vector3d(0, 0, -1.62), 10);
+  EXPECT_GT(std::abs(tls.slope_deg - slope_deg), std::abs(fit.slope_deg - slope_deg));
+
+  EXPECT_EQ(FitRoiPoints({}, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10).status, "too few points");
+  std::vector<Eigen::Vector3d> line;
+  for (int i = 0; i < 20; ++i) line.emplace_back(i, 0.0, 0.0);
+  EXPECT_EQ(FitRoiPoints(line, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10).status, "degenerate");
+}
+
+// A dataset with one ROI box and a reconstruction with points in only part of
+// it: the other ROI gets "too few points" with 0 points, a failed
+// reconstruction fails every ROI with its reason.
+TEST(RoisOfReconstruction, AnRoiWithoutPointsAndAFailedMethodGetClearStatuses) {
+  datasets::Dataset dataset(calib::CameraModel("LENSMODEL_PINHOLE", {1000, 1000, 49.5, 49.5}, 100, 100));
+  hda::HdaResult flight;
+  flight.rois.resize(2);
+  flight.rois[0].id = 1;
+  flight.rois[0].box1_px = cv::Rect(0, 0, 50, 50);
+  flight.rois[1].id = 2;
+  flight.rois[1].box1_px = cv::Rect(50, 50, 50, 50);
+  PairReconstruction recon;
+  recon.method = "colmap-nav";
+  recon.ok = true;
+  std::mt19937_64 rng(CurrentTestSeed());
+  std::uniform_real_distribution<double> pixel(0.0, 49.0), ground(-5.0, 5.0);
+  for (int i = 0; i < 30; ++i) {
+    ReconstructedPoint p;
+    p.pixel1 = Eigen::Vector2d(pixel(rng), pixel(rng));
+    p.point_in_local_m = Eigen::Vector3d(ground(rng), ground(rng), 0.0);
+    recon.points.push_back(p);
+  }
+  const Rigid3d local_from_cam1(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, -400, 400));
+  const Rigid3d local_from_cam2(Eigen::Quaterniond::Identity(), Eigen::Vector3d(31, -400, 400));
+  std::vector<MethodRoi> rois =
+      RoisOfReconstruction(recon, flight, dataset, local_from_cam1, local_from_cam2, 10);
+  ASSERT_EQ(rois.size(), 2u);
+  EXPECT_EQ(rois[0].status, "ok");
+  EXPECT_EQ(rois[0].num_points, 30);
+  EXPECT_TRUE(rois[0].has_fit);
+  EXPECT_NEAR(rois[0].slope_deg, 0.0, 1e-6);
+  EXPECT_EQ(rois[1].status, "too few points");
+  EXPECT_EQ(rois[1].num_points, 0);
+  EXPECT_FALSE(rois[1].has_fit);
+
+  recon.ok = false;
+  recon.failure = "mapper exited with code 1 (log: colmap/logs/04-mapper.log)";
+  rois = RoisOfReconstruction(recon, flight, dataset, local_from_cam1, local_from_cam2, 10);
+  for (const MethodRoi& roi : rois) {
+    EXPECT_EQ(roi.status, "failed");
+    EXPECT_EQ(roi.reason, recon.failure);
+    EXPECT_FALSE(roi.has_fit);
+  }
+}
+
+// The default scene with exact navigation, written to disk (COLMAP reads
+// files), shared by the end-to-end tests of this file.
+class CompareOnSyntheticScene : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    datasets::synth::SynthOptions options = testing_support::ExactNavLateralPreset();
+    options.collection_s = 2.4;  // frames 0..6; the pair is 0-6, 31 m
+    const datasets::synth::TerrainOptions terrain = testing_support::TerrainOf(options);
+    // One scene for every test process (CTest runs each test in its own):
+    // generated under a temporary name and renamed into place, so a process
+    // never sees a half-written scene. The name carries the test binary's
+    // time stamp: a rebuilt generator never meets an old scene.
+    const auto stamp = fs::last_write_time("/proc/self/exe").time_since_epoch().count();
+    dir_ = new fs::path(fs::path(HDABENCH_TEST_TMP) / ("CompareScene-" + std::to_string(static_cast<std::uint64_t>(stamp))));
+    if (fs::exists(*dir_ / "manifest.json")) return;
+    const fs::path staging = dir_->string() + "-" + std::to_string(::getpid());
+    fs::remove_all(staging);
+    datasets::WriteDataset(datasets::synth::GenerateSynthDataset(options, terrain, 1), staging.string());
+    std::error_code ec;
+    fs::rename(staging, *dir_, ec);
+    if (ec) fs::remove_all(staging);  // another process was first: its scene is the same
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static datasets::Dataset Load() {
+    datasets::LoadOptions load;
+    load.keep_images = true;
+    load.keep_truth = true;
+    datasets::DatasetLoadResult loaded = datasets::LoadDataset(dir_->string(), load);
+    if (!loaded.Ok()) throw std::runtime_error(loaded.Summary());
+    return std::move(*loaded.dataset);
+  }
+  static fs::path* dir_;
+};
+fs::path* CompareOnSyntheticScene::dir_ = nullptr;
+
+// With exact navigation, colmap-nav's points are triangulated with the true
+// poses: its slope error is its SIFT keypoint noise propagated through the
+// two-view geometry. The 10 m ROIs of the default quadtree are 32 px wide and
+// smooth, where SIFT finds about 10 points (too few for a slope). 20 m sites
+// (64 px ROIs; their brightness varies more, so the variable-block limit is
+// raised to 60 DN) hold 20-40: each ROI's error must be within 3 predicted sigmas
+// (hda::PredictSlopeSigmaDeg with its own points, 0.5 px per axis: SIFT's
+// keypoint localisation at these contrasts; exact nav) plus 0.5 deg for the
+// plane of the sparse points against the dense truth plane.
+TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirGeometryBound) {
+  const datasets::Dataset dataset = Load();
+  CompareOptions options;
+  options.hda.quadtree.site_size_m = 20.0;
+  options.hda.quadtree.max_roi_stddev = 60.0;
+  options.hda.compute_budget_s = 1000.0;  // a loaded or sanitized build keeps every ROI
+  const fs::path out = FreshTestDir();
+  const CompareRun run = RunCompare(dataset, 0, 6, options, (out / "colmap").string());
+  ASSERT_EQ(run.methods, AllMethodNames());
+  ASSERT_EQ(run.rois.size(), run.methods.size());
+  ASSERT_GT(run.flight.result.rois.size(), 3u);
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    EXPECT_TRUE(run.summaries[m].ok) << run.methods[m] << ": " << run.summaries[m].failure;
+    ASSERT_EQ(run.rois[m].size(), run.flight.result.rois.size());
+  }
+  const size_t nav = 2;
+  ASSERT_EQ(run.methods[nav], "colmap-nav");
+  const Rigid3d local_from_cam1 = dataset.CamFromLocal(0).Inverse();
+  const Rigid3d cam2_from_cam1 = dataset.Cam2FromCam1(0, 6);
+  std::vector<double> errors;
+  std::vector<int> counts;
+  for (size_t i = 0; i < run.flight.result.rois.size(); ++i) {
+    const MethodRoi& roi = run.rois[nav][i];
+    const RoiTruthValue& truth = run.flight.truths[i];
+    if (!roi.has_fit || roi.num_points < kMinPointsForSlopeStats || !truth.available) continue;
+    hda::SlopeSigmaOptions sigma;
+    sigma.pixel_sigma_px = 0.5;
+    sigma.focal_px = dataset.camera.Intrinsics()[0];
+    std::vector<Eigen::Vector3d> points_in_cam1;
+    for (const Eigen::Vector3d& p : roi.points_in_local_m) points_in_cam1.push_back(local_from_cam1.Inverse() * p);
+    const double predicted = hda::PredictSlopeSigmaDeg(
+        sigma, points_in_cam1, cam2_from_cam1,
+        local_from_cam1.rotation.inverse() * (-dataset.gravity_in_local_mps2.normalized()));
+    const double error = std::abs(roi.slope_deg - truth.slope_deg);
+    EXPECT_LE(error, 3.0 * predicted + 0.5)
+        << "ROI " << run.flight.result.rois[i].id << ": " << roi.num_points << " points, slope "
+        << roi.slope_deg << " vs truth " << truth.slope_deg << ", predicted sigma " << predicted;
+    errors.push_back(error);
+    counts.push_back(roi.num_points);
+  }
+  ASSERT_GE(errors.size(), 3u) << "colmap-nav has enough points in too few ROIs";
+  const ErrorStats stats = ComputeErrorStats(errors);
+  std::sort(counts.begin(), counts.end());
+  std::printf("[ compare  ] colmap-nav, exact nav, 20 m sites: %d ROIs, slope error median %.2f deg, "
+              "90%% %.2f deg, max %.2f deg; points per ROI %d..%d (median %d)\n",
+              stats.count, stats.median, stats.p90, stats.max, counts.front(), counts.back(),
+              counts[counts.size() / 2]);
+  EXPECT_EQ(run.summaries[nav].slope_vs_truth_deg.count, stats.count);
+
+  // OpenGV on these near-planar ROIs: a configuration type, never a
+  // confident slope from a degenerate geometry.
+  for (size_t m = 4; m < run.methods.size(); ++m) {
+    for (const MethodRoi& roi : run.rois[m]) {
+      if (roi.status == "planar" || roi.status == "low parallax") {
+        EXPECT_FALSE(roi.has_fit) << run.methods[m];
+        EXPECT_EQ(roi.configuration, roi.status);
+      }
+    }
+  }
+
+  // The outputs: the table has one column per method.
+  const std::vector<std::string> written = WriteCompareOutputs(
+      run, dataset.frames[0].image, dataset.frames[6].image, out.string(), false);
+  EXPECT_FALSE(written.empty());
+  const std::string markdown = testing_support::ReadText(out / "compare.md");
+  EXPECT_NE(markdown.find("| ROI | truth | flight | flight-refined | colmap-nav | colmap-free | "
+                          "opengv-stewenius |"),
+            std::string::npos);
+  const nlohmann::json json = nlohmann::json::parse(testing_support::ReadText(out / "compare.json"));
+  EXPECT_EQ(json["format"], "hdabench-compare-result");
+  EXPECT_EQ(json["methods"].size(), run.methods.size());
+  EXPECT_EQ(json["rois"].size(), run.flight.result.rois.size());
+}
+
+// COLMAP missing: both COLMAP columns fail with the reason, every other
+// method's results are written, and the command exits 4.
+TEST_F(CompareOnSyntheticScene, AMissingColmapFailsItsColumnsAndKeepsTheOthers) {
+  const fs::path out = FreshTestDir();
+  const CommandResult result =
+      RunHdabench({"compare", dir_->string(), "--frames", "0,6", "--methods",
+                   "flight,colmap-nav,colmap-free,opengv-two-point", "--colmap",
+                   "/nonexistent/colmap", "--out", (out / "cmp").string(), "--no-figures"},
+                  out);
+  EXPECT_EQ(result.exit_code, 4) << result.err;
+  EXPECT_NE(result.err.find("/nonexistent/colmap"), std::string::npos) << result.err;
+  const nlohmann::json json =
+      nlohmann::json::parse(testing_support::ReadText(out / "cmp" / "compare.json"));
+  ASSERT_EQ(json["methods"].size(), 4u);
+  EXPECT_EQ(json["methods"][0]["name"], "flight");
+  EXPECT_TRUE(json["methods"][0]["ok"].get<bool>());
+  for (const int m : {1, 2}) {
+    EXPECT_FALSE(json["methods"][m]["ok"].get<bool>());
+    EXPECT_NE(json["methods"][m]["failure"].get<std::string>().find("/nonexistent/colmap"),
+              std::string::npos);
+  }
+  EXPECT_TRUE(json["methods"][3]["ok"].get<bool>());
+  int flight_fits = 0;
+  for (const auto& roi : json["rois"]) {
+    EXPECT_EQ(roi["methods"]["colmap-nav"]["status"], "failed");
+    if (!roi["methods"]["flight"]["slope_deg"].is_null()) ++flight_fits;
+  }
+  EXPECT_GT(flight_fits, 0);
+  EXPECT_TRUE(fs::exists(out / "cmp" / "flight" / "result.json"));
+}
+
+// Everything but COLMAP is deterministic: the same bytes on a second run
+// (COLMAP 3.8's CPU matcher is not; see reference/colmap_runner.h).
+TEST_F(CompareOnSyntheticScene, MethodsOtherThanColmapGiveTheSameBytesTwice) {
+  const datasets::Dataset dataset = Load();
+  CompareOptions options;
+  options.methods = ParseMethodList(
+      "flight,flight-refined,opengv-stewenius,opengv-nister,opengv-eight-point,"
+      "opengv-eigensolver,opengv-two-point");
+  // Which ROIs the flight's wall-time budget reaches depends on the machine's
+  // load (docs/flight-method.md): an ample budget takes that out.
+  options.hda.compute_budget_s = 1000.0;
+  const CompareRun first = RunCompare(dataset, 0, 6, options, "");
+  const CompareRun second = RunCompare(dataset, 0, 6, options, "");
+  EXPECT_EQ(CompareResultJson(first), CompareResultJson(second));
+  EXPECT_EQ(CompareRoisCsv(first), CompareRoisCsv(second));
+  // And the flight column is the flight method's own result.
+  int fits = 0;
+  for (size_t i = 0; i < first.flight.result.rois.size(); ++i) {
+    const hda::RoiResult& flight = first.flight.result.rois[i];
+    EXPECT_EQ(first.rois[0][i].has_fit, flight.has_fit);
+    if (flight.has_fit) {
+      EXPECT_EQ(first.rois[0][i].slope_deg, flight.slope_deg);
+      ++fits;
+    }
+  }
+  EXPECT_GT(fits, 0);
+}
+
+TEST_F(CompareOnSyntheticScene, BadFlagsAreUsageErrors) {
+  const fs::path out = FreshTestDir();
+  CommandResult result = RunHdabench(
+      {"compare", dir_->string(), "--methods", "flight,colmap", "--out", (out / "a").string()}, out);
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("unknown method 'colmap'"), std::string::npos) << result.err;
+  result = RunHdabench({"compare", dir_->string(), "--frames", "0,99", "--out", (out / "b").string()}, out);
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_NE(result.err.find("frame 99"), std::string::npos) << result.err;
+  result = RunHdabench({"compare", (out / "missing").string(), "--out", (out / "c").string()}, out);
+  EXPECT_EQ(result.exit_code, 3) << result.err;
+}
+
+}  // namespace
+}  // namespace hdabench::reference

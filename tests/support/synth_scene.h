@@ -1,0 +1,31 @@
+// Synthetic scenes for the tests that need real images: the novac-lateral
+// preset with exact navigation (measured = true poses, exact LRF), so that a
+// method's errors are its own.
+#pragma once
+
+#include "datasets/synth/synth.h"
+#include "datasets/synth/terrain.h"
+
+namespace hdabench::testing_support {
+
+// novac-lateral with every navigation and LRF error set to zero, generated on
+// two threads (the output does not depend on it).
+inline datasets::synth::SynthOptions ExactNavLateralPreset() {
+  datasets::synth::SynthOptions options = datasets::synth::SynthPreset("novac-lateral");
+  options.nav_velocity_bias_mps = 0.0;
+  options.nav_position_noise_m = 0.0;
+  options.nav_attitude_drift_deg_per_s = 0.0;
+  options.nav_attitude_noise_deg = 0.0;
+  options.lrf_noise_m = 0.0;
+  options.threads = 2;
+  return options;
+}
+
+// The terrain preset of `options`, scaled as `hdabench synth` scales it.
+inline datasets::synth::TerrainOptions TerrainOf(const datasets::synth::SynthOptions& options) {
+  datasets::synth::TerrainOptions terrain = datasets::synth::TerrainPreset(options.terrain);
+  datasets::synth::ScaleTerrain(options.terrain_scale, &terrain);
+  return terrain;
+}
+
+}  // namespace hdabench::testing_support

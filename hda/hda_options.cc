@@ -30,6 +30,8 @@ std::vector<std::string> HdaOptions::Validate() const {
   RequireOption(max_slope_sigma_deg > 0, "max_slope_sigma_deg", max_slope_sigma_deg, "> 0", &errors);
   RequireOption(max_roughness_rms_m > 0, "max_roughness_rms_m", max_roughness_rms_m, "> 0", &errors);
   RequireOption(compute_budget_s > 0, "compute_budget_s", compute_budget_s, "> 0", &errors);
+  RequireOption(fault_match_noise_px >= 0, "fault_match_noise_px", fault_match_noise_px, ">= 0",
+                &errors);
   RequireOption(processor_scale > 0, "processor_scale", processor_scale, "> 0", &errors);
   return errors;
 }

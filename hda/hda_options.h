@@ -57,6 +57,12 @@ struct HdaOptions {
   double compute_budget_s = 10.0;     // seconds of computation on the flight computer
   double processor_scale = 0.1;       // this machine's time for one second of the flight board's work
 
+  // Fault injection, for testing the bench's merge gate only (0 in flight):
+  // Gaussian noise of this standard deviation, per axis, pixels, added to
+  // every image-2 match position after matching, before the nav-based
+  // rejection. Deterministic: seeded by the ROI id.
+  double fault_match_noise_px = 0.0;
+
   // Every violated constraint, one message each ("field = value: expected ...";
   // nested options prefixed, e.g. "quadtree.site_size_m = ...").
   // Empty when the options are usable.

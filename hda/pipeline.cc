@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numeric>
+#include <random>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -522,8 +524,16 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
       roi.reason = std::string("prediction: ") + PredictionStatusName(predicted.status);
     } else {
       roi.box2_px = predicted.box_px;
-      const RoiMatches matches =
+      RoiMatches matches =
           MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, camera, options.matching);
+      if (options.fault_match_noise_px > 0.0) {
+        std::mt19937_64 rng(static_cast<std::uint64_t>(roi.id));
+        std::normal_distribution<double> noise(0.0, options.fault_match_noise_px);
+        for (cv::Point2d& p : matches.points2_px) {
+          p.x += noise(rng);
+          p.y += noise(rng);
+        }
+      }
       lap(&result.times.matching_s);
       roi.matching_status = matches.status;
       roi.counts.keypoints1 = matches.keypoints1;

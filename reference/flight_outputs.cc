@@ -106,6 +106,7 @@ Json OptionsJson(const hda::HdaOptions& o) {
   j["max_roughness_rms_m"] = o.max_roughness_rms_m;
   j["compute_budget_s"] = o.compute_budget_s;
   j["processor_scale"] = o.processor_scale;
+  j["fault_match_noise_px"] = o.fault_match_noise_px;
   return j;
 }
 

@@ -3,14 +3,15 @@
 #
 #   tools/bench.sh run     install what is missing, build, run the main job on the built-in default
 #   tools/bench.sh test    install what is missing, build, run the whole test suite
-#                          (the normal build, then the address + undefined-behaviour sanitizer build)
+#                          (the normal build, then the address + undefined-behaviour sanitizer build),
+#                          then the merge gate on the CI-sized suite (gate/suite-ci.json)
 #   tools/bench.sh setup   install what is missing and build, nothing else
 #
 # Debian packages come from tools/debian-packages.txt (the one list). apt runs only
 # when something is missing, and the build is incremental, so a second run is fast
 # and changes nothing. Environment: HDABENCH_BUILD_DIR (default build),
 # HDABENCH_JOBS (default: number of cores), HDABENCH_SKIP_SANITIZE=1 to test the
-# normal build only.
+# normal build only, HDABENCH_SKIP_GATE=1 to skip the gate.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -57,6 +58,16 @@ run_tests() {
   ctest --test-dir "$dir" --output-on-failure -j "$jobs"
 }
 
+# The merge gate on the CI-sized suite (gate/suite-ci.json against
+# gate/thresholds-ci.json). Its folder is kept between runs: a rerun with the
+# same build reuses complete entries. HDABENCH_SKIP_GATE=1 skips it.
+run_gate() {
+  [[ ${HDABENCH_SKIP_GATE:-0} == 1 ]] && return
+  say "Gate (gate/suite-ci.json)"
+  "$build_dir/tools/hdabench" gate --suite "$root/gate/suite-ci.json" \
+    --thresholds "$root/gate/thresholds-ci.json" --out "$build_dir/gate-ci"
+}
+
 command=${1:-}
 case $command in
   setup)
@@ -76,6 +87,7 @@ case $command in
       configure_and_build "${build_dir}-sanitize" -DHDABENCH_SANITIZE=ON
       run_tests "${build_dir}-sanitize"
     fi
+    run_gate
     ;;
   -h | --help | help)
     sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'

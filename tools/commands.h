@@ -52,7 +52,9 @@ struct RunFlightOptions {
   std::string out_dir;                        // created if missing; files of the same names replaced
   std::optional<double> processor_scale;      // HdaOptions::processor_scale; default: the options'
   std::optional<double> budget_s;             // HdaOptions::compute_budget_s; default: the options'
+  std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: the options'
   bool figures = true;                        // write figures/ (PNG)
+  bool report = true;                         // write report.html and report.md (docs/report.md)
   bool quiet = false;                         // no progress lines on err
 };
 // hdabench run: the flight method on two frames of a dataset, its outputs
@@ -66,11 +68,13 @@ struct CompareCommandOptions {
   std::string methods = "all";                // comma-separated (reference::ParseMethodList) or "all"
   std::string out_dir;                        // created if missing; files of the same names replaced
   std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: the options'
+  double fault_match_noise_px = 0.0;          // HdaOptions::fault_match_noise_px (gate tests only)
   std::string colmap_executable = "colmap";   // a name looked up on PATH, or a path
   double colmap_timeout_s = 600.0;            // per COLMAP step
   bool colmap_all_frames = false;             // colmap-free on every frame of the collection window
   bool opengv_dense = false;                  // OpenGV on denser ORB matches than the flight's
   bool figures = true;                        // write flight/figures/ (PNG)
+  bool report = true;                         // write report.html and report.md (docs/report.md)
   bool quiet = false;                         // no progress lines on err
 };
 // hdabench compare: the flight method and the reference methods on two frames
@@ -79,6 +83,44 @@ struct CompareCommandOptions {
 // failed for the run (its column says why; every other output is written);
 // 2 bad flags; 3 an unusable dataset or output folder.
 int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct ReportCommandOptions {
+  std::string run_dir;                  // a folder written by hdabench run or hdabench compare
+  std::string dataset_dir;              // the dataset (for its maps); empty: looked for beside run_dir
+  std::string python = "/usr/bin/python3";  // the interpreter that draws the plots (matplotlib)
+  bool quiet = false;                   // no note lines on err
+};
+// hdabench report: report.html and report.md of a run or compare folder
+// (docs/report.md). Exit codes: 0 written with every plot; 3 run_dir is not a
+// run or compare folder, a file in it is malformed, --dataset is not a folder,
+// or the report cannot be written; 4 the plots could not be drawn (no Python,
+// no matplotlib, the script failed): the report is written without them.
+int RunReportCommand(const ReportCommandOptions& options, std::ostream& out, std::ostream& err);
+
+// Writes the report of a folder that `command` ("run", "compare") has just
+// written from `dataset_dir`. A problem is one warning line on err
+// ("hdabench <command>: report: ..."); it never changes the command's exit
+// code (docs/report.md). Returns true when the report has every plot.
+bool WriteReportAfterCommand(const std::string& out_dir, const std::string& dataset_dir,
+                             const std::string& command, bool quiet, std::ostream& out,
+                             std::ostream& err);
+
+struct GateCommandOptions {
+  std::string suite_file;             // the suite (docs/gate.md)
+  std::string thresholds_file;        // the thresholds (docs/gate.md)
+  std::string baseline_file;          // empty: no baseline
+  std::string write_baseline_file;    // empty: do not write one
+  std::string out_dir;                // entries, datasets, metrics.json, gate.md; reused by a rerun
+  int jobs = 2;                       // entries at a time
+  std::string colmap_executable = "colmap";
+  double fault_match_noise_px = 0.0;  // fault injection into the flight method (tests of the gate)
+  bool quiet = false;
+};
+// hdabench gate: the suite through the comparison, the metrics against the
+// thresholds and the baseline. Exit codes: 0 every check passed; 1 a metric
+// failed its threshold, regressed against the baseline, or an entry failed;
+// 2 bad flags; 3 an unusable suite, thresholds, baseline or output folder.
+int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::ostream& err);
 
 struct DemoOptions {
   std::string out_dir = "hdabench-demo";  // replaced on each run; the dataset goes in out_dir/dataset
@@ -91,5 +133,18 @@ struct DemoOptions {
 // compare every method on it (hdabench compare) into out_dir/compare and print
 // the table.
 int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err);
+
+struct IngestStereoLunarOptions {
+  std::string pair_dir;      // a StereoLunar pair folder (im_NNNNN.jpg and .exr)
+  std::string out_dir;       // folder to create; must not exist or be empty
+  std::string cameras_file;  // cameras.txt; empty: datasets::DefaultStereoLunarCamerasFile
+  int sun = 0;               // sun position, 0-based (0, 1 or 2 for the shared pairs)
+};
+// hdabench ingest stereolunar: convert one sun position of a pair
+// (datasets/stereolunar.h) and write it with WriteDataset. Exit codes: 0
+// written and loads cleanly; 2 bad flags or an output folder in use; 3 an
+// unusable source (the message names the file and line).
+int RunIngestStereoLunar(const IngestStereoLunarOptions& options, std::ostream& out,
+                         std::ostream& err);
 
 }  // namespace hdabench::tools

@@ -32,6 +32,7 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
     return kExitUsage;
   }
   if (options.site_size_m.has_value()) compare.hda.quadtree.site_size_m = *options.site_size_m;
+  compare.hda.fault_match_noise_px = options.fault_match_noise_px;
   compare.colmap.executable = options.colmap_executable;
   compare.colmap.timeout_s = options.colmap_timeout_s;
   compare.colmap.use_all_frames = options.colmap_all_frames;
@@ -80,6 +81,11 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
     if (s.ok) continue;
     ++failed;
     err << "hdabench compare: method " << s.method << " failed: " << s.failure << "\n";
+  }
+  // The report never changes the exit code: a problem is a warning line.
+  if (options.report) {
+    WriteReportAfterCommand(options.out_dir, options.dataset_dir, "compare", options.quiet, out,
+                            err);
   }
   return failed > 0 ? kExitExternal : kExitOk;
 }

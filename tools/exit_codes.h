@@ -7,7 +7,7 @@ constexpr int kExitOk = 0;              // the command did what was asked and ev
 constexpr int kExitCheckFailed = 1;     // the command ran and found problems (invalid dataset, failed gate)
 constexpr int kExitUsage = 2;           // bad command line: unknown command or flag, bad flag value
 constexpr int kExitInput = 3;           // an input could not be used (missing, unreadable or malformed file)
-constexpr int kExitExternal = 4;        // another program the bench runs failed (COLMAP, mrcal tools)
+constexpr int kExitExternal = 4;        // another program the bench runs failed (COLMAP, mrcal tools, the report's Python)
 constexpr int kExitInternal = 70;       // a bug in hdabench: an unexpected exception
 
 }  // namespace hdabench::tools

@@ -115,7 +115,14 @@ int Main(int argc, char** argv) {
   CLI::Option* budget_option =
       run->add_option("--budget-s", budget_s, "Computation budget on the flight computer, seconds")
           ->capture_default_str();
+  double run_site_size_m = hda::HdaOptions().quadtree.site_size_m;
+  CLI::Option* run_site_option =
+      run->add_option("--site-size-m", run_site_size_m,
+                      "Side of a landing site, metres (sets the quadtree's smallest ROI)")
+          ->capture_default_str();
   run->add_flag("--no-figures", no_figures, "Do not write figures/");
+  bool run_no_report = false;
+  run->add_flag("--no-report", run_no_report, "Do not write report.html and report.md");
   run->add_flag("--quiet", run_options.quiet, "No progress lines");
 
   CompareCommandOptions compare_options;
@@ -148,11 +155,71 @@ int Main(int argc, char** argv) {
       ->capture_default_str();
   compare->add_flag("--colmap-all-frames", compare_options.colmap_all_frames,
                     "colmap-free on every frame of the collection window, not only the pair");
+  compare->add_option("--fault-match-noise-px", compare_options.fault_match_noise_px,
+                      "Fault injection for testing the gate: Gaussian noise added to the flight\n"
+                      "method's image-2 matches, pixels per axis (0: none)")
+      ->capture_default_str();
   compare->add_flag("--opengv-dense", compare_options.opengv_dense,
                     "OpenGV on denser ORB matches (2000 keypoints per ROI, FAST threshold 5)\n"
                     "instead of the flight matcher's");
   compare->add_flag("--no-figures", compare_no_figures, "Do not write flight/figures/");
+  bool compare_no_report = false;
+  compare->add_flag("--no-report", compare_no_report, "Do not write report.html and report.md");
   compare->add_flag("--quiet", compare_options.quiet, "No progress lines");
+
+  ReportCommandOptions report_options;
+  CLI::App* report = app.add_subcommand(
+      "report", "The HTML report (report.html, every figure embedded) and report.md of a run or\n"
+                "compare folder (docs/report.md)");
+  report->add_option("RUN_DIR", report_options.run_dir,
+                     "Folder written by hdabench run or hdabench compare")
+      ->required();
+  report->add_option("--dataset", report_options.dataset_dir,
+                     "The dataset folder, for its maps (default: looked for beside RUN_DIR)");
+  report->add_option("--python", report_options.python,
+                     "Python interpreter with matplotlib that draws the plots")
+      ->capture_default_str();
+  report->add_flag("--quiet", report_options.quiet, "No note lines");
+
+  GateCommandOptions gate_options;
+  CLI::App* gate = app.add_subcommand(
+      "gate", "Merge gate: a suite of datasets through the comparison, metrics against thresholds");
+  gate->add_option("--suite", gate_options.suite_file, "Suite file (docs/gate.md)")->required();
+  gate->add_option("--thresholds", gate_options.thresholds_file, "Thresholds file (docs/gate.md)")
+      ->required();
+  gate->add_option("--baseline", gate_options.baseline_file,
+                   "Metrics of main (metrics.json of an earlier gate): fail on a regression");
+  gate->add_option("--write-baseline", gate_options.write_baseline_file,
+                   "Write this run's metrics to this file, as a new baseline");
+  gate->add_option("--out", gate_options.out_dir,
+                   "Output folder; a rerun into it resumes, reusing complete entries")
+      ->required();
+  gate->add_option("--jobs", gate_options.jobs, "Suite entries run at once")->capture_default_str();
+  gate->add_option("--colmap", gate_options.colmap_executable,
+                   "The colmap program: a name on PATH or a path")
+      ->capture_default_str();
+  gate->add_option("--fault-match-noise-px", gate_options.fault_match_noise_px,
+                   "Fault injection for testing the gate: noise on the flight method's matches, px")
+      ->capture_default_str();
+  gate->add_flag("--quiet", gate_options.quiet, "No progress lines");
+
+  CLI::App* ingest = app.add_subcommand("ingest", "Convert outside data into a dataset");
+  ingest->require_subcommand(1);
+  IngestStereoLunarOptions stereolunar_options;
+  CLI::App* stereolunar = ingest->add_subcommand(
+      "stereolunar",
+      "Convert one sun position of a StereoLunar nadir pair (docs/stereolunar.md) into a dataset");
+  stereolunar->add_option("PAIR_DIR", stereolunar_options.pair_dir,
+                          "Pair folder (im_NNNNN.jpg and .exr)")
+      ->required();
+  stereolunar->add_option("--out", stereolunar_options.out_dir,
+                          "Folder to create (must not exist, or be empty)")
+      ->required();
+  stereolunar->add_option("--sun", stereolunar_options.sun, "Sun position, 0-based (0, 1 or 2)")
+      ->check(CLI::Range(0, 2))
+      ->capture_default_str();
+  stereolunar->add_option("--cameras", stereolunar_options.cameras_file,
+                          "cameras.txt (default: PAIR_DIR/cameras.txt, else PAIR_DIR/../cameras.txt)");
 
   DemoOptions demo_options;
   CLI::App* demo = app.add_subcommand(
@@ -188,12 +255,15 @@ int Main(int argc, char** argv) {
     }
     return RunDatasetCheck(check_options, std::cout, std::cerr);
   }
+  if (report->parsed()) return RunReportCommand(report_options, std::cout, std::cerr);
+  if (gate->parsed()) return RunGateCommand(gate_options, std::cout, std::cerr);
   if (compare->parsed()) {
     if (!compare_frames_text.empty()) {
       const std::vector<int> pair = ParseIntList(compare_frames_text, 2, "--frames", "i,j");
       compare_options.frames = std::make_pair(pair[0], pair[1]);
     }
     compare_options.figures = !compare_no_figures;
+    compare_options.report = !compare_no_report;
     if (site_option->count() > 0) compare_options.site_size_m = compare_site_size_m;
     return RunCompareCommand(compare_options, std::cout, std::cerr);
   }
@@ -204,10 +274,13 @@ int Main(int argc, char** argv) {
     }
     if (scale_option->count() > 0) run_options.processor_scale = processor_scale;
     if (budget_option->count() > 0) run_options.budget_s = budget_s;
+    if (run_site_option->count() > 0) run_options.site_size_m = run_site_size_m;
     run_options.figures = !no_figures;
+    run_options.report = !run_no_report;
     return RunFlight(run_options, std::cout, std::cerr);
   }
   if (create->parsed()) return RunDatasetCreate(create_options, std::cout, std::cerr);
+  if (stereolunar->parsed()) return RunIngestStereoLunar(stereolunar_options, std::cout, std::cerr);
   if (demo->parsed()) return RunDemo(demo_options, std::cout, std::cerr);
   if (synth->parsed()) return RunSynth(synth_options, std::cout, std::cerr);
   if (truth->parsed()) {

@@ -25,9 +25,10 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   hda::HdaOptions hda_options;
   if (options.processor_scale.has_value()) hda_options.processor_scale = *options.processor_scale;
   if (options.budget_s.has_value()) hda_options.compute_budget_s = *options.budget_s;
+  if (options.site_size_m.has_value()) hda_options.quadtree.site_size_m = *options.site_size_m;
   const std::vector<std::string> invalid = hda_options.Validate();
   if (!invalid.empty()) {
-    err << "hdabench run: unusable options (--processor-scale, --budget-s):\n";
+    err << "hdabench run: unusable options (--processor-scale, --budget-s, --site-size-m):\n";
     for (const std::string& problem : invalid) err << "  " << problem << "\n";
     return kExitUsage;
   }
@@ -60,6 +61,10 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   out << "wrote " << written.size() << " files to " << options.out_dir
       << " (result.json, timings.json, rois.csv, points/"
       << (options.figures ? ", figures/" : "") << ")\n";
+  // The report never changes the exit code: a problem is a warning line.
+  if (options.report) {
+    WriteReportAfterCommand(options.out_dir, options.dataset_dir, "run", options.quiet, out, err);
+  }
   return kExitOk;
 }
 

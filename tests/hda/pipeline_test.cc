@@ -110,17 +110,23 @@ Scene MakeScene(double slope_deg, const Eigen::Vector3d& c2_in_cam1, std::uint64
 // Lateral motion: 10.6 m east at 200 m, the paper's baseline-to-range ratio.
 Eigen::Vector3d Lateral() { return Eigen::Vector3d(kHeightM * 30.0 / 566.0, 0.0, 0.0); }
 
+// The default options with an ample wall-time budget: the tests that are not
+// about the budget must not depend on the machine's load (a loaded or
+// sanitized build would kick ROIs out); the budget has its own tests, with a
+// fake clock.
+HdaOptions AmpleBudgetOptions() {
+  HdaOptions options;
+  options.compute_budget_s = 1000.0;
+  return options;
+}
+
 // The method's options for these scenes: image 2 is computed exactly, so the
 // matching noise is about 0.02 px (MatchingRoiPair.RefinementRecoversASubPixelShift), far below the
 // default floor of 0.15 px measured on rendered scenes; the floor is set to
-// 0.05 px so that the predicted sigma describes these images. The wall-time
-// budget is made ample: these tests are about accuracy, and a loaded or
-// sanitized build must not kick ROIs out (the budget has its own tests, with
-// a fake clock).
+// 0.05 px so that the predicted sigma describes these images.
 HdaOptions ExactImageOptions() {
-  HdaOptions options;
+  HdaOptions options = AmpleBudgetOptions();
   options.pixel_sigma_floor_px = 0.05;
-  options.compute_budget_s = 1000.0;
   return options;
 }
 
@@ -174,7 +180,7 @@ TEST(RunHda, MotionAlongTheBoresightIsFlaggedDegenerateNotGivenAConfidentSlope) 
   // centre the rays of the two images are almost parallel.
   const Scene scene = MakeScene(6.0, Eigen::Vector3d(0.0, 0.0, kHeightM * 30.0 / 566.0),
                                 CurrentTestSeed());
-  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
   ASSERT_FALSE(result.rois.empty());
   for (const RoiResult& roi : result.rois) {
     if (roi.status == RoiStatus::kEvaluated || roi.status == RoiStatus::kUnsafeSlope) {
@@ -193,7 +199,7 @@ TEST(RunHda, AWrongNavigationPoseRejectsTheMatches) {
   // The IMU says the camera also pitched by 0.5 deg: 8.7 px of epipolar error.
   scene.input.cam2_from_cam1.rotation =
       Eigen::Quaterniond(Eigen::AngleAxisd(0.5 * kDegToRad, Eigen::Vector3d::UnitX()));
-  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
   ASSERT_FALSE(result.rois.empty());
   for (const RoiResult& roi : result.rois) {
     EXPECT_LT(roi.counts.epipolar_inliers, roi.counts.ransac_inliers / 4 + 1) << "ROI " << roi.id;
@@ -204,7 +210,7 @@ TEST(RunHda, AWrongNavigationPoseRejectsTheMatches) {
 TEST(RunHda, AnAllBlackImageGivesNoRoiAndSaysWhy) {
   Scene scene = MakeScene(0.0, Lateral(), CurrentTestSeed());
   scene.input.image1 = cv::Mat::zeros(kSizePx, kSizePx, CV_8UC1);
-  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
   EXPECT_TRUE(result.rois.empty());
   EXPECT_EQ(result.quadtree.rejected_dark, 1);
   EXPECT_EQ(result.note,
@@ -216,7 +222,7 @@ TEST(RunHda, AnAllBlackImageGivesNoRoiAndSaysWhy) {
 TEST(RunHda, AnEmptyImageGivesNoRoiAndSaysWhy) {
   Scene scene = MakeScene(0.0, Lateral(), CurrentTestSeed());
   scene.input.image2 = cv::Mat();
-  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
   EXPECT_TRUE(result.rois.empty());
   EXPECT_EQ(result.note, "image 2 is empty: no ROI can be found or matched");
 }
@@ -226,8 +232,8 @@ TEST(RunHda, SixteenBitImagesGiveTheSameResultAsEightBit) {
   Scene wide = scene;
   scene.input.image1.convertTo(wide.input.image1, CV_16U, 257.0);
   scene.input.image2.convertTo(wide.input.image2, CV_16U, 257.0);
-  const HdaResult a = RunHda(scene.input, Camera(), HdaOptions());
-  const HdaResult b = RunHda(wide.input, Camera(), HdaOptions());
+  const HdaResult a = RunHda(scene.input, Camera(), AmpleBudgetOptions());
+  const HdaResult b = RunHda(wide.input, Camera(), AmpleBudgetOptions());
   ASSERT_EQ(a.rois.size(), b.rois.size());
   for (size_t i = 0; i < a.rois.size(); ++i) {
     EXPECT_EQ(a.rois[i].status, b.rois[i].status);
@@ -237,8 +243,8 @@ TEST(RunHda, SixteenBitImagesGiveTheSameResultAsEightBit) {
 
 TEST(RunHda, TheSameInputGivesTheSameResult) {
   const Scene scene = MakeScene(5.0, Lateral(), CurrentTestSeed());
-  const HdaResult a = RunHda(scene.input, Camera(), HdaOptions());
-  const HdaResult b = RunHda(scene.input, Camera(), HdaOptions());
+  const HdaResult a = RunHda(scene.input, Camera(), AmpleBudgetOptions());
+  const HdaResult b = RunHda(scene.input, Camera(), AmpleBudgetOptions());
   ASSERT_EQ(a.rois.size(), b.rois.size());
   EXPECT_EQ(a.ranking, b.ranking);
   for (size_t i = 0; i < a.rois.size(); ++i) {
@@ -259,7 +265,7 @@ TEST(RunHda, RoisAreProcessedNearestTheIlsFirst) {
   Scene scene = MakeScene(3.0, Lateral(), CurrentTestSeed());
   // The ILS under the top-left corner of the image.
   scene.input.ils_in_local_m = Eigen::Vector3d(-50.0, 50.0, 0.0);
-  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
   ASSERT_GE(result.rois.size(), 2u);
   std::vector<const RoiResult*> by_order;
   for (const RoiResult& roi : result.rois) by_order.push_back(&roi);

@@ -188,22 +188,7 @@ TEST(RoisOfReconstruction, AnRoiWithoutPointsAndAFailedMethodGetClearStatuses) {
 class CompareOnSyntheticScene : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    datasets::synth::SynthOptions options = testing_support::ExactNavLateralPreset();
-    options.collection_s = 2.4;  // frames 0..6; the pair is 0-6, 31 m
-    const datasets::synth::TerrainOptions terrain = testing_support::TerrainOf(options);
-    // One scene for every test process (CTest runs each test in its own):
-    // generated under a temporary name and renamed into place, so a process
-    // never sees a half-written scene. The name carries the test binary's
-    // time stamp: a rebuilt generator never meets an old scene.
-    const auto stamp = fs::last_write_time("/proc/self/exe").time_since_epoch().count();
-    dir_ = new fs::path(fs::path(HDABENCH_TEST_TMP) / ("CompareScene-" + std::to_string(static_cast<std::uint64_t>(stamp))));
-    if (fs::exists(*dir_ / "manifest.json")) return;
-    const fs::path staging = dir_->string() + "-" + std::to_string(::getpid());
-    fs::remove_all(staging);
-    datasets::WriteDataset(datasets::synth::GenerateSynthDataset(options, terrain, 1), staging.string());
-    std::error_code ec;
-    fs::rename(staging, *dir_, ec);
-    if (ec) fs::remove_all(staging);  // another process was first: its scene is the same
+    dir_ = new fs::path(testing_support::CachedExactNavLateralScene(HDABENCH_TEST_TMP, HDABENCH_EXE));
   }
   static void TearDownTestSuite() {
     delete dir_;

@@ -1,0 +1,427 @@
+#include "datasets/stereolunar.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "calib/error.h"
+
+namespace hdabench::datasets {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kCamerasFields = 1 + 9 + 16;  // key, K, cam2world
+constexpr double kOrthonormalTolerance = 1e-4;
+constexpr double kFrameStepS = 1.0;  // frame 1 is 1 s after frame 0
+
+// Parses a whole field as a finite double; false otherwise.
+bool ParseFinite(const std::string& text, double* value) {
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  *value = std::strtod(begin, &end);
+  return end != begin && *end == '\0' && std::isfinite(*value);
+}
+
+std::string Str(double value) {
+  std::ostringstream out;
+  out.precision(9);
+  out << value;
+  return out.str();
+}
+
+// The nearest rotation matrix (SVD projection).
+Eigen::Matrix3d NearestRotation(const Eigen::Matrix3d& m) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
+  if (r.determinant() < 0.0) {
+    Eigen::Matrix3d u = svd.matrixU();
+    u.col(2) = -u.col(2);
+    r = u * svd.matrixV().transpose();
+  }
+  return r;
+}
+
+// One source frame of a pair folder.
+struct SourceFrame {
+  int number = 0;    // NNNNN of im_NNNNN
+  std::string stem;  // "im_NNNNN"
+};
+
+// The im_NNNNN.jpg frames of `dir`, sorted by number; checked to be an even
+// count of consecutive numbers.
+std::vector<SourceFrame> ListFrames(const fs::path& dir) {
+  std::vector<SourceFrame> frames;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const fs::path& path = it->path();
+    if (path.extension() != ".jpg") continue;
+    const std::string stem = path.stem().string();
+    if (stem.size() < 4 || stem.compare(0, 3, "im_") != 0) continue;
+    const std::string digits = stem.substr(3);
+    if (!std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }) ||
+        digits.size() > 9) {
+      continue;
+    }
+    frames.push_back({std::stoi(digits), stem});
+  }
+  if (ec) throw InputError(dir.string() + ": cannot list the folder: " + ec.message());
+  std::sort(frames.begin(), frames.end(),
+            [](const SourceFrame& a, const SourceFrame& b) { return a.number < b.number; });
+  if (frames.empty()) {
+    throw InputError(dir.string() +
+                     ": no im_NNNNN.jpg frames; expected a StereoLunar pair folder (im_NNNNN.jpg "
+                     "and .exr, two poses x sun positions)");
+  }
+  for (size_t i = 1; i < frames.size(); ++i) {
+    if (frames[i].number != frames[i - 1].number + 1) {
+      throw InputError(dir.string() + ": frame numbers are not consecutive: " +
+                       frames[i - 1].stem + " is followed by " + frames[i].stem +
+                       "; expected N, N+1, ... (two poses alternating under each sun position)");
+    }
+  }
+  if (frames.size() % 2 != 0) {
+    throw InputError(dir.string() + ": " + std::to_string(frames.size()) +
+                     " frames (" + frames.front().stem + " .. " + frames.back().stem +
+                     "); expected an even count: two poses under each sun position");
+  }
+  return frames;
+}
+
+// The grey image of a frame, CV_8UC1. A 3-channel JPEG (grey stored as
+// colour) gives its first channel.
+cv::Mat ReadImage(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw InputError(path.string() + ": no such file");
+  const cv::Mat raw = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  if (raw.empty()) throw InputError(path.string() + ": cannot be decoded as an image");
+  if (raw.depth() != CV_8U || (raw.channels() != 1 && raw.channels() != 3)) {
+    throw InputError(path.string() + ": " + std::to_string(raw.channels()) +
+                     " channel(s) of OpenCV depth " + std::to_string(raw.depth()) +
+                     "; expected an 8-bit grey image (1 or 3 channels)");
+  }
+  if (raw.channels() == 1) return raw.clone();
+  cv::Mat grey;
+  cv::extractChannel(raw, grey, 0);
+  return grey;
+}
+
+// The z-depth raster of a frame, CV_32FC1, metres.
+cv::Mat ReadDepth(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) {
+    throw InputError(path.string() + ": no such file (the frame's z-depth)");
+  }
+  // OpenCV reads this variable once, at its first EXR decode.
+  ::setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 1);
+  cv::Mat depth;
+  try {
+    depth = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw InputError(path.string() + ": cannot be read as an OpenEXR depth: " + e.what());
+  }
+  if (depth.empty()) {
+    throw InputError(path.string() +
+                     ": cannot be decoded as an OpenEXR depth (corrupt file, or OpenCV's EXR "
+                     "reader disabled: OPENCV_IO_ENABLE_OPENEXR must be 1 at the first read)");
+  }
+  if (depth.type() != CV_32FC1) {
+    throw InputError(path.string() + ": " + std::to_string(depth.channels()) +
+                     " channel(s) of OpenCV depth " + std::to_string(depth.depth()) +
+                     "; expected a single-channel float z-depth");
+  }
+  return depth;
+}
+
+std::string FolderName(const fs::path& dir) {
+  std::error_code ec;
+  const fs::path canonical = fs::canonical(dir, ec);
+  return (ec ? dir.lexically_normal() : canonical).filename().string();
+}
+
+const StereoLunarCamera& FindCamera(const std::vector<StereoLunarCamera>& cameras,
+                                    const std::string& cameras_txt, const std::string& folder,
+                                    const std::string& stem) {
+  const std::string key = folder + "/" + stem;
+  for (const StereoLunarCamera& camera : cameras) {
+    if (camera.key == key || camera.key == stem) return camera;
+  }
+  throw InputError(cameras_txt + ": no line for " + key + " (nor " + stem + ")");
+}
+
+}  // namespace
+
+std::vector<StereoLunarCamera> ReadStereoLunarCameras(const std::string& path) {
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec)) throw InputError(path + ": no such file");
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot be opened");
+  std::vector<StereoLunarCamera> cameras;
+  std::map<std::string, int> seen;
+  std::string text;
+  int line_number = 0;
+  while (std::getline(in, text)) {
+    ++line_number;
+    if (!text.empty() && text.back() == '\r') text.pop_back();
+    std::istringstream fields_in(text);
+    std::vector<std::string> fields;
+    std::string field;
+    while (fields_in >> field) fields.push_back(field);
+    if (fields.empty() || fields[0][0] == '#') continue;
+    const std::string where = path + ":" + std::to_string(line_number);
+    if (fields.size() != kCamerasFields) {
+      throw InputError(where + ": " + std::to_string(fields.size()) +
+                       " fields; expected " + std::to_string(kCamerasFields) +
+                       ": image key, K (9 values), cam2world (16 values)");
+    }
+    std::vector<double> values(kCamerasFields - 1);
+    for (int i = 1; i < kCamerasFields; ++i) {
+      if (!ParseFinite(fields[static_cast<size_t>(i)], &values[static_cast<size_t>(i - 1)])) {
+        throw InputError(where + ": field " + std::to_string(i + 1) + " '" +
+                         fields[static_cast<size_t>(i)] + "' is not a finite number");
+      }
+    }
+    StereoLunarCamera camera;
+    camera.key = fields[0];
+    camera.line = line_number;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) camera.k(r, c) = values[static_cast<size_t>(3 * r + c)];
+    }
+    for (int r = 0; r < 4; ++r) {
+      for (int c = 0; c < 4; ++c) camera.cam2world(r, c) = values[static_cast<size_t>(9 + 4 * r + c)];
+    }
+    const Eigen::Matrix3d& k = camera.k;
+    if (!(k(0, 0) > 0.0) || !(k(1, 1) > 0.0) || k(0, 1) != 0.0 || k(1, 0) != 0.0 ||
+        k(2, 0) != 0.0 || k(2, 1) != 0.0 || k(2, 2) != 1.0) {
+      throw InputError(where + ": K of " + camera.key +
+                       " is not [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (no skew)");
+    }
+    const Eigen::Matrix4d& m = camera.cam2world;
+    if (m(3, 0) != 0.0 || m(3, 1) != 0.0 || m(3, 2) != 0.0 || m(3, 3) != 1.0) {
+      throw InputError(where + ": cam2world of " + camera.key + " has last row (" + Str(m(3, 0)) +
+                       " " + Str(m(3, 1)) + " " + Str(m(3, 2)) + " " + Str(m(3, 3)) +
+                       "); expected (0 0 0 1)");
+    }
+    const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+    const double error = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+    if (!(error <= kOrthonormalTolerance) || !(r.determinant() > 0.0)) {
+      throw InputError(where + ": cam2world rotation of " + camera.key +
+                       " is not a rotation (|R^T R - I| = " + Str(error) + ", det " +
+                       Str(r.determinant()) + "); expected orthonormal within 1e-4, det +1");
+    }
+    const auto inserted = seen.emplace(camera.key, line_number);
+    if (!inserted.second) {
+      throw InputError(where + ": " + camera.key + " repeats line " +
+                       std::to_string(inserted.first->second));
+    }
+    cameras.push_back(camera);
+  }
+  if (in.bad()) throw InputError(path + ": read error");
+  if (cameras.empty()) throw InputError(path + ": no camera line");
+  return cameras;
+}
+
+Rigid3d LocalLevelFromMoon(const Eigen::Vector3d& ground_in_moon_m) {
+  const Eigen::Vector3d up = ground_in_moon_m.normalized();
+  const Eigen::Vector3d east_unnormalised = Eigen::Vector3d::UnitZ().cross(ground_in_moon_m);
+  if (!(east_unnormalised.norm() >= 1.0)) {
+    throw InputError("ground point (" + Str(ground_in_moon_m.x()) + ", " +
+                     Str(ground_in_moon_m.y()) + ", " + Str(ground_in_moon_m.z()) +
+                     ") m is within 1 m of the Moon's spin axis: east is undefined there");
+  }
+  const Eigen::Vector3d east = east_unnormalised.normalized();
+  const Eigen::Vector3d north = up.cross(east);
+  Eigen::Matrix3d local_from_moon;
+  local_from_moon.row(0) = east.transpose();
+  local_from_moon.row(1) = north.transpose();
+  local_from_moon.row(2) = up.transpose();
+  const Eigen::Quaterniond rotation = Eigen::Quaterniond(local_from_moon).normalized();
+  return Rigid3d(rotation, -(rotation * ground_in_moon_m));
+}
+
+Eigen::Vector2d StereoLunarCentrePixel(int width_px, int height_px) {
+  return Eigen::Vector2d(width_px / 2, height_px / 2);
+}
+
+std::string DefaultStereoLunarCamerasFile(const std::string& pair_dir) {
+  const fs::path inside = fs::path(pair_dir) / "cameras.txt";
+  std::error_code ec;
+  if (fs::exists(inside, ec)) return inside.string();
+  std::error_code canon_ec;
+  fs::path dir = fs::canonical(pair_dir, canon_ec);
+  if (canon_ec) dir = fs::path(pair_dir).lexically_normal();
+  if (!dir.has_filename()) dir = dir.parent_path();
+  return (dir.parent_path() / "cameras.txt").string();
+}
+
+Dataset ConvertStereoLunarPair(const std::string& pair_dir, const std::string& cameras_txt,
+                               int sun) {
+  if (sun < 0) throw std::invalid_argument("ConvertStereoLunarPair: sun must be >= 0");
+  const fs::path dir(pair_dir);
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) {
+    throw InputError(pair_dir + (fs::exists(dir, ec) ? ": is not a folder" : ": no such folder"));
+  }
+  const std::vector<SourceFrame> frames = ListFrames(dir);
+  const int suns = static_cast<int>(frames.size()) / 2;
+  if (sun >= suns) {
+    throw InputError(pair_dir + ": sun " + std::to_string(sun) + " requested; the folder holds " +
+                     std::to_string(suns) + " sun position(s) (0.." + std::to_string(suns - 1) +
+                     ")");
+  }
+  const std::vector<StereoLunarCamera> cameras = ReadStereoLunarCameras(cameras_txt);
+  const std::string folder = FolderName(dir);
+
+  const SourceFrame source[2] = {frames[static_cast<size_t>(2 * sun)],
+                                 frames[static_cast<size_t>(2 * sun + 1)]};
+  const StereoLunarCamera* camera[2] = {
+      &FindCamera(cameras, cameras_txt, folder, source[0].stem),
+      &FindCamera(cameras, cameras_txt, folder, source[1].stem)};
+  if (camera[0]->k != camera[1]->k) {
+    throw InputError(cameras_txt + ":" + std::to_string(camera[1]->line) + ": K of " +
+                     camera[1]->key + " differs from K of " + camera[0]->key + " (line " +
+                     std::to_string(camera[0]->line) + "); the bench needs one camera per dataset");
+  }
+  cv::Mat image[2];
+  cv::Mat depth[2];
+  for (int i = 0; i < 2; ++i) {
+    image[i] = ReadImage(dir / (source[i].stem + ".jpg"));
+    depth[i] = ReadDepth(dir / (source[i].stem + ".exr"));
+  }
+  const cv::Size size = image[0].size();
+  for (int i = 0; i < 2; ++i) {
+    for (const std::pair<const cv::Mat*, const char*> raster :
+         {std::make_pair(&image[i], ".jpg"), std::make_pair(&depth[i], ".exr")}) {
+      if (raster.first->size() != size) {
+        throw InputError((dir / (source[i].stem + raster.second)).string() + ": " +
+                         std::to_string(raster.first->cols) + " x " +
+                         std::to_string(raster.first->rows) + " px; expected " +
+                         std::to_string(size.width) + " x " + std::to_string(size.height) +
+                         " px like " + source[0].stem + ".jpg");
+      }
+    }
+  }
+
+  const Eigen::Matrix3d& k = camera[0]->k;
+  const double fx = k(0, 0);
+  const double fy = k(1, 1);
+  const double cx = k(0, 2) + kStereoLunarPrincipalPointShiftPx;
+  const double cy = k(1, 2) + kStereoLunarPrincipalPointShiftPx;
+  Dataset dataset(calib::CameraModel("LENSMODEL_PINHOLE", {fx, fy, cx, cy}, size.width,
+                                     size.height, {}, cameras_txt));
+  // Ray of pixel (col, row), mrcal convention, with unit z: depth * ray is the
+  // point in the camera frame.
+  const auto ray = [&](double col, double row) {
+    return Eigen::Vector3d((col - cx) / fx, (row - cy) / fy, 1.0);
+  };
+  const auto depth_at = [&](int i, const Eigen::Vector2d& pixel) {
+    return static_cast<double>(
+        depth[i].at<float>(static_cast<int>(pixel.y()), static_cast<int>(pixel.x())));
+  };
+  const auto valid_depth = [](double d) { return std::isfinite(d) && d > 0.0; };
+
+  // moon_from_cam of each frame, rotation projected onto SO(3) (the source is float32).
+  Rigid3d moon_from_cam[2];
+  for (int i = 0; i < 2; ++i) {
+    const Eigen::Matrix4d& m = camera[i]->cam2world;
+    moon_from_cam[i] = Rigid3d(
+        Eigen::Quaterniond(NearestRotation(m.topLeftCorner<3, 3>())).normalized(),
+        m.topRightCorner<3, 1>());
+  }
+
+  const Eigen::Vector2d centre = StereoLunarCentrePixel(size.width, size.height);
+  const Eigen::Vector3d centre_ray = ray(centre.x(), centre.y());
+  double centre_depth[2];
+  for (int i = 0; i < 2; ++i) {
+    centre_depth[i] = depth_at(i, centre);
+    if (!valid_depth(centre_depth[i])) {
+      throw InputError((dir / (source[i].stem + ".exr")).string() + ": depth " +
+                       Str(centre_depth[i]) + " at the centre pixel (" + Str(centre.x()) + ", " +
+                       Str(centre.y()) + "); expected a finite depth > 0 (the ILS and LRF spot)");
+    }
+  }
+  const Eigen::Vector3d ground_in_moon = moon_from_cam[0] * (centre_depth[0] * centre_ray);
+  const Rigid3d local_from_moon = LocalLevelFromMoon(ground_in_moon);
+
+  dataset.name = "stereolunar-" + folder + "-sun" + std::to_string(sun);
+  dataset.description =
+      "StereoLunar nadir pair " + folder + " (rendered with true z-depth and exact poses), sun " +
+      "position " + std::to_string(sun) + ": frame 0 = " + source[0].stem + ", frame 1 = " +
+      source[1].stem + ", times 0 s and 1 s by convention. Local frame: east-north-up at the "
+      "ground point of frame 0's centre pixel (up radial from the Moon's centre). Body = camera; "
+      "navigation = truth. Truth points from half-precision depth (steps of about 16 m at 30 km): "
+      "truth for slopes over hundreds of metres, not for metre-scale roughness. Pixel footprint "
+      "about " + Str(std::round(centre_depth[0] / fx)) + " m: use a site size of several hundred "
+      "metres (docs/stereolunar.md).";
+  dataset.cam_from_body = Rigid3d();
+  dataset.gravity_in_local_mps2 = Eigen::Vector3d(0.0, 0.0, -kMoonGravityMps2);
+  dataset.ils_in_local_m = Eigen::Vector3d::Zero();
+  dataset.lrf_origin_in_body_m = Eigen::Vector3d::Zero();
+
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int i = 0; i < 2; ++i) {
+    const double time_s = i * kFrameStepS;
+    const Rigid3d local_from_cam = local_from_moon * moon_from_cam[i];
+
+    FrameRecord frame;
+    frame.index = i;
+    frame.time_s = time_s;
+    frame.image_path = "images/frame_00000" + std::to_string(i) + ".png";
+    frame.image = image[i];
+    dataset.frames.push_back(frame);
+
+    NavSample nav;
+    nav.time_s = time_s;
+    nav.local_from_body = local_from_cam;  // body = camera
+    dataset.nav.push_back(nav);
+    dataset.truth.navigation.push_back(nav);
+
+    LrfSample lrf;
+    lrf.time_s = time_s;
+    lrf.range_m = centre_depth[i] * centre_ray.norm();
+    lrf.boresight_in_body = centre_ray.normalized();
+    dataset.lrf.push_back(lrf);
+
+    const Eigen::Matrix3d rotation = local_from_cam.RotationMatrix();
+    const Eigen::Vector3d& translation = local_from_cam.translation;
+    cv::Mat points(size, CV_32FC3);
+    for (int row = 0; row < size.height; ++row) {
+      for (int col = 0; col < size.width; ++col) {
+        const double d = depth[i].at<float>(row, col);
+        cv::Vec3f& point = points.at<cv::Vec3f>(row, col);
+        if (!valid_depth(d)) {
+          point = cv::Vec3f(nan, nan, nan);
+          continue;
+        }
+        const Eigen::Vector3d p = rotation * (d * ray(col, row)) + translation;
+        point = cv::Vec3f(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                          static_cast<float>(p.z()));
+      }
+    }
+    TruthPoints truth;
+    truth.frame = i;
+    truth.file = "truth/points_00000" + std::to_string(i) + ".npy";
+    truth.points_in_local_m = points;
+    dataset.truth.points.push_back(truth);
+  }
+  dataset.truth.navigation_file = "truth/navigation.csv";
+  return dataset;
+}
+
+}  // namespace hdabench::datasets

@@ -1,0 +1,343 @@
+#include "reference/gate.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "calib/error.h"
+#include "tests/support/synth_scene.h"
+#include "tests/support/test_support.h"
+
+namespace hdabench::reference {
+namespace {
+
+namespace fs = std::filesystem;
+using testing_support::CommandResult;
+using testing_support::FreshTestDir;
+using testing_support::ReadText;
+using testing_support::RunHdabench;
+using testing_support::WriteText;
+
+std::string ErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
+  const fs::path dir = FreshTestDir();
+  const auto suite = [&](const std::string& body) {
+    WriteText(dir / "suite.json",
+              R"({"format": "hdabench-gate-suite", "format_version": 1, )" + body + "}");
+    return ErrorOf([&] { ReadGateSuite((dir / "suite.json").string()); });
+  };
+  const std::string ok_entry = R"({"name": "a", "synth": {"preset": "novac-lateral"}})";
+  EXPECT_EQ(suite(R"("methods": ["flight"], "entries": [)" + ok_entry + "]"), "no error");
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [)" + ok_entry + ", " + ok_entry + "]")
+                .find("entries[1]: name 'a' is repeated"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["colmap"], "entries": [)" + ok_entry + "]").find("unknown method 'colmap'"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a"}])")
+                .find("entries[0]: give exactly one of 'synth', 'dataset', 'stereolunar'"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "synth": {"preset": "novac-lateral", "set": {"speed": 3}}}])")
+                .find("entries[0].synth: "),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a b", "dataset": "x"}])").find("name 'a b'"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [)" + ok_entry + R"(], "extra": 1)").find("unknown field 'extra'"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { ReadGateSuite((dir / "missing.json").string()); }).find("missing.json: cannot read"),
+            std::string::npos);
+}
+
+TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {
+  const fs::path dir = FreshTestDir();
+  const auto thresholds = [&](const std::string& list) {
+    WriteText(dir / "t.json",
+              R"({"format": "hdabench-gate-thresholds", "format_version": 1, "thresholds": [)" + list + "]}");
+    return ErrorOf([&] { ReadGateThresholds((dir / "t.json").string()); });
+  };
+  EXPECT_EQ(thresholds(R"({"method": "flight", "metric": "slope_error_p90_deg", "max": 5, "tolerance": 0.5})"),
+            "no error");
+  EXPECT_NE(thresholds(R"({"method": "flight", "metric": "slope_error_p90_deg", "max": 5, "min": 1})")
+                .find("exactly one of 'max' and 'min'"),
+            std::string::npos);
+  EXPECT_NE(thresholds(R"({"method": "flight", "metric": "slope_p90", "max": 5})").find("unknown metric 'slope_p90'"),
+            std::string::npos);
+  EXPECT_NE(thresholds(R"({"method": "flight", "metric": "slope_error_p90_deg", "max": 5},
+                          {"method": "flight", "metric": "slope_error_p90_deg", "max": 6})")
+                .find("given twice"),
+            std::string::npos);
+}
+
+// Two hand-written entries: the metrics pool their ROIs.
+TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
+  const fs::path dir = FreshTestDir();
+  const auto entry = [&](const std::string& name, const std::vector<double>& errors, double seconds) {
+    nlohmann::json rois = nlohmann::json::array();
+    for (size_t i = 0; i < errors.size(); ++i) {
+      rois.push_back({{"id", i + 1},
+                      {"truth", {{"slope_deg", 2.0}, {"roughness_rms_m", 0.1}}},
+                      {"methods",
+                       {{"flight",
+                         {{"status", "evaluated"}, {"num_points", 30}, {"slope_deg", 2.0 + errors[i]},
+                          {"slope_sigma_deg", 1.0}, {"slope_error_deg", errors[i]},
+                          {"roughness_rms_m", 0.3}}}}}});
+    }
+    // One ROI without a slope, and one with too few points.
+    rois.push_back({{"id", 99}, {"truth", nullptr},
+                    {"methods", {{"flight", {{"status", "too few points"}, {"num_points", 3},
+                                             {"slope_deg", nullptr}, {"slope_sigma_deg", nullptr},
+                                             {"slope_error_deg", nullptr}, {"roughness_rms_m", nullptr}}}}}});
+    fs::create_directories(dir / name);
+    WriteText(dir / name / "compare.json",
+              nlohmann::json({{"methods", {{{"name", "flight"}, {"ok", true}}}}, {"rois", rois}}).dump());
+    WriteText(dir / name / "compare_timings.json",
+              nlohmann::json({{"methods", {{{"name", "flight"}, {"seconds", seconds}}}}}).dump());
+    return (dir / name).string();
+  };
+  const std::vector<GateMetric> metrics =
+      ComputeGateMetrics({entry("a", {1.0, 3.0}, 0.2), entry("b", {0.5, 2.5, 4.0}, 0.4)}, 0.1);
+  const auto value = [&](const std::string& metric) {
+    for (const GateMetric& m : metrics) {
+      if (m.method == "flight" && m.metric == metric) return m.value;
+    }
+    ADD_FAILURE() << "no " << metric;
+    return -1.0;
+  };
+  EXPECT_DOUBLE_EQ(value("slope_error_median_deg"), 2.5);    // of 0.5 1 2.5 3 4
+  EXPECT_DOUBLE_EQ(value("slope_error_p90_deg"), 3.6);       // 3 + 0.6 * (4 - 3)
+  EXPECT_DOUBLE_EQ(value("slope_error_max_deg"), 4.0);
+  EXPECT_DOUBLE_EQ(value("roughness_error_median_m"), 0.2);
+  EXPECT_DOUBLE_EQ(value("rois_with_slope_share"), 5.0 / 7.0);
+  EXPECT_DOUBLE_EQ(value("within_two_sigma_share"), 2.0 / 5.0);  // |error| <= 2 sigma = 2: 0.5 and 1
+  EXPECT_DOUBLE_EQ(value("flight_seconds_per_pair"), 4.0);     // 0.4 s / 0.1
+  EXPECT_DOUBLE_EQ(value("failed_entries"), 0.0);
+  EXPECT_DOUBLE_EQ(value("slope_error_rois"), 5.0);
+}
+
+TEST(CheckGate, ThresholdsMarginsAndRegressions) {
+  GateThresholds thresholds;
+  thresholds.thresholds = {{"flight", "slope_error_p90_deg", 5.0, std::nullopt, 0.5, ""},
+                           {"flight", "within_two_sigma_share", std::nullopt, 0.8, 0.05, ""},
+                           {"flight", "slope_error_max_deg", 20.0, std::nullopt, 1.0, ""}};
+  const std::vector<GateMetric> metrics = {{"flight", "slope_error_p90_deg", 4.0},
+                                           {"flight", "within_two_sigma_share", 0.7}};
+  const std::vector<GateMetric> baseline = {{"flight", "slope_error_p90_deg", 3.4},
+                                            {"flight", "within_two_sigma_share", 0.72}};
+  const std::vector<GateCheck> checks = CheckGate(metrics, thresholds, &baseline);
+  ASSERT_EQ(checks.size(), 3u);
+  EXPECT_TRUE(checks[0].passed);
+  EXPECT_DOUBLE_EQ(checks[0].margin, 1.0);
+  EXPECT_TRUE(checks[0].regressed);  // 0.6 worse than the baseline, tolerance 0.5
+  EXPECT_FALSE(checks[1].passed);
+  EXPECT_NEAR(checks[1].margin, -0.1, 1e-12);
+  EXPECT_FALSE(checks[1].regressed);  // 0.02 worse, tolerance 0.05
+  EXPECT_EQ(checks[1].Describe(), "flight within_two_sigma_share = 0.700 < 0.800 (threshold)");
+  EXPECT_FALSE(checks[2].has_value);  // no data is a failure, named as such
+  EXPECT_NE(checks[2].Describe().find("no value"), std::string::npos);
+  EXPECT_NE(GateTable(checks).find("| flight | slope_error_p90_deg | 4.000 | <= 5.000 | 1.000 | 3.400 | pass but REGRESSED |"),
+            std::string::npos)
+      << GateTable(checks);
+}
+
+// ---------------------------------------------------------------------------
+// The command on a real scene: two entries on the default scene (exact
+// navigation), flight only (deterministic to the byte).
+
+class GateCommand : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    scene_ = new fs::path(testing_support::CachedExactNavLateralScene(HDABENCH_TEST_TMP, HDABENCH_EXE));
+  }
+  static void TearDownTestSuite() {
+    delete scene_;
+    scene_ = nullptr;
+  }
+  // The suite: the scene with 10 m and 14 m sites.
+  static fs::path WriteSuite(const fs::path& dir) {
+    nlohmann::json suite = {{"format", "hdabench-gate-suite"},
+                            {"format_version", 1},
+                            {"methods", {"flight"}},
+                            {"entries",
+                             {{{"name", "sites-10m"}, {"dataset", scene_->string()}, {"site_size_m", 10}},
+                              {{"name", "sites-14m"}, {"dataset", scene_->string()}, {"site_size_m", 14}}}}};
+    WriteText(dir / "suite.json", suite.dump(1));
+    return dir / "suite.json";
+  }
+  static fs::path WriteThresholds(const fs::path& dir, const std::string& name,
+                                  const nlohmann::json& list) {
+    WriteText(dir / name, nlohmann::json({{"format", "hdabench-gate-thresholds"},
+                                          {"format_version", 1},
+                                          {"thresholds", list}})
+                              .dump(1));
+    return dir / name;
+  }
+  static double Metric(const fs::path& metrics_file, const std::string& metric) {
+    for (const GateMetric& m : ReadGateMetrics(metrics_file.string())) {
+      if (m.method == "flight" && m.metric == metric) return m.value;
+    }
+    ADD_FAILURE() << "no flight " << metric << " in " << metrics_file;
+    return 0.0;
+  }
+  static fs::path* scene_;
+};
+fs::path* GateCommand::scene_ = nullptr;
+
+TEST_F(GateCommand, PassesCleanAndFailsNamingTheMetricWhenTheFlightMethodIsMadeWorse) {
+  const fs::path dir = FreshTestDir();
+  const fs::path suite = WriteSuite(dir);
+  const fs::path loose = WriteThresholds(
+      dir, "loose.json", {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", 90}}});
+  CommandResult clean = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", loose.string(),
+                                     "--out", (dir / "clean").string(), "--write-baseline",
+                                     (dir / "baseline.json").string()},
+                                    dir);
+  ASSERT_EQ(clean.exit_code, 0) << clean.err;
+  EXPECT_NE(clean.out.find("| flight | slope_error_median_deg |"), std::string::npos) << clean.out;
+  const double median = Metric(dir / "baseline.json", "slope_error_median_deg");
+  const double p90 = Metric(dir / "baseline.json", "slope_error_p90_deg");
+  EXPECT_GT(Metric(dir / "baseline.json", "slope_error_rois"), 20.0);
+
+  // Thresholds from the clean run plus a margin: the clean run passes them.
+  const fs::path tight = WriteThresholds(
+      dir, "tight.json",
+      {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", median + 1.0}, {"tolerance", 0.3}},
+       {{"method", "flight"}, {"metric", "slope_error_p90_deg"}, {"max", p90 + 2.0}, {"tolerance", 0.5}}});
+  clean = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", tight.string(), "--out",
+                       (dir / "clean").string(), "--baseline", (dir / "baseline.json").string()},
+                      dir);
+  EXPECT_EQ(clean.exit_code, 0) << clean.err;
+
+  // 0.6 px of noise on the flight method's matches (its own error is about
+  // 0.15 px): the slope errors grow about four times.
+  const CommandResult worse = RunHdabench(
+      {"gate", "--suite", suite.string(), "--thresholds", tight.string(), "--out",
+       (dir / "worse").string(), "--fault-match-noise-px", "0.6"},
+      dir);
+  EXPECT_EQ(worse.exit_code, 1) << worse.err;
+  EXPECT_NE(worse.err.find("FAILED flight slope_error_median_deg = "), std::string::npos) << worse.err;
+  EXPECT_NE(worse.out.find("| flight | slope_error_median_deg |"), std::string::npos);
+
+  // Against the baseline, with thresholds it still meets: a regression.
+  const CommandResult regressed = RunHdabench(
+      {"gate", "--suite", suite.string(), "--thresholds", loose.string(), "--out",
+       (dir / "worse").string(), "--fault-match-noise-px", "0.6", "--baseline",
+       (dir / "baseline.json").string()},
+      dir);
+  EXPECT_EQ(regressed.exit_code, 1) << regressed.err;
+  EXPECT_NE(regressed.err.find("FAILED flight slope_error_median_deg = "), std::string::npos) << regressed.err;
+  EXPECT_NE(regressed.err.find("regressed from the baseline's"), std::string::npos) << regressed.err;
+  // The second run reused the entries of the first.
+  EXPECT_NE(regressed.err.find("complete from an earlier run"), std::string::npos) << regressed.err;
+}
+
+// Starts the gate in the background and kills it (SIGKILL) once the first
+// entry is complete; the rerun finishes the suite without redoing it, and the
+// metrics equal those of an uninterrupted run.
+TEST_F(GateCommand, KilledHalfwayItResumesWithoutRedoingAndGivesTheSameResults) {
+  const fs::path dir = FreshTestDir();
+  const fs::path suite = WriteSuite(dir);
+  const fs::path loose = WriteThresholds(
+      dir, "loose.json", {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", 90}}});
+  const std::vector<std::string> args = {HDABENCH_EXE, "gate", "--suite", suite.string(),
+                                         "--thresholds", loose.string(), "--jobs", "1", "--quiet",
+                                         "--out", (dir / "resumed").string()};
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::vector<char*> argv;
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    const int null = ::open("/dev/null", O_WRONLY);
+    if (null >= 0) {
+      ::dup2(null, 1);
+      ::dup2(null, 2);
+    }
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  const fs::path first = dir / "resumed" / "entries" / "sites-10m" / "compare.json";
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
+  while (!fs::exists(first) && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ::kill(child, SIGKILL);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(fs::exists(first)) << "the first entry never completed";
+  ASSERT_TRUE(WIFSIGNALED(status)) << "the gate finished before it could be killed";
+  EXPECT_FALSE(fs::exists(dir / "resumed" / "entries" / "sites-14m" / "compare.json"));
+  const auto first_time = fs::last_write_time(first);
+
+  const CommandResult rerun = RunHdabench(
+      {"gate", "--suite", suite.string(), "--thresholds", loose.string(), "--jobs", "1", "--out",
+       (dir / "resumed").string()},
+      dir);
+  ASSERT_EQ(rerun.exit_code, 0) << rerun.err;
+  EXPECT_NE(rerun.err.find("sites-10m: complete from an earlier run"), std::string::npos) << rerun.err;
+  EXPECT_NE(rerun.err.find("sites-14m: done in"), std::string::npos) << rerun.err;
+  EXPECT_EQ(fs::last_write_time(first), first_time);  // not redone
+  for (const auto& item : fs::directory_iterator(dir / "resumed" / "entries")) {
+    EXPECT_EQ(item.path().filename().string().find(".partial"), std::string::npos) << item.path();
+  }
+
+  const CommandResult whole = RunHdabench(
+      {"gate", "--suite", suite.string(), "--thresholds", loose.string(), "--jobs", "2", "--out",
+       (dir / "whole").string()},
+      dir);
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  // The same metrics, but for the flight time (a wall time).
+  const std::vector<GateMetric> resumed = ReadGateMetrics((dir / "resumed" / "metrics.json").string());
+  const std::vector<GateMetric> uninterrupted = ReadGateMetrics((dir / "whole" / "metrics.json").string());
+  ASSERT_EQ(resumed.size(), uninterrupted.size());
+  for (size_t i = 0; i < resumed.size(); ++i) {
+    EXPECT_EQ(resumed[i].metric, uninterrupted[i].metric);
+    if (resumed[i].metric == "flight_seconds_per_pair") continue;
+    EXPECT_EQ(resumed[i].value, uninterrupted[i].value) << resumed[i].metric;
+  }
+  for (const char* entry : {"sites-10m", "sites-14m"}) {
+    EXPECT_EQ(ReadText(dir / "resumed" / "entries" / entry / "compare.json"),
+              ReadText(dir / "whole" / "entries" / entry / "compare.json"))
+        << entry;
+  }
+}
+
+TEST_F(GateCommand, BadFilesAndFlagsHaveTheirExitCodes) {
+  const fs::path dir = FreshTestDir();
+  const fs::path suite = WriteSuite(dir);
+  CommandResult result = RunHdabench(
+      {"gate", "--suite", (dir / "none.json").string(), "--thresholds", suite.string(), "--out",
+       (dir / "o").string()},
+      dir);
+  EXPECT_EQ(result.exit_code, 3);
+  EXPECT_NE(result.err.find("none.json: cannot read the file"), std::string::npos) << result.err;
+  result = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", suite.string(), "--out",
+                        (dir / "o").string()},
+                       dir);
+  EXPECT_EQ(result.exit_code, 3);
+  EXPECT_NE(result.err.find("field 'format' must be \"hdabench-gate-thresholds\""), std::string::npos)
+      << result.err;
+  result = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", suite.string(), "--out",
+                        (dir / "o").string(), "--jobs", "0"},
+                       dir);
+  EXPECT_EQ(result.exit_code, 2);
+}
+
+}  // namespace
+}  // namespace hdabench::reference

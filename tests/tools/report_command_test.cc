@@ -1,0 +1,377 @@
+// `hdabench report` and the report `run` and `compare` write by default, as a
+// person meets it: the page loaded in headless Chromium (screenshot and DOM),
+// its per-ROI table and every embedded figure, determinism, a compare folder
+// with a failed method, a missing Python, and folders that are not run
+// folders. Skipped only when chromium is not installed.
+#include <cstdint>
+#include <filesystem>
+#include <iostream>
+#include <set>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "reference/process.h"
+#include "tests/support/test_support.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using hdabench::testing_support::CommandResult;
+using hdabench::testing_support::CurrentTestName;
+using hdabench::testing_support::FreshTestDir;
+using hdabench::testing_support::ReadText;
+
+constexpr char kPngSignature[] = "\x89PNG\r\n\x1a\n";
+
+// The small synthetic dataset of these tests: 256 x 256 px, 15 deg field of
+// view, 2.4 s collection window (a few seconds to generate). The first test
+// process generates it into a staging folder renamed into place; the others
+// reuse it. The name carries the binary's time stamp.
+const fs::path& Dataset() {
+  static const fs::path dir = [] {
+    const auto stamp =
+        static_cast<unsigned long long>(fs::last_write_time(HDABENCH_EXE).time_since_epoch().count());
+    const fs::path target = fs::path(HDABENCH_TEST_TMP) / ("report_dataset_" + std::to_string(stamp));
+    if (fs::exists(target / "manifest.json")) return target;
+    const fs::path staging = target.string() + ".staging-" + std::to_string(::getpid());
+    fs::remove_all(staging);
+    fs::create_directories(staging);
+    const CommandResult synth = hdabench::testing_support::RunHdabench(
+        {"synth", "--out", (staging / "dataset").string(), "--image-size", "256", "--seed", "3",
+         "--set", "horizontal_fov_deg=15", "--set", "collection_s=2.4", "--quiet"},
+        staging);
+    EXPECT_EQ(synth.exit_code, 0) << synth.out << synth.err;
+    std::error_code ec;
+    fs::rename(staging / "dataset", target, ec);  // fails when another test got there first
+    fs::remove_all(staging, ec);
+    return target;
+  }();
+  return dir;
+}
+
+CommandResult Hdabench(const std::vector<std::string>& args) {
+  const fs::path scratch = fs::path(HDABENCH_TEST_TMP) / (CurrentTestName() + ".cli");
+  fs::create_directories(scratch);
+  return hdabench::testing_support::RunHdabench(args, scratch);
+}
+
+std::string Chromium() { return hdabench::reference::FindExecutable("chromium"); }
+
+#define SKIP_WITHOUT_CHROMIUM()                                                                \
+  if (Chromium().empty()) {                                                                    \
+    GTEST_SKIP() << "chromium is not installed (Debian package chromium, listed in "           \
+                    "tools/debian-packages.txt): the report cannot be rendered";               \
+  }
+
+// Runs headless Chromium on `page` with `flag` (--dump-dom, --screenshot=FILE)
+// through the bench's process runner (60 s limit); returns its standard
+// output (its standard error is dropped).
+std::string RunChromium(const fs::path& page, const std::string& flag, const fs::path& work) {
+  const fs::path out = work / (flag == "--dump-dom" ? "chromium-dom.html" : "chromium-screenshot.out");
+  fs::remove(out);
+  std::string command = "exec " + hdabench::testing_support::ShellQuote(Chromium());
+  for (const std::string& arg :
+       {std::string("--headless"), std::string("--no-sandbox"), std::string("--disable-gpu"),
+        std::string("--hide-scrollbars"), "--user-data-dir=" + (work / "chromium-profile").string(),
+        std::string("--window-size=1400,3000"), flag, "file://" + fs::absolute(page).string()}) {
+    command += " " + hdabench::testing_support::ShellQuote(arg);
+  }
+  command += " 2>/dev/null";
+  hdabench::reference::ProcessOptions options;
+  options.log_file = out.string();
+  options.timeout_s = 60.0;
+  const hdabench::reference::ProcessResult result =
+      hdabench::reference::RunProcess({"/bin/sh", "-c", command}, options);
+  EXPECT_TRUE(result.Ok()) << "chromium " << flag << ": " << result.error;
+  return ReadText(out);
+}
+
+std::string Base64Decode(const std::string& text) {
+  auto value = [](char c) -> int {
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    if (c == '+') return 62;
+    if (c == '/') return 63;
+    return -1;
+  };
+  std::string out;
+  std::uint32_t buffer = 0;
+  int bits = 0;
+  for (const char c : text) {
+    if (c == '=') break;
+    const int v = value(c);
+    if (v < 0) return "";  // not base64
+    buffer = (buffer << 6) | static_cast<std::uint32_t>(v);
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out += static_cast<char>((buffer >> bits) & 0xffu);
+    }
+  }
+  return out;
+}
+
+// Width and height from a PNG's IHDR; 0 x 0 when the bytes are no PNG.
+std::pair<std::uint32_t, std::uint32_t> PngSize(const std::string& png) {
+  if (png.size() < 24 || png.compare(0, 8, kPngSignature, 8) != 0 || png.compare(12, 4, "IHDR") != 0) {
+    return {0, 0};
+  }
+  auto be32 = [&png](size_t at) {
+    std::uint32_t v = 0;
+    for (size_t i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(png[at + i]);
+    return v;
+  };
+  return {be32(16), be32(20)};
+}
+
+// What the test reads from the rendered DOM.
+struct Dom {
+  std::vector<std::string> images;       // decoded bytes of each <img> data: URI
+  int non_data_images = 0;               // <img> elements whose src is not a data: URI
+  std::set<std::string> figure_ids;      // id of every <figure>
+  int roi_table_rows = -1;               // <tr> in the tbody of #roi-table; -1: no table
+  int roi_table_columns = -1;            // <th> in its header
+  std::string text;                      // the whole DOM
+};
+
+Dom ParseDom(const std::string& dom) {
+  Dom parsed;
+  parsed.text = dom;
+  for (size_t at = dom.find("<img"); at != std::string::npos; at = dom.find("<img", at + 4)) {
+    const size_t end = dom.find('>', at);
+    const std::string tag = dom.substr(at, end - at);
+    const std::string prefix = "src=\"data:image/png;base64,";
+    const size_t src = tag.find(prefix);
+    if (src == std::string::npos) {
+      ++parsed.non_data_images;
+      continue;
+    }
+    const size_t begin = src + prefix.size();
+    parsed.images.push_back(Base64Decode(tag.substr(begin, tag.find('"', begin) - begin)));
+  }
+  for (size_t at = dom.find("<figure id=\""); at != std::string::npos;
+       at = dom.find("<figure id=\"", at + 1)) {
+    const size_t begin = at + 12;
+    parsed.figure_ids.insert(dom.substr(begin, dom.find('"', begin) - begin));
+  }
+  const size_t table = dom.find("<table id=\"roi-table\">");
+  if (table != std::string::npos) {
+    const size_t table_end = dom.find("</table>", table);
+    const size_t body = dom.find("<tbody>", table);
+    const size_t head_end = dom.find("</thead>", table);
+    parsed.roi_table_rows = 0;
+    parsed.roi_table_columns = 0;
+    for (size_t at = dom.find("<tr", body); at < table_end; at = dom.find("<tr", at + 3)) {
+      ++parsed.roi_table_rows;
+    }
+    for (size_t at = dom.find("<th", table); at < head_end; at = dom.find("<th", at + 3)) {
+      if (dom.compare(at, 7, "<thead>") != 0) ++parsed.roi_table_columns;
+    }
+  }
+  return parsed;
+}
+
+// Renders the report: a screenshot saved in the test's folder and copied to
+// a folder that outlives the test (the path is printed), and the DOM.
+Dom Render(const fs::path& html, const fs::path& test_dir) {
+  const fs::path screenshot = test_dir / "report_screenshot.png";
+  RunChromium(html, "--screenshot=" + screenshot.string(), test_dir);
+  const std::string shot = ReadText(screenshot);
+  const auto size = PngSize(shot);
+  EXPECT_EQ(size.first, 1400u) << screenshot;
+  EXPECT_EQ(size.second, 3000u) << screenshot;
+  const fs::path kept = fs::path(HDABENCH_TEST_TMP) / "report_screenshots" / (CurrentTestName() + ".png");
+  fs::create_directories(kept.parent_path());
+  fs::copy_file(screenshot, kept, fs::copy_options::overwrite_existing);
+  std::cout << "report screenshot: " << screenshot << " (copy kept: " << kept << ")\n";
+  ::testing::Test::RecordProperty("screenshot", kept.string());
+  return ParseDom(RunChromium(html, "--dump-dom", test_dir));
+}
+
+// Every <img> is a data: URI that decodes to a PNG of non-zero size.
+void ExpectEveryImageIsAnEmbeddedPng(const Dom& dom) {
+  EXPECT_EQ(dom.non_data_images, 0);
+  for (size_t i = 0; i < dom.images.size(); ++i) {
+    const auto size = PngSize(dom.images[i]);
+    EXPECT_GT(size.first, 0u) << "image " << i;
+    EXPECT_GT(size.second, 0u) << "image " << i;
+  }
+}
+
+// The ids of the flight figures a run folder's figures/ holds.
+std::set<std::string> FlightFigureIds(const fs::path& figures) {
+  std::set<std::string> ids = {"fig-quadtree", "fig-matches"};
+  for (const auto& entry : fs::directory_iterator(figures / "roi_pairs")) {
+    ids.insert("fig-" + entry.path().stem().string());
+  }
+  return ids;
+}
+
+// The figure count from "report: DIR/report.html (N figures, ...".
+int FiguresPrinted(const std::string& out) {
+  const size_t at = out.find("report.html (");
+  if (at == std::string::npos) return -1;
+  return std::stoi(out.substr(at + 13));
+}
+
+TEST(ReportCommand, RunFolderRendersInChromiumWithTheTableAndEveryFigure) {
+  SKIP_WITHOUT_CHROMIUM();
+  const fs::path dir = FreshTestDir();
+  const CommandResult run = Hdabench({"run", Dataset().string(), "--out", (dir / "run").string(), "--quiet"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_EQ(run.err, "");
+  ASSERT_TRUE(fs::is_regular_file(dir / "run" / "report.html")) << run.out;
+  ASSERT_TRUE(fs::is_regular_file(dir / "run" / "report.md"));
+
+  const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "run" / "result.json"));
+  bool any_fit_with_truth = false;
+  for (const nlohmann::json& roi : result["rois"]) {
+    any_fit_with_truth |= roi["fit"].is_object() && roi["truth"]["available"] == true;
+  }
+  std::set<std::string> expected = FlightFigureIds(dir / "run" / "figures");
+  expected.insert({"plot-stage_timings", "map-elevation", "map-slope", "map-hazards"});
+  if (any_fit_with_truth) {
+    expected.insert({"plot-slope_scatter", "plot-slope_error_histogram", "plot-error_vs_points"});
+  }
+
+  const Dom dom = Render(dir / "run" / "report.html", dir);
+  EXPECT_EQ(dom.roi_table_rows, static_cast<int>(result["rois"].size()));
+  EXPECT_EQ(dom.roi_table_columns, 10);
+  for (const std::string& id : expected) EXPECT_EQ(dom.figure_ids.count(id), 1u) << id;
+  EXPECT_EQ(dom.images.size(), dom.figure_ids.size());
+  EXPECT_EQ(static_cast<int>(dom.images.size()), FiguresPrinted(run.out)) << run.out;
+  EXPECT_GE(dom.images.size(), expected.size());
+  ExpectEveryImageIsAnEmbeddedPng(dom);
+  EXPECT_EQ(dom.text.find("id=\"plots-error\""), std::string::npos);
+  EXPECT_NE(ReadText(dir / "run" / "report.md").find("# Flight run of "), std::string::npos);
+}
+
+TEST(ReportCommand, CompareFolderWithAFailedMethodRendersAndShowsTheFailure) {
+  SKIP_WITHOUT_CHROMIUM();
+  const fs::path dir = FreshTestDir();
+  const fs::path out = dir / "compare";
+  const CommandResult compare = Hdabench({"compare", Dataset().string(), "--out", out.string(),
+                                          "--colmap", "/nonexistent/colmap", "--quiet"});
+  // The colmap methods fail (exit code 4, as without a report); the report is written.
+  ASSERT_EQ(compare.exit_code, 4) << compare.out << compare.err;
+  ASSERT_TRUE(fs::is_regular_file(out / "report.html")) << compare.out << compare.err;
+  EXPECT_EQ(compare.err.find("warning"), std::string::npos) << compare.err;
+
+  const nlohmann::json json = nlohmann::json::parse(ReadText(out / "compare.json"));
+  std::vector<std::string> failed;
+  for (const nlohmann::json& m : json["methods"]) {
+    if (m["ok"] == false) failed.push_back(m["name"]);
+  }
+  ASSERT_FALSE(failed.empty());
+
+  std::set<std::string> expected = FlightFigureIds(out / "flight" / "figures");
+  expected.insert({"plot-stage_timings", "plot-method_timings", "map-elevation", "map-slope"});
+  const Dom dom = Render(out / "report.html", dir);
+  EXPECT_EQ(dom.roi_table_rows, static_cast<int>(json["rois"].size()));
+  EXPECT_EQ(dom.roi_table_columns, 2 + static_cast<int>(json["methods"].size()));
+  for (const std::string& id : expected) EXPECT_EQ(dom.figure_ids.count(id), 1u) << id;
+  EXPECT_EQ(dom.images.size(), dom.figure_ids.size());
+  EXPECT_EQ(static_cast<int>(dom.images.size()), FiguresPrinted(compare.out)) << compare.out;
+  ExpectEveryImageIsAnEmbeddedPng(dom);
+  // The failure is shown: the failures box names each failed method and the
+  // method table and the ROI cells say "failed".
+  const size_t box = dom.text.find("id=\"failures\"");
+  ASSERT_NE(box, std::string::npos);
+  for (const std::string& name : failed) {
+    EXPECT_NE(dom.text.find("<li>" + name + ": ", box), std::string::npos) << name;
+  }
+  EXPECT_NE(dom.text.find("class=\"st-failed\""), std::string::npos);
+  EXPECT_NE(dom.text.find("- (failed)"), std::string::npos);
+  EXPECT_NE(ReadText(out / "report.md").find("## Failed methods"), std::string::npos);
+}
+
+TEST(ReportCommand, TheSameFolderGivesTheSameBytes) {
+  const fs::path dir = FreshTestDir();
+  const fs::path out = dir / "run";
+  const CommandResult run = Hdabench({"run", Dataset().string(), "--out", out.string(), "--quiet"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const std::string html = ReadText(out / "report.html");
+  const std::string md = ReadText(out / "report.md");
+  ASSERT_FALSE(html.empty());
+  // Again, by hand, with the same dataset: byte for byte the same.
+  const CommandResult again = Hdabench({"report", out.string(), "--dataset", Dataset().string()});
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_TRUE(ReadText(out / "report.html") == html) << "report.html differs";
+  EXPECT_EQ(ReadText(out / "report.md"), md);
+  // No temporary file is left beside them.
+  for (const auto& entry : fs::directory_iterator(out)) {
+    const std::string name = entry.path().filename().string();
+    EXPECT_TRUE(name.rfind("report.", 0) != 0 || name == "report.html" || name == "report.md") << name;
+  }
+}
+
+TEST(ReportCommand, AFolderThatIsNeitherARunNorACompareFolderIsExitCode3) {
+  const fs::path dir = FreshTestDir();
+  fs::create_directories(dir / "empty");
+  const CommandResult empty = Hdabench({"report", (dir / "empty").string()});
+  EXPECT_EQ(empty.exit_code, 3) << empty.out << empty.err;
+  EXPECT_NE(empty.err.find((dir / "empty").string() + ": neither a run folder (result.json"),
+            std::string::npos)
+      << empty.err;
+  EXPECT_FALSE(fs::exists(dir / "empty" / "report.html"));
+
+  const CommandResult missing = Hdabench({"report", (dir / "missing").string()});
+  EXPECT_EQ(missing.exit_code, 3) << missing.err;
+  EXPECT_NE(missing.err.find("no such folder"), std::string::npos) << missing.err;
+
+  fs::create_directories(dir / "broken");
+  hdabench::testing_support::WriteText(dir / "broken" / "result.json", "{\"format\": ");
+  const CommandResult broken = Hdabench({"report", (dir / "broken").string()});
+  EXPECT_EQ(broken.exit_code, 3) << broken.err;
+  EXPECT_NE(broken.err.find((dir / "broken" / "result.json").string() + ": not valid JSON"),
+            std::string::npos)
+      << broken.err;
+
+  const CommandResult no_dataset =
+      Hdabench({"report", (dir / "empty").string(), "--dataset", (dir / "nowhere").string()});
+  EXPECT_EQ(no_dataset.exit_code, 3) << no_dataset.err;
+}
+
+TEST(ReportCommand, WithoutPythonTheReportIsWrittenWithTheReasonAndExitCode4) {
+  const fs::path dir = FreshTestDir();
+  const fs::path out = dir / "run";
+  const CommandResult run =
+      Hdabench({"run", Dataset().string(), "--out", out.string(), "--quiet", "--no-report"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  EXPECT_FALSE(fs::exists(out / "report.html"));  // --no-report
+
+  // The dataset is not beside the run folder: a note, not an error.
+  const CommandResult report = Hdabench({"report", out.string(), "--python", "/nonexistent/python3"});
+  EXPECT_EQ(report.exit_code, 4) << report.out << report.err;
+  EXPECT_NE(report.err.find("'/nonexistent/python3' was not found"), std::string::npos) << report.err;
+  const std::string html = ReadText(out / "report.html");
+  ASSERT_FALSE(html.empty());
+  EXPECT_NE(html.find("id=\"plots-error\""), std::string::npos);
+  EXPECT_NE(html.find("/nonexistent/python3"), std::string::npos);
+  EXPECT_NE(html.find("was not found beside the run folder"), std::string::npos);
+  EXPECT_EQ(html.find("id=\"plot-"), std::string::npos);
+  EXPECT_EQ(html.find("id=\"map-"), std::string::npos);
+  EXPECT_NE(html.find("id=\"fig-quadtree\""), std::string::npos);
+  EXPECT_NE(html.find("<table id=\"roi-table\">"), std::string::npos);
+
+  // A Python that cannot import matplotlib (Debian's, without its site
+  // packages): the message names matplotlib and the package to install.
+  const fs::path bare_python = dir / "python-without-site";
+  hdabench::testing_support::WriteText(bare_python, "#!/bin/sh\nexec /usr/bin/python3 -S \"$@\"\n");
+  fs::permissions(bare_python, fs::perms::owner_all);
+  const CommandResult bare = Hdabench({"report", out.string(), "--python", bare_python.string()});
+  EXPECT_EQ(bare.exit_code, 4) << bare.out << bare.err;
+  EXPECT_NE(bare.err.find("matplotlib and numpy are needed"), std::string::npos) << bare.err;
+  EXPECT_NE(bare.err.find("python3-matplotlib"), std::string::npos) << bare.err;
+  EXPECT_NE(ReadText(out / "report.html").find("matplotlib and numpy are needed"), std::string::npos);
+}
+
+}  // namespace

@@ -28,7 +28,8 @@ using testing_support::WriteText;
 
 constexpr double kRadToDeg = 57.295779513082320876798;
 
-const fs::path kSourceDir = fs::path(HDABENCH_SHARED_DIR) / "data" / "stereolunar-nadir";
+// A copy of ../shared/data/stereolunar-nadir (Apache-2.0, LICENSE beside it).
+const fs::path kSourceDir = fs::path(HDABENCH_SOURCE_DIR) / "tests" / "data" / "stereolunar-nadir";
 
 std::string PairDir(int pair) { return (kSourceDir / ("paire" + std::to_string(pair))).string(); }
 std::string CamerasFile() { return (kSourceDir / "cameras.txt").string(); }

@@ -293,6 +293,37 @@ TEST(ReportCommand, CompareFolderWithAFailedMethodRendersAndShowsTheFailure) {
   EXPECT_NE(ReadText(out / "report.md").find("## Failed methods"), std::string::npos);
 }
 
+// The README's main command on the built-in default (`hdabench demo`: the
+// default 1024 x 1024 novac-lateral dataset, every method compared): its
+// report renders with the per-ROI table of every method and every figure,
+// including the method plots (the default scene has ROIs with a fit and
+// truth) and the scene's maps.
+TEST(ReportCommand, TheDefaultDatasetsReportRendersWithTheTableAndEveryFigure) {
+  SKIP_WITHOUT_CHROMIUM();
+  const fs::path dir = FreshTestDir();
+  const CommandResult demo = Hdabench({"demo", "--out", (dir / "demo").string()});
+  // 0, or 4 when a method failed for the run: either way the report is written.
+  ASSERT_TRUE(demo.exit_code == 0 || demo.exit_code == 4) << demo.out << demo.err;
+  const fs::path out = dir / "demo" / "compare";
+  ASSERT_TRUE(fs::is_regular_file(out / "report.html")) << demo.out << demo.err;
+  const nlohmann::json json = nlohmann::json::parse(ReadText(out / "compare.json"));
+  EXPECT_EQ(json["dataset"], "novac-lateral-cratered-seed1");
+  EXPECT_EQ(json["image_size_px"], nlohmann::json::array({1024, 1024}));
+
+  std::set<std::string> expected = FlightFigureIds(out / "flight" / "figures");
+  expected.insert({"plot-stage_timings", "plot-method_timings", "plot-slope_scatter",
+                   "plot-slope_error_histogram", "plot-error_vs_points", "map-elevation",
+                   "map-slope", "map-hazards"});
+  const Dom dom = Render(out / "report.html", dir);
+  EXPECT_EQ(dom.roi_table_rows, static_cast<int>(json["rois"].size()));
+  EXPECT_EQ(dom.roi_table_columns, 2 + static_cast<int>(json["methods"].size()));
+  EXPECT_EQ(json["methods"].size(), 9u);
+  for (const std::string& id : expected) EXPECT_EQ(dom.figure_ids.count(id), 1u) << id;
+  EXPECT_EQ(dom.images.size(), dom.figure_ids.size());
+  ExpectEveryImageIsAnEmbeddedPng(dom);
+  EXPECT_EQ(dom.text.find("id=\"plots-error\""), std::string::npos);
+}
+
 TEST(ReportCommand, TheSameFolderGivesTheSameBytes) {
   const fs::path dir = FreshTestDir();
   const fs::path out = dir / "run";

@@ -123,6 +123,13 @@ std::vector<GateMetric> ReadGateMetrics(const std::string& path);
 // baseline, verdict. Markdown.
 std::string GateTable(const std::vector<GateCheck>& checks);
 
+// gate.html: one self-contained page with the table of every check (failing
+// rows marked) and the suite's entries, each linked to its own report
+// (entries/<name>/report.html) or with the reason it failed.
+struct GateEntryOutcome;
+std::string GateHtml(const std::string& suite_file, const std::vector<GateCheck>& checks,
+                     const std::vector<GateEntryOutcome>& outcomes);
+
 struct GateRunOptions {
   std::string out_dir;
   int jobs = 2;                       // entries run at once (>= 1)

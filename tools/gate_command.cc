@@ -86,6 +86,9 @@ int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::os
                            reference::GateTable(checks);
     for (const std::string& f : failed_entries) markdown += "\nentry failed: " + f + "\n";
     datasets::internal::WriteFileAtomically(fs::path(options.out_dir) / "gate.md", markdown);
+    datasets::internal::WriteFileAtomically(
+        fs::path(options.out_dir) / "gate.html",
+        reference::GateHtml(options.suite_file, checks, outcomes));
     if (!options.write_baseline_file.empty()) {
       datasets::internal::WriteFileAtomically(options.write_baseline_file, metrics_json);
       progress("wrote the baseline " + options.write_baseline_file);

@@ -232,6 +232,14 @@ TEST_F(GateCommand, PassesCleanAndFailsNamingTheMetricWhenTheFlightMethodIsMadeW
       dir);
   EXPECT_EQ(worse.exit_code, 1) << worse.err;
   EXPECT_NE(worse.err.find("FAILED flight slope_error_median_deg = "), std::string::npos) << worse.err;
+  // The page says so too, with the failing row marked and each entry linked to its report.
+  const std::string page = ReadText(dir / "worse" / "gate.html");
+  EXPECT_NE(page.find("FAIL: "), std::string::npos);
+  EXPECT_NE(page.find("<tr class=\"fail\""), std::string::npos);
+  EXPECT_NE(page.find("<a href=\"entries/sites-10m/report.html\">"), std::string::npos);
+  EXPECT_TRUE(fs::exists(dir / "worse" / "entries" / "sites-10m" / "report.html"));
+  EXPECT_NE(ReadText(dir / "clean" / "gate.html").find("PASS: every metric within its threshold"),
+            std::string::npos);
   EXPECT_NE(worse.out.find("| flight | slope_error_median_deg |"), std::string::npos);
 
   // Against the baseline, with thresholds it still meets: a regression.

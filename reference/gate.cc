@@ -604,23 +604,6 @@ std::string GateTable(const std::vector<GateCheck>& checks) {
   return out.str();
 }
 
-namespace {
-
-std::string HtmlEscape(const std::string& text) {
-  std::string out;
-  for (const char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
-}  // namespace
 
 std::string GateHtml(const std::string& suite_file, const std::vector<GateCheck>& checks,
                      const std::vector<GateEntryOutcome>& outcomes) {

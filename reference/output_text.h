@@ -23,4 +23,7 @@ std::string FormatTextTable(const std::vector<std::vector<std::string>>& rows,
 // p-quantile of sorted values, linear between order statistics; 0 when empty.
 double Quantile(const std::vector<double>& sorted, double p);
 
+// Text for HTML: & < > " ' replaced by their entities.
+std::string HtmlEscape(const std::string& text);
+
 }  // namespace hdabench::reference

@@ -154,21 +154,6 @@ class TempFolder {
 
 // ---------------------------------------------------------------- text
 
-std::string HtmlEscape(const std::string& text) {
-  std::string out;
-  out.reserve(text.size());
-  for (const char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&#39;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
 
 // Markdown table cells must not hold '|' or line breaks.
 std::string MdCell(const std::string& text) {

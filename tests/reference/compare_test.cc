@@ -188,7 +188,7 @@ TEST(RoisOfReconstruction, AnRoiWithoutPointsAndAFailedMethodGetClearStatuses) {
 class CompareOnSyntheticScene : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(testing_support::CachedExactNavLateralScene(HDABENCH_TEST_TMP, HDABENCH_EXE));
+    dir_ = new fs::path(testing_support::CachedExactNavLateralScene(HDABENCH_TEST_TMP));
   }
   static void TearDownTestSuite() {
     delete dir_;

@@ -163,7 +163,7 @@ TEST(CheckGate, ThresholdsMarginsAndRegressions) {
 class GateCommand : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    scene_ = new fs::path(testing_support::CachedExactNavLateralScene(HDABENCH_TEST_TMP, HDABENCH_EXE));
+    scene_ = new fs::path(testing_support::CachedExactNavLateralScene(HDABENCH_TEST_TMP));
   }
   static void TearDownTestSuite() {
     delete scene_;

@@ -3,16 +3,12 @@
 // method's errors are its own.
 #pragma once
 
-#include <unistd.h>
-
-#include <cstdint>
 #include <filesystem>
-#include <string>
-#include <system_error>
 
 #include "datasets/dataset.h"
 #include "datasets/synth/synth.h"
 #include "datasets/synth/terrain.h"
+#include "tests/support/test_support.h"
 
 namespace hdabench::testing_support {
 
@@ -37,30 +33,16 @@ inline datasets::synth::TerrainOptions TerrainOf(const datasets::synth::SynthOpt
 }
 
 // The default 1024 x 1024 novac-lateral scene with exact navigation over the
-// paper's 2.4 s window (frames 0..6, the pair 0-6 about 31 m apart), written
-// once into `folder` (a test binary's HDABENCH_TEST_TMP) and shared by every
-// test process there: generated under a temporary name and renamed into place,
-// so a process never sees a half-written scene. The name carries the time
-// stamp of the hdabench program (built from the same libraries), so a rebuilt
-// generator never meets an old scene. Returns the dataset folder.
-inline std::filesystem::path CachedExactNavLateralScene(const std::filesystem::path& folder,
-                                                        const std::filesystem::path& hdabench_exe) {
-  namespace fs = std::filesystem;
-  const auto stamp = fs::last_write_time(hdabench_exe).time_since_epoch().count();
-  const fs::path dir =
-      folder / ("ExactNavLateral-" + std::to_string(static_cast<std::uint64_t>(stamp)));
-  if (fs::exists(dir / "manifest.json")) return dir;
-  datasets::synth::SynthOptions options = ExactNavLateralPreset();
-  options.collection_s = 2.4;
-  const fs::path staging = dir.string() + "-" + std::to_string(::getpid());
-  fs::remove_all(staging);
-  fs::create_directories(folder);
-  datasets::WriteDataset(datasets::synth::GenerateSynthDataset(options, TerrainOf(options), 1),
-                         staging.string());
-  std::error_code ec;
-  fs::rename(staging, dir, ec);
-  if (ec) fs::remove_all(staging);  // another process was first: its scene is the same
-  return dir;
+// paper's 2.4 s window (frames 0..6, the pair 0-6 about 31 m apart), made
+// once into `folder` (a test binary's HDABENCH_TEST_TMP) and shared
+// (CachedDataset). Returns the dataset folder.
+inline std::filesystem::path CachedExactNavLateralScene(const std::filesystem::path& folder) {
+  return CachedDataset(folder, "ExactNavLateral", [](const std::filesystem::path& out) {
+    datasets::synth::SynthOptions options = ExactNavLateralPreset();
+    options.collection_s = 2.4;
+    datasets::WriteDataset(datasets::synth::GenerateSynthDataset(options, TerrainOf(options), 1),
+                           out.string());
+  });
 }
 
 }  // namespace hdabench::testing_support

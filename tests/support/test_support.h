@@ -3,9 +3,11 @@
 #pragma once
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <cstdint>
 #include <cstdlib>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -179,6 +181,37 @@ inline CommandResult RunHdabench(const std::vector<std::string>& args, const fs:
   fs::remove(out_file);
   fs::remove(err_file);
   return result;
+}
+
+// A dataset made once and shared by every test process that asks for it in
+// `folder` (CTest runs each test in its own process): `make` writes it into
+// the path it is given (a staging name that does not exist yet), which is
+// then renamed to <folder>/<name>-<stamp>, stamp being the time stamp of the
+// hdabench program. That program is rebuilt with the libraries, so a rebuilt
+// generator never meets an old dataset, and the datasets of earlier builds
+// are removed. A process never sees a half-written dataset; one that loses
+// the race drops its own copy (the same bytes). Returns the folder.
+inline fs::path CachedDataset(const fs::path& folder, const std::string& name,
+                              const std::function<void(const fs::path&)>& make) {
+  const auto stamp = fs::last_write_time(HDABENCH_EXE).time_since_epoch().count();
+  const fs::path target = folder / (name + "-" + std::to_string(static_cast<std::uint64_t>(stamp)));
+  if (fs::exists(target / "manifest.json")) return target;
+  const fs::path staging = target.string() + ".staging-" + std::to_string(::getpid());
+  fs::remove_all(staging);
+  fs::create_directories(folder);
+  make(staging);
+  std::error_code ec;
+  fs::rename(staging, target, ec);
+  if (ec) fs::remove_all(staging, ec);
+  // Datasets of earlier builds are never used again.
+  for (const auto& item : fs::directory_iterator(folder, ec)) {
+    const std::string other = item.path().filename().string();
+    if (item.path() != target && other.rfind(name + "-", 0) == 0 &&
+        other.find(".staging-") == std::string::npos) {
+      fs::remove_all(item.path(), ec);
+    }
+  }
+  return target;
 }
 
 }  // namespace hdabench::testing_support

@@ -35,24 +35,14 @@ constexpr char kPngSignature[] = "\x89PNG\r\n\x1a\n";
 // process generates it into a staging folder renamed into place; the others
 // reuse it. The name carries the binary's time stamp.
 const fs::path& Dataset() {
-  static const fs::path dir = [] {
-    const auto stamp =
-        static_cast<unsigned long long>(fs::last_write_time(HDABENCH_EXE).time_since_epoch().count());
-    const fs::path target = fs::path(HDABENCH_TEST_TMP) / ("report_dataset_" + std::to_string(stamp));
-    if (fs::exists(target / "manifest.json")) return target;
-    const fs::path staging = target.string() + ".staging-" + std::to_string(::getpid());
-    fs::remove_all(staging);
-    fs::create_directories(staging);
-    const CommandResult synth = hdabench::testing_support::RunHdabench(
-        {"synth", "--out", (staging / "dataset").string(), "--image-size", "256", "--seed", "3",
-         "--set", "horizontal_fov_deg=15", "--set", "collection_s=2.4", "--quiet"},
-        staging);
-    EXPECT_EQ(synth.exit_code, 0) << synth.out << synth.err;
-    std::error_code ec;
-    fs::rename(staging / "dataset", target, ec);  // fails when another test got there first
-    fs::remove_all(staging, ec);
-    return target;
-  }();
+  static const fs::path dir = hdabench::testing_support::CachedDataset(
+      HDABENCH_TEST_TMP, "report_dataset", [](const fs::path& out) {
+        const CommandResult synth = hdabench::testing_support::RunHdabench(
+            {"synth", "--out", out.string(), "--image-size", "256", "--seed", "3", "--set",
+             "horizontal_fov_deg=15", "--set", "collection_s=2.4", "--quiet"},
+            out.parent_path());
+        EXPECT_EQ(synth.exit_code, 0) << synth.out << synth.err;
+      });
   return dir;
 }
 

@@ -195,13 +195,15 @@ std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOpti
     matching.orb_features_per_roi = kDenseOrbFeaturesPerRoi;
     matching.orb_fast_threshold = kDenseOrbFastThreshold;
   }
+  // 16-bit images are converted once, not once per ROI.
+  const cv::Mat image1 = hda::ToEightBit(ctx.input.image1, "image 1");
+  const cv::Mat image2 = hda::ToEightBit(ctx.input.image2, "image 2");
   for (size_t i = 0; i < all.size(); ++i) {
     const hda::RoiResult& r = flight.result.rois[i];
     if (r.box2_px.area() <= 0) continue;
     all[i].has_box = true;
     const hda::RoiMatches matches =
-        hda::MatchRoiPair(hda::ToEightBit(ctx.input.image1, "image 1"),
-                          hda::ToEightBit(ctx.input.image2, "image 2"), r.box1_px, r.box2_px,
+        hda::MatchRoiPair(image1, image2, r.box1_px, r.box2_px,
                           ctx.dataset->camera, matching);
     std::vector<unsigned char> valid1, valid2;
     const std::vector<Eigen::Vector3d> b1 = Bearings(ctx.dataset->camera, matches.points1_px, &valid1);

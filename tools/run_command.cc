@@ -46,12 +46,13 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   cv::setNumThreads(1);
   const reference::FlightRun run =
       reference::RunFlight(dataset, frames.first, frames.second, hda_options);
-  const hda::HdaInput input = reference::MakeHdaInput(dataset, frames.first, frames.second);
 
   progress("writing " + options.out_dir);
   std::vector<std::string> written;
   try {
-    written = reference::WriteFlightOutputs(run, input.image1, input.image2, options.out_dir,
+    written = reference::WriteFlightOutputs(run, dataset.frames[static_cast<size_t>(frames.first)].image,
+                                            dataset.frames[static_cast<size_t>(frames.second)].image,
+                                            options.out_dir,
                                             options.figures);
   } catch (const InputError& e) {
     err << "hdabench run: " << e.what() << "\n";

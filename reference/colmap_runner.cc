@@ -21,9 +21,14 @@
 #include "calib/options_check.h"
 #include "reference/colmap_adapter.h"
 #include "reference/colmap_model.h"
-#include "reference/process.h"
+#include "calib/process.h"
 
 namespace hdabench::reference {
+
+using calib::FindExecutable;
+using calib::ProcessOptions;
+using calib::ProcessResult;
+using calib::RunProcess;
 
 namespace {
 

@@ -19,9 +19,14 @@
 #include "reference/compare_outputs.h"
 #include "reference/flight_outputs.h"
 #include "reference/output_text.h"
-#include "reference/process.h"
+#include "calib/process.h"
 
 namespace hdabench::reference {
+
+using calib::FindExecutable;
+using calib::ProcessOptions;
+using calib::ProcessResult;
+using calib::RunProcess;
 
 namespace {
 

@@ -12,10 +12,15 @@
 #include <gtest/gtest.h>
 
 #include "calib/error.h"
-#include "reference/process.h"
+#include "calib/process.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::reference {
+
+using calib::FindExecutable;
+using calib::ProcessOptions;
+using calib::ProcessResult;
+using calib::RunProcess;
 namespace {
 
 namespace fs = std::filesystem;

@@ -19,11 +19,16 @@
 #include "datasets/synth/synth.h"
 #include "datasets/synth/terrain.h"
 #include "hda/geometry.h"
-#include "reference/process.h"
+#include "calib/process.h"
 #include "tests/support/synth_scene.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::reference {
+
+using calib::FindExecutable;
+using calib::ProcessOptions;
+using calib::ProcessResult;
+using calib::RunProcess;
 namespace {
 
 namespace fs = std::filesystem;

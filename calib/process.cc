@@ -1,4 +1,4 @@
-#include "reference/process.h"
+#include "calib/process.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -20,7 +20,7 @@
 
 extern char** environ;
 
-namespace hdabench::reference {
+namespace hdabench::calib {
 
 namespace {
 
@@ -267,4 +267,4 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOpti
   return result;
 }
 
-}  // namespace hdabench::reference
+}  // namespace hdabench::calib

@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-namespace hdabench::reference {
+namespace hdabench::calib {
 
 struct ProcessOptions {
   // Working folder of the program; empty: the caller's.
@@ -54,4 +54,4 @@ std::string FindExecutable(const std::string& name);
 // found, not executable, non-zero exit, signal, timeout) is in the result.
 ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOptions& options);
 
-}  // namespace hdabench::reference
+}  // namespace hdabench::calib

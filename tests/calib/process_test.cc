@@ -1,4 +1,4 @@
-#include "reference/process.h"
+#include "calib/process.h"
 
 #include <filesystem>
 #include <string>
@@ -9,7 +9,7 @@
 #include "calib/error.h"
 #include "tests/support/test_support.h"
 
-namespace hdabench::reference {
+namespace hdabench::calib {
 namespace {
 
 namespace fs = std::filesystem;
@@ -142,4 +142,4 @@ TEST(FindExecutable, SearchesPathAndAcceptsPaths) {
 }
 
 }  // namespace
-}  // namespace hdabench::reference
+}  // namespace hdabench::calib

@@ -6,8 +6,6 @@
 // captures libmrcal's stderr for anything the scan let through.
 #include "calib/camera_model.h"
 
-#include <unistd.h>  // getpid
-
 #include <algorithm>
 #include <cctype>
 #include <charconv>
@@ -20,6 +18,7 @@
 #include <sstream>
 #include <system_error>
 
+#include "calib/files.h"
 #include "calib/error.h"
 #include "calib/stderr_capture.h"
 
@@ -350,18 +349,7 @@ CameraModel::CameraModel(const std::string& lensmodel, std::vector<double> intri
       width_px_(width_px),
       height_px_(height_px),
       rt_cam_ref_(rt_cam_ref) {
-  mrcal_lensmodel_t model;
-  if (!ParseLensModel(lensmodel_, &model)) {
-    if (mrcal_lensmodel_type_from_name(lensmodel_.c_str()) >= 0) {
-      throw InputError(origin + ": lens model '" + lensmodel_ +
-                       "' has a missing or invalid configuration");
-    }
-    throw InputError(origin + ": unknown lens model '" + lensmodel_ +
-                     "' (libmrcal 2.2 knows LENSMODEL_PINHOLE, LENSMODEL_OPENCV4/5/8/12, "
-                     "LENSMODEL_STEREOGRAPHIC, LENSMODEL_LONLAT, LENSMODEL_LATLON, "
-                     "LENSMODEL_CAHVOR, LENSMODEL_CAHVORE_..., LENSMODEL_SPLINED_STEREOGRAPHIC_...)");
-  }
-  const int expected = mrcal_lensmodel_num_params(&model);
+  const int expected = LensModelParameterCount(lensmodel_, origin);
   if (static_cast<int>(intrinsics_.size()) != expected) {
     throw InputError(origin + ": lens model " + lensmodel_ + " takes " + std::to_string(expected) +
                      " intrinsics, got " + std::to_string(intrinsics_.size()));
@@ -380,6 +368,8 @@ CameraModel::CameraModel(const std::string& lensmodel, std::vector<double> intri
     throw InputError(origin + ": imager size " + std::to_string(width_px_) + "x" +
                      std::to_string(height_px_) + " is not positive");
   }
+  mrcal_lensmodel_t model;
+  ParseLensModel(lensmodel_, &model);  // known valid: LensModelParameterCount accepted it
   const mrcal_lensmodel_metadata_t meta = mrcal_lensmodel_metadata(&model);
   has_core_ = meta.has_core;
   can_project_behind_camera_ = meta.can_project_behind_camera;
@@ -474,24 +464,7 @@ std::string CameraModel::ToText() const {
   return s;
 }
 
-void CameraModel::Save(const std::string& path) const {
-  const std::string tmp_path = path + ".tmp" + std::to_string(getpid());
-  {
-    std::ofstream out(tmp_path, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(path + ": cannot write the camera model (" +
-                               std::generic_category().message(errno) + ")");
-    out << ToText();
-    out.flush();
-    if (!out) {
-      std::remove(tmp_path.c_str());
-      throw InputError(path + ": writing the camera model failed");
-    }
-  }
-  if (std::rename(tmp_path.c_str(), path.c_str()) != 0) {
-    std::remove(tmp_path.c_str());
-    throw InputError(path + ": cannot move the written camera model into place");
-  }
-}
+void CameraModel::Save(const std::string& path) const { WriteFileAtomically(path, ToText()); }
 
 Rigid3d CameraModel::CamFromRef() const {
   const Eigen::Vector3d r(rt_cam_ref_[0], rt_cam_ref_[1], rt_cam_ref_[2]);
@@ -592,6 +565,21 @@ void CameraModel::ToOpenCv(cv::Mat* camera_matrix, cv::Mat* distortion) const {
   const int num_distortion = static_cast<int>(intrinsics_.size()) - 4;
   *distortion = cv::Mat(1, num_distortion, CV_64F);
   for (int i = 0; i < num_distortion; ++i) distortion->at<double>(0, i) = intrinsics_[4 + i];
+}
+
+int LensModelParameterCount(const std::string& lensmodel, const std::string& origin) {
+  mrcal_lensmodel_t model;
+  if (!ParseLensModel(lensmodel, &model)) {
+    if (mrcal_lensmodel_type_from_name(lensmodel.c_str()) >= 0) {
+      throw InputError(origin + ": lens model '" + lensmodel +
+                       "' has a missing or invalid configuration");
+    }
+    throw InputError(origin + ": unknown lens model '" + lensmodel +
+                     "' (libmrcal 2.2 knows LENSMODEL_PINHOLE, LENSMODEL_OPENCV4/5/8/12, "
+                     "LENSMODEL_STEREOGRAPHIC, LENSMODEL_LONLAT, LENSMODEL_LATLON, "
+                     "LENSMODEL_CAHVOR, LENSMODEL_CAHVORE_..., LENSMODEL_SPLINED_STEREOGRAPHIC_...)");
+  }
+  return mrcal_lensmodel_num_params(&model);
 }
 
 std::vector<std::string> SupportedLensModels() {

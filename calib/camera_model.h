@@ -100,6 +100,11 @@ class CameraModel {
   bool has_opencv_equivalent_ = false;
 };
 
+// The number of intrinsics of a full (configured) mrcal lens model name.
+// Throws InputError naming `origin` when libmrcal does not know the model or
+// its configuration is missing or invalid.
+int LensModelParameterCount(const std::string& lensmodel, const std::string& origin = "<memory>");
+
 // Every unconfigured lens model name libmrcal supports ("..." for config values).
 std::vector<std::string> SupportedLensModels();
 

@@ -22,4 +22,12 @@ class UnsupportedError : public std::runtime_error {
   explicit UnsupportedError(const std::string& message) : std::runtime_error(message) {}
 };
 
+// A program the bench runs (mrcal's tools, Debian's python3 with its modules)
+// failed: not found, non-zero exit, timeout or unusable output. what() names
+// the program, what it was doing and where its log is. CLI exit code 4.
+class ExternalError : public std::runtime_error {
+ public:
+  explicit ExternalError(const std::string& message) : std::runtime_error(message) {}
+};
+
 }  // namespace hdabench

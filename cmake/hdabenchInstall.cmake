@@ -16,4 +16,5 @@ write_basic_package_version_file(${PROJECT_BINARY_DIR}/hdabenchConfigVersion.cma
 install(FILES ${PROJECT_BINARY_DIR}/hdabenchConfig.cmake
               ${PROJECT_BINARY_DIR}/hdabenchConfigVersion.cmake
               ${PROJECT_SOURCE_DIR}/cmake/FindMrcal.cmake
+              ${PROJECT_SOURCE_DIR}/cmake/FindMrgingham.cmake
         DESTINATION ${config_dir})

@@ -15,6 +15,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/error.h"
+#include "calib/files.h"
 #include "datasets/internal/files.h"
 #include "reference/compare_outputs.h"
 #include "reference/flight_outputs.h"
@@ -132,30 +133,6 @@ std::string ShrinkPng(const std::string& bytes, int max_side_px, std::string* no
   return std::string(out.begin(), out.end());
 }
 
-// A temporary folder removed with everything in it when this goes out of scope.
-class TempFolder {
- public:
-  TempFolder() {
-    std::error_code ec;
-    fs::path base = fs::temp_directory_path(ec);
-    if (ec) base = "/tmp";
-    std::string pattern = (base / "hdabench-report-XXXXXX").string();
-    if (::mkdtemp(pattern.data()) == nullptr) {
-      throw InputError(base.string() + ": cannot create a temporary folder for the report's plots");
-    }
-    path_ = pattern;
-  }
-  ~TempFolder() {
-    std::error_code ignored;
-    fs::remove_all(path_, ignored);
-  }
-  TempFolder(const TempFolder&) = delete;
-  TempFolder& operator=(const TempFolder&) = delete;
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
-};
 
 // ---------------------------------------------------------------- text
 
@@ -570,7 +547,7 @@ void DrawPlots(const fs::path& run_dir, const ReportOptions& options, Page* page
                         "python3-matplotlib)";
     return;
   }
-  TempFolder temp;
+  calib::TempFolder temp("report");
   const fs::path script = temp.path() / "report_plots.py";
   const fs::path out = temp.path() / "plots";
   const fs::path config = temp.path() / "matplotlib";

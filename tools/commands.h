@@ -147,4 +147,39 @@ struct IngestStereoLunarOptions {
 int RunIngestStereoLunar(const IngestStereoLunarOptions& options, std::ostream& out,
                          std::ostream& err);
 
+struct CalibrateCommandOptions {
+  std::vector<std::string> images;       // camera 0's chessboard images
+  std::vector<std::string> pair_images;  // camera 1's, the i-th with the i-th of `images`; may be empty
+  std::string board;                     // "WxH" inner corners, e.g. "9x6"
+  double spacing = 0.0;                  // corner spacing (metres, or squares)
+  std::string lensmodel = "LENSMODEL_OPENCV8";
+  std::string detector = "auto";         // auto, opencv, mrgingham
+  double focal_px = 0.0;                 // focal seed; 0: estimated
+  int min_views = 5;                     // fewest usable views per camera
+  std::string out_dir;                   // folder to create; must not exist or be empty
+  double hda_range_m = 570.0;            // the HDA geometry of the slope-error figure
+  double hda_baseline_m = 30.0;
+  double hda_site_m = 10.0;
+  int slope_samples = 30;                // Monte Carlo re-solves for that figure
+  std::uint64_t seed = 1;                // of the Monte Carlo noise
+  bool quiet = false;                    // no progress lines
+};
+// hdabench calibrate (calib/calibrate.h, docs/calibration.md). Exit codes: 0
+// calibrated; 2 bad flags (board size, spacing, lens model name); 3 unusable
+// inputs (unreadable images, too few views with the board: nothing calibrated,
+// no model written); 4 mrcal's tool or the analysis failed.
+int RunCalibrate(const CalibrateCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct CalibDiffCommandOptions {
+  std::string model_a;  // the reference calibration (e.g. the last one)
+  std::string model_b;  // the new one
+  std::string out_dir;  // created if missing: calib-diff.json, calib-diff.png
+  int gridn = 60;       // grid points across the imager's width
+  bool with_uncertainty = false;  // also A's projection uncertainty on the grid (needs its optimization inputs)
+};
+// hdabench calib-diff: projection difference between two calibrations of one
+// camera. Exit codes: 0 ok; 2 bad flags; 3 unusable models (missing,
+// unreadable, different imager sizes); 4 the analysis script failed.
+int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std::ostream& err);
+
 }  // namespace hdabench::tools

@@ -221,6 +221,73 @@ int Main(int argc, char** argv) {
   stereolunar->add_option("--cameras", stereolunar_options.cameras_file,
                           "cameras.txt (default: PAIR_DIR/cameras.txt, else PAIR_DIR/../cameras.txt)");
 
+  CalibrateCommandOptions calibrate_options;
+  CLI::App* calibrate = app.add_subcommand(
+      "calibrate",
+      "Calibrate a camera (or a pair) from chessboard images with mrcal, and judge the result\n"
+      "(docs/calibration.md)");
+  calibrate->add_option("IMAGES", calibrate_options.images, "Chessboard images of the camera")
+      ->required();
+  calibrate->add_option("--pair", calibrate_options.pair_images,
+                        "Images of a second camera calibrated together with the first: one per "
+                        "image, in the same order");
+  calibrate->add_option("--board", calibrate_options.board,
+                        "Inner corners per row x rows, e.g. 9x6 (OpenCV's patternSize)")
+      ->required();
+  calibrate->add_option("--spacing", calibrate_options.spacing,
+                        "Distance between neighbouring corners (metres, or 1 for squares)")
+      ->required();
+  calibrate->add_option("--lensmodel", calibrate_options.lensmodel,
+                        "mrcal lens model, e.g. LENSMODEL_OPENCV8 or\n"
+                        "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=100")
+      ->capture_default_str();
+  calibrate->add_option("--detector", calibrate_options.detector,
+                        "Corner detector: auto (mrgingham for square boards, else OpenCV), opencv, "
+                        "mrgingham")
+      ->capture_default_str();
+  calibrate->add_option("--focal-px", calibrate_options.focal_px,
+                        "Focal-length seed for mrcal in pixels (0: estimated from the corners)")
+      ->capture_default_str();
+  calibrate->add_option("--min-views", calibrate_options.min_views,
+                        "Fewest images with the whole board, per camera")
+      ->capture_default_str();
+  calibrate->add_option("--out", calibrate_options.out_dir,
+                        "Folder to create (must not exist, or be empty)")
+      ->required();
+  calibrate->add_option("--hda-range-m", calibrate_options.hda_range_m,
+                        "HDA geometry of the slope-error figure: range to the site, m")
+      ->capture_default_str();
+  calibrate->add_option("--hda-baseline-m", calibrate_options.hda_baseline_m,
+                        "HDA geometry: baseline between the two images, m")
+      ->capture_default_str();
+  calibrate->add_option("--hda-site-m", calibrate_options.hda_site_m,
+                        "HDA geometry: landing-site side, m")
+      ->capture_default_str();
+  calibrate->add_option("--slope-samples", calibrate_options.slope_samples,
+                        "Monte Carlo re-solves behind the slope-error figure")
+      ->capture_default_str();
+  calibrate->add_option("--seed", calibrate_options.seed, "Random seed of the Monte Carlo noise")
+      ->capture_default_str();
+  calibrate->add_flag("--quiet", calibrate_options.quiet, "No progress lines");
+
+  CalibDiffCommandOptions calib_diff_options;
+  CLI::App* calib_diff = app.add_subcommand(
+      "calib-diff", "Projection difference between two calibrations of one camera (median, max, "
+                    "heat map)");
+  calib_diff->add_option("A", calib_diff_options.model_a, "The reference .cameramodel (e.g. the last one)")
+      ->required();
+  calib_diff->add_option("B", calib_diff_options.model_b, "The .cameramodel to compare with it")
+      ->required();
+  calib_diff->add_option("--out", calib_diff_options.out_dir,
+                         "Folder for calib-diff.json and calib-diff.png (created if missing)")
+      ->required();
+  calib_diff->add_option("--gridn", calib_diff_options.gridn,
+                         "Grid points across the imager's width")
+      ->capture_default_str();
+  calib_diff->add_flag("--with-uncertainty", calib_diff_options.with_uncertainty,
+                       "Also A's projection uncertainty on the grid, and how much of the "
+                       "difference it covers (A must come from a calibration)");
+
   DemoOptions demo_options;
   CLI::App* demo = app.add_subcommand(
       "demo",
@@ -282,6 +349,8 @@ int Main(int argc, char** argv) {
   if (create->parsed()) return RunDatasetCreate(create_options, std::cout, std::cerr);
   if (stereolunar->parsed()) return RunIngestStereoLunar(stereolunar_options, std::cout, std::cerr);
   if (demo->parsed()) return RunDemo(demo_options, std::cout, std::cerr);
+  if (calibrate->parsed()) return RunCalibrate(calibrate_options, std::cout, std::cerr);
+  if (calib_diff->parsed()) return RunCalibDiff(calib_diff_options, std::cout, std::cerr);
   if (synth->parsed()) return RunSynth(synth_options, std::cout, std::cerr);
   if (truth->parsed()) {
     const std::vector<int> roi = ParseIntList(roi_text, 4, "--roi", "x,y,w,h");
@@ -308,6 +377,9 @@ int main(int argc, char** argv) {
   } catch (const hdabench::UnsupportedError& e) {
     std::cerr << "hdabench: error: " << e.what() << "\n";
     return kExitInput;
+  } catch (const hdabench::ExternalError& e) {
+    std::cerr << "hdabench: error: " << e.what() << "\n";
+    return kExitExternal;
   } catch (const std::exception& e) {
     std::cerr << "hdabench: internal error: " << e.what() << "\n";
     return kExitInternal;

@@ -65,36 +65,5 @@ std::string NormalDatasetPath(const std::string& path) {
   return fs::path(path).lexically_normal().generic_string();
 }
 
-void WriteFileAtomically(const fs::path& path, const std::string& bytes) {
-  std::error_code ec;
-  if (path.has_parent_path()) {
-    fs::create_directories(path.parent_path(), ec);
-    if (ec) {
-      throw InputError(path.parent_path().string() + ": cannot create the folder (" + ec.message() +
-                       ")");
-    }
-  }
-  fs::path temporary = path;
-  temporary += ".tmp-" + std::to_string(static_cast<long long>(::getpid()));
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) {
-      throw InputError(path.string() + ": cannot be written (" + std::strerror(errno) + ")");
-    }
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) {
-      fs::remove(temporary, ec);
-      throw InputError(path.string() + ": writing failed (disk full?)");
-    }
-  }
-  fs::rename(temporary, path, ec);
-  if (ec) {
-    std::error_code ignored;
-    fs::remove(temporary, ignored);
-    throw InputError(path.string() + ": cannot move the written file into place (" + ec.message() +
-                     ")");
-  }
-}
 
 }  // namespace hdabench::datasets::internal

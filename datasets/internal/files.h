@@ -4,6 +4,8 @@
 #include <filesystem>
 #include <string>
 
+#include "calib/files.h"
+
 namespace hdabench::datasets::internal {
 
 // Reads a whole file. On failure returns false and sets `error` to a message
@@ -20,9 +22,7 @@ std::string CheckDatasetPath(const std::string& path);
 // The lexically normal form used to compare dataset paths ("a/./b" == "a/b").
 std::string NormalDatasetPath(const std::string& path);
 
-// Writes `bytes` to a temporary name next to `path`, then renames it into
-// place, so readers never see a partial file. Creates the parent folders.
-// Throws InputError naming the path on failure (the temporary is removed).
-void WriteFileAtomically(const std::filesystem::path& path, const std::string& bytes);
+// calib/files.h: temporary name, then rename.
+using calib::WriteFileAtomically;
 
 }  // namespace hdabench::datasets::internal

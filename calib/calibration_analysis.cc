@@ -1,0 +1,634 @@
+#include "calib/calibration_analysis.h"
+
+#include <stdlib.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <system_error>
+#include <utility>
+
+#include "calib/error.h"
+#include "calib/files.h"
+#include "calib/options_check.h"
+#include "calib/process.h"
+
+namespace hdabench::calib {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+constexpr char kAnalysisFormat[] = "hdabench-calibration-analysis";
+constexpr char kDiffFormat[] = "hdabench-calibration-diff";
+constexpr int kFormatVersion = 1;
+// Exit code of the script for unusable input; its message is the last line
+// of its output that starts with kScriptMessagePrefix.
+constexpr int kScriptExitInput = 3;
+constexpr char kScriptMessagePrefix[] = "hdabench-calibration-analysis: ";
+
+// ---------------------------------------------------------------- files
+
+std::string ReadText(const fs::path& path, bool* ok) {
+  std::ifstream in(path, std::ios::binary);
+  *ok = static_cast<bool>(in);
+  if (!*ok) return "";
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+
+void CreateFolder(const fs::path& folder, const std::string& what) {
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (ec || !fs::is_directory(folder)) {
+    throw InputError(folder.string() + ": cannot create the " + what + " folder" +
+                     (ec ? ": " + ec.message() : ""));
+  }
+}
+
+void RemoveFile(const fs::path& path, const std::string& what) {
+  std::error_code ec;
+  fs::remove(path, ec);
+  if (ec)
+    throw InputError(path.string() + ": cannot remove the earlier " + what + ": " + ec.message());
+}
+
+// The last non-empty line of a log, and the last line the script wrote as its
+// message (prefixed), if any.
+void LogLines(const fs::path& log, std::string* last_line, std::string* script_message) {
+  bool ok = false;
+  const std::string text = ReadText(log, &ok);
+  std::istringstream in(text);
+  std::string line;
+  while (std::getline(in, line)) {
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (line.empty()) continue;
+    *last_line = line;
+    if (line.rfind(kScriptMessagePrefix, 0) == 0) {
+      *script_message = line.substr(sizeof(kScriptMessagePrefix) - 1);
+    }
+  }
+}
+
+// The script writes every file as ".<name>.<pid>.tmp" and renames it; a run
+// killed on its timeout can leave such a temporary behind. Removes those of
+// `target`, or (target a folder the analysis owns) every one in it.
+void RemoveScriptTemporaries(const fs::path& target, bool whole_folder) {
+  std::error_code ec;
+  const fs::path folder = whole_folder ? target : target.parent_path();
+  const std::string prefix = whole_folder ? "." : "." + target.filename().string() + ".";
+  for (const auto& entry : fs::directory_iterator(folder.empty() ? fs::path(".") : folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() > prefix.size() + 4 && name.rfind(prefix, 0) == 0 &&
+        name.compare(name.size() - 4, 4, ".tmp") == 0) {
+      fs::remove(entry.path(), ec);
+    }
+  }
+}
+
+std::string JoinErrors(const std::vector<std::string>& errors) {
+  std::string text;
+  for (size_t i = 0; i < errors.size(); ++i) text += (i > 0 ? "; " : "") + errors[i];
+  return text;
+}
+
+void RequireModelFile(const std::string& path) {
+  std::error_code ec;
+  if (path.empty()) throw InputError("camera model path is empty");
+  if (!fs::exists(path, ec))
+    throw InputError(path + ": no such file (expected a mrcal .cameramodel)");
+  if (!fs::is_regular_file(path, ec)) {
+    throw InputError(path + ": is not a file (expected a mrcal .cameramodel)");
+  }
+}
+
+// Numbers as the script writes them: Python's repr of a finite double, so
+// shortest round-trip text.
+std::string NumberText(double value) {
+  std::ostringstream out;
+  out.precision(17);
+  out << value;
+  return out.str();
+}
+
+// Runs the script with `arguments` and turns every failure into an exception.
+// `what` says what the script was doing ("the calibration analysis").
+ProcessResult RunScript(const std::string& python, double timeout_s,
+                        const std::vector<std::string>& arguments, const fs::path& log,
+                        const std::string& what) {
+  TempFolder temp("calibration");
+  const fs::path script = temp.path() / "calibration_analysis.py";
+  const fs::path config = temp.path() / "matplotlib";
+  CreateFolder(config, "matplotlib configuration");
+  WriteFileAtomically(script, CalibrationAnalysisScript());
+  // A fresh log per run, so that its last line is this run's.
+  RemoveFile(log, "log");
+
+  ProcessOptions process;
+  process.log_file = log.string();
+  process.timeout_s = timeout_s;
+  // A fresh matplotlib configuration (no user style changes the figures),
+  // no byte-code files next to the temporary script, fixed hashing, and one
+  // thread for the numerical libraries (repeatable sums).
+  process.environment = {{"MPLBACKEND", "Agg"},
+                         {"MPLCONFIGDIR", config.string()},
+                         {"MATPLOTLIBRC", config.string()},
+                         {"PYTHONDONTWRITEBYTECODE", "1"},
+                         {"PYTHONHASHSEED", "0"},
+                         {"SOURCE_DATE_EPOCH", "0"},
+                         {"OPENBLAS_NUM_THREADS", "1"},
+                         {"OMP_NUM_THREADS", "1"},
+                         {"MKL_NUM_THREADS", "1"}};
+  std::vector<std::string> argv = {python, script.string()};
+  argv.insert(argv.end(), arguments.begin(), arguments.end());
+  const ProcessResult result = RunProcess(argv, process);
+  if (result.Ok()) return result;
+
+  std::string last_line, script_message;
+  LogLines(log, &last_line, &script_message);
+  if (result.started && !result.timed_out && !result.signaled &&
+      result.exit_code == kScriptExitInput) {
+    throw InputError(script_message.empty() ? last_line : script_message);
+  }
+  std::string message = python + " (" + what + ") failed: ";
+  if (!result.started) {
+    message += result.error +
+               "; the calibration analysis needs Debian's python3 with "
+               "python3-mrcal, python3-opencv and python3-matplotlib";
+  } else {
+    message += result.error;
+  }
+  message += "; log: " + log.string();
+  if (!last_line.empty()) message += "; last line: " + last_line;
+  throw ExternalError(message);
+}
+
+// ---------------------------------------------------------------- reading the JSON
+
+// Reads the script's JSON; every problem is the script's (ExternalError).
+class Reader {
+ public:
+  explicit Reader(const fs::path& path) : path_(path) {
+    bool ok = false;
+    const std::string text = ReadText(path, &ok);
+    if (!ok) Fail("", "the script exited cleanly but wrote no file");
+    try {
+      root_ = Json::parse(text);
+    } catch (const Json::exception& e) {
+      Fail("", std::string("not valid JSON (") + e.what() + ")");
+    }
+  }
+
+  const Json& root() const { return root_; }
+
+  [[noreturn]] void Fail(const std::string& key, const std::string& problem) const {
+    throw ExternalError(path_.string() + ": unusable calibration analysis output" +
+                        (key.empty() ? "" : ": key \"" + key + "\"") + ": " + problem);
+  }
+
+  void CheckFormat(const char* format) const {
+    if (!root_.is_object() || root_.value("format", "") != format) {
+      Fail("format", std::string("expected \"") + format + "\"");
+    }
+    const Json& version = Member(root_, "format_version", "format_version");
+    if (!version.is_number_integer() || version.get<int>() != kFormatVersion) {
+      Fail("format_version", "expected " + std::to_string(kFormatVersion));
+    }
+  }
+
+  // A member that must be present (any type).
+  const Json& Member(const Json& object, const char* key, const std::string& where) const {
+    if (!object.is_object() || !object.contains(key)) Fail(where, "missing");
+    return object[key];
+  }
+  const Json& Object(const Json& object, const char* key, const std::string& where) const {
+    const Json& value = Member(object, key, where);
+    if (!value.is_object()) Fail(where, "expected an object");
+    return value;
+  }
+  const Json& Array(const Json& object, const char* key, const std::string& where) const {
+    const Json& value = Member(object, key, where);
+    if (!value.is_array()) Fail(where, "expected an array");
+    return value;
+  }
+  // Finite numbers only: the script writes null for a missing value.
+  double Number(const Json& value, const std::string& where) const {
+    if (!value.is_number()) Fail(where, "expected a number, got " + value.dump());
+    const double number = value.get<double>();
+    if (!std::isfinite(number)) Fail(where, "not a finite number");
+    return number;
+  }
+  double Number(const Json& object, const char* key, const std::string& where) const {
+    return Number(Member(object, key, where), where);
+  }
+  std::optional<double> OptionalNumber(const Json& object, const char* key,
+                                       const std::string& where) const {
+    if (!object.is_object() || !object.contains(key) || object[key].is_null()) return std::nullopt;
+    return Number(object[key], where);
+  }
+  int Integer(const Json& object, const char* key, const std::string& where) const {
+    const Json& value = Member(object, key, where);
+    if (!value.is_number_integer()) Fail(where, "expected an integer, got " + value.dump());
+    return value.get<int>();
+  }
+  std::string String(const Json& object, const char* key, const std::string& where) const {
+    const Json& value = Member(object, key, where);
+    if (!value.is_string()) Fail(where, "expected a string");
+    return value.get<std::string>();
+  }
+  // The "error" member of a section: empty when null or absent.
+  std::string Error(const Json& object, const std::string& where) const {
+    if (!object.is_object() || !object.contains("error") || object["error"].is_null()) return "";
+    if (!object["error"].is_string()) Fail(where + ".error", "expected a string or null");
+    return object["error"].get<std::string>();
+  }
+  double Share(const Json& object, const char* key, const std::string& where) const {
+    const double share = Number(object, key, where);
+    if (share < 0.0 || share > 1.0) Fail(where, "expected a share in [0,1]");
+    return share;
+  }
+  // A path the JSON gives relative to its own folder.
+  std::string Path(const Json& object, const char* key, const std::string& where) const {
+    return (path_.parent_path() / String(object, key, where)).lexically_normal().string();
+  }
+
+ private:
+  fs::path path_;
+  Json root_;
+};
+
+ProjectionDiffSummary ReadDiffSummary(const Reader& r, const Json& j, const std::string& where) {
+  ProjectionDiffSummary d;
+  d.median_px = r.Number(j, "median_px", where + ".median_px");
+  d.p90_px = r.Number(j, "p90_px", where + ".p90_px");
+  d.max_px = r.Number(j, "max_px", where + ".max_px");
+  d.band_median_px = r.OptionalNumber(j, "band_median_px", where + ".band_median_px");
+  d.band_max_px = r.OptionalNumber(j, "band_max_px", where + ".band_max_px");
+  d.rotation_deg = r.Number(j, "rotation_deg", where + ".rotation_deg");
+  const Json& grid = r.Array(j, "grid", where + ".grid");
+  if (grid.size() != 2) r.Fail(where + ".grid", "expected [width, height]");
+  d.grid_width = static_cast<int>(r.Number(grid[0], where + ".grid"));
+  d.grid_height = static_cast<int>(r.Number(grid[1], where + ".grid"));
+  return d;
+}
+
+ProjectionSpread ReadSpread(const Reader& r, const Json& j, const std::string& where) {
+  ProjectionSpread s;
+  s.rms_px = r.OptionalNumber(j, "rms_px", where + ".rms_px");
+  s.worst_direction_stdev_px =
+      r.OptionalNumber(j, "worst_direction_stdev_px", where + ".worst_direction_stdev_px");
+  return s;
+}
+
+CameraAnalysis ReadCamera(const Reader& r, const Json& j, const std::string& where) {
+  CameraAnalysis c;
+  c.index = r.Integer(j, "index", where + ".index");
+  c.model = r.String(j, "model", where + ".model");
+  c.icam_intrinsics = r.Integer(j, "icam_intrinsics", where + ".icam_intrinsics");
+  c.lensmodel = r.String(j, "lensmodel", where + ".lensmodel");
+  const Json& size = r.Array(j, "imager_size", where + ".imager_size");
+  if (size.size() != 2) r.Fail(where + ".imager_size", "expected [width, height]");
+  c.width_px = static_cast<int>(r.Number(size[0], where + ".imager_size"));
+  c.height_px = static_cast<int>(r.Number(size[1], where + ".imager_size"));
+  const Json& band = r.Object(j, "band_px", where + ".band_px");
+  c.band_px = {
+      r.Number(band, "x0", where + ".band_px.x0"), r.Number(band, "x1", where + ".band_px.x1"),
+      r.Number(band, "y0", where + ".band_px.y0"), r.Number(band, "y1", where + ".band_px.y1")};
+
+  // Residuals.
+  const std::string rw = where + ".residuals";
+  const Json& res = r.Object(j, "residuals", rw);
+  ResidualSummary& s = c.residuals;
+  s.rms_px = r.Number(res, "rms_px", rw + ".rms_px");
+  s.worst_px = r.Number(res, "worst_px", rw + ".worst_px");
+  s.median_px = r.Number(res, "median_px", rw + ".median_px");
+  s.noise_stdev_px = r.Number(res, "noise_stdev_px", rw + ".noise_stdev_px");
+  s.mrcal_rms_px = r.Number(res, "mrcal_rms_px", rw + ".mrcal_rms_px");
+  s.inliers = r.Integer(res, "inliers", rw + ".inliers");
+  s.outliers = r.Integer(res, "outliers", rw + ".outliers");
+  s.detected = r.Integer(res, "detected", rw + ".detected");
+  s.board_points = r.Integer(res, "board_points", rw + ".board_points");
+  const Json& images = r.Array(res, "per_image", rw + ".per_image");
+  for (size_t i = 0; i < images.size(); ++i) {
+    const std::string iw = rw + ".per_image[" + std::to_string(i) + "]";
+    ImageResiduals image;
+    image.image = r.String(images[i], "image", iw + ".image");
+    image.observation = r.Integer(images[i], "observation", iw + ".observation");
+    image.corners = r.Integer(images[i], "corners", iw + ".corners");
+    image.inliers = r.Integer(images[i], "inliers", iw + ".inliers");
+    image.outliers = r.Integer(images[i], "outliers", iw + ".outliers");
+    image.rms_px = r.OptionalNumber(images[i], "rms_px", iw + ".rms_px");
+    image.worst_px = r.OptionalNumber(images[i], "worst_px", iw + ".worst_px");
+    s.images.push_back(std::move(image));
+  }
+
+  // Coverage.
+  const std::string cw = where + ".coverage";
+  const Json& cov = r.Object(j, "coverage", cw);
+  const Json& cells = r.Array(cov, "cells", cw + ".cells");
+  if (cells.size() != 2) r.Fail(cw + ".cells", "expected [columns, rows]");
+  c.coverage.cells_x = static_cast<int>(r.Number(cells[0], cw + ".cells"));
+  c.coverage.cells_y = static_cast<int>(r.Number(cells[1], cw + ".cells"));
+  c.coverage.share = r.Share(cov, "share", cw + ".share");
+  c.coverage.band_cells = r.Integer(cov, "band_cells", cw + ".band_cells");
+  c.coverage.band_share = r.Share(cov, "band_share", cw + ".band_share");
+  const Json& counts = r.Array(cov, "counts", cw + ".counts");
+  if (counts.size() != static_cast<size_t>(c.coverage.cells_y))
+    r.Fail(cw + ".counts", "expected one row per cell row");
+  for (const Json& row : counts) {
+    if (!row.is_array() || row.size() != static_cast<size_t>(c.coverage.cells_x)) {
+      r.Fail(cw + ".counts", "expected one count per cell column");
+    }
+    std::vector<int> values;
+    for (const Json& v : row) {
+      if (!v.is_number_integer() || v.get<int>() < 0)
+        r.Fail(cw + ".counts", "expected counts >= 0");
+      values.push_back(v.get<int>());
+    }
+    c.coverage.counts.push_back(std::move(values));
+  }
+  c.coverage.figure = r.Path(cov, "figure", cw + ".figure");
+
+  // Uncertainty.
+  const std::string uw = where + ".uncertainty";
+  const Json& unc = r.Object(j, "uncertainty", uw);
+  c.uncertainty_error = r.Error(unc, uw);
+  if (c.uncertainty_error.empty()) {
+    UncertaintySummary u;
+    u.band_median_px = r.Number(unc, "band_median_px", uw + ".band_median_px");
+    u.band_max_px = r.Number(unc, "band_max_px", uw + ".band_max_px");
+    u.band_centre_px = r.Number(unc, "band_centre_px", uw + ".band_centre_px");
+    u.imager_centre_px = r.Number(unc, "imager_centre_px", uw + ".imager_centre_px");
+    u.imager_median_px = r.Number(unc, "imager_median_px", uw + ".imager_median_px");
+    u.imager_max_px = r.Number(unc, "imager_max_px", uw + ".imager_max_px");
+    u.figure = r.Path(unc, "figure", uw + ".figure");
+    c.uncertainty = u;
+  }
+
+  // Slope error.
+  const std::string sw = where + ".slope_error";
+  const Json& slope = r.Object(j, "slope_error", sw);
+  SlopeErrorSummary& e = c.slope;
+  e.error = r.Error(slope, sw);
+  e.samples = r.Integer(slope, "samples", sw + ".samples");
+  e.ok = r.Integer(slope, "ok", sw + ".ok");
+  e.failed = r.Integer(slope, "failed", sw + ".failed");
+  if (slope.contains("failures")) {
+    for (const Json& f : r.Array(slope, "failures", sw + ".failures")) {
+      if (!f.is_string()) r.Fail(sw + ".failures", "expected strings");
+      e.failures.push_back(f.get<std::string>());
+    }
+  }
+  e.rms_deg = r.OptionalNumber(slope, "rms_deg", sw + ".rms_deg");
+  e.median_deg = r.OptionalNumber(slope, "median_deg", sw + ".median_deg");
+  e.p90_deg = r.OptionalNumber(slope, "p90_deg", sw + ".p90_deg");
+  e.max_deg = r.OptionalNumber(slope, "max_deg", sw + ".max_deg");
+  e.nominal_deg = r.OptionalNumber(slope, "nominal_deg", sw + ".nominal_deg");
+  e.rotation_fit_median_deg =
+      r.OptionalNumber(slope, "rotation_fit_median_deg", sw + ".rotation_fit_median_deg");
+  e.noise_stdev_px = r.OptionalNumber(slope, "noise_stdev_px", sw + ".noise_stdev_px");
+  e.mrcal_band_centre_stdev_px =
+      r.OptionalNumber(slope, "mrcal_band_centre_stdev_px", sw + ".mrcal_band_centre_stdev_px");
+  if (slope.contains("band_centre_spread")) {
+    const Json& spread = r.Object(slope, "band_centre_spread", sw + ".band_centre_spread");
+    e.fitted_rotation_spread = ReadSpread(
+        r, r.Object(spread, "fitted_rotation", sw + ".band_centre_spread.fitted_rotation"),
+        sw + ".band_centre_spread.fitted_rotation");
+    e.board_rotation_spread =
+        ReadSpread(r, r.Object(spread, "board_rotation", sw + ".band_centre_spread.board_rotation"),
+                   sw + ".band_centre_spread.board_rotation");
+  }
+  if (slope.contains("geometry")) {
+    e.convergence_deg = r.OptionalNumber(r.Object(slope, "geometry", sw + ".geometry"),
+                                         "convergence_deg", sw + ".geometry.convergence_deg");
+  }
+  if (e.error.empty() && (e.ok + e.failed != e.samples || (e.ok > 0 && !e.rms_deg))) {
+    r.Fail(sw, "inconsistent sample counts or missing statistics");
+  }
+
+  // OpenCV.
+  const std::string ow = where + ".opencv";
+  const Json& cv = r.Object(j, "opencv", ow);
+  c.opencv_error = r.Error(cv, ow);
+  if (c.opencv_error.empty()) {
+    OpenCvCrossCheck o;
+    o.model = r.Path(cv, "model", ow + ".model");
+    o.images = r.Integer(cv, "images", ow + ".images");
+    o.corners = r.Integer(cv, "corners", ow + ".corners");
+    o.rms_px = r.Number(cv, "rms_px", ow + ".rms_px");
+    o.rms_inliers_px = r.Number(cv, "rms_inliers_px", ow + ".rms_inliers_px");
+    o.diff = ReadDiffSummary(r, r.Object(cv, "diff", ow + ".diff"), ow + ".diff");
+    o.figure = r.Path(cv, "figure", ow + ".figure");
+    if (cv.contains("inliers_only")) {
+      const Json& in = r.Object(cv, "inliers_only", ow + ".inliers_only");
+      if (r.Error(in, ow + ".inliers_only").empty()) {
+        o.inliers_only_rms_px = r.Number(in, "rms_px", ow + ".inliers_only.rms_px");
+        o.inliers_only_diff = ReadDiffSummary(r, in, ow + ".inliers_only");
+      }
+    }
+    c.opencv = o;
+  }
+  return c;
+}
+
+CalibrationAnalysis ReadAnalysis(const fs::path& json_path) {
+  const Reader r(json_path);
+  r.CheckFormat(kAnalysisFormat);
+  CalibrationAnalysis analysis;
+  const Json& cameras = r.Array(r.root(), "cameras", "cameras");
+  for (size_t i = 0; i < cameras.size(); ++i) {
+    analysis.cameras.push_back(ReadCamera(r, cameras[i], "cameras[" + std::to_string(i) + "]"));
+  }
+  const Json& poses = r.Array(r.root(), "relative_poses", "relative_poses");
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const std::string where = "relative_poses[" + std::to_string(i) + "]";
+    RelativePose pose;
+    pose.camera = r.Integer(poses[i], "camera", where + ".camera");
+    pose.relative_to = r.Integer(poses[i], "relative_to", where + ".relative_to");
+    const Json& same = r.Member(poses[i], "same_solve", where + ".same_solve");
+    if (!same.is_boolean()) r.Fail(where + ".same_solve", "expected true or false");
+    pose.same_solve = same.get<bool>();
+    pose.baseline = r.OptionalNumber(poses[i], "baseline", where + ".baseline");
+    pose.rotation_deg = r.OptionalNumber(poses[i], "rotation_deg", where + ".rotation_deg");
+    if (poses[i].contains("translation")) {
+      const Json& t = r.Array(poses[i], "translation", where + ".translation");
+      if (t.size() != 3) r.Fail(where + ".translation", "expected 3 numbers");
+      pose.translation = std::array<double, 3>{r.Number(t[0], where + ".translation"),
+                                               r.Number(t[1], where + ".translation"),
+                                               r.Number(t[2], where + ".translation")};
+    }
+    if (pose.same_solve && (!pose.baseline || !pose.rotation_deg || !pose.translation)) {
+      r.Fail(where, "a pose from one solve needs baseline, rotation_deg and translation");
+    }
+    analysis.relative_poses.push_back(pose);
+  }
+  return analysis;
+}
+
+ProjectionDiff ReadDiff(const fs::path& json_path, bool with_uncertainty) {
+  const Reader r(json_path);
+  r.CheckFormat(kDiffFormat);
+  const Json& j = r.root();
+  ProjectionDiff d;
+  d.median_px = r.Number(j, "median_px", "median_px");
+  d.p90_px = r.Number(j, "p90_px", "p90_px");
+  d.max_px = r.Number(j, "max_px", "max_px");
+  d.rotation_deg = r.Number(j, "rotation_deg", "rotation_deg");
+  d.points = r.Integer(j, "points", "points");
+  const Json& grid = r.Array(j, "grid", "grid");
+  if (grid.size() != 2) r.Fail("grid", "expected [width, height]");
+  d.grid_width = static_cast<int>(r.Number(grid[0], "grid"));
+  d.grid_height = static_cast<int>(r.Number(grid[1], "grid"));
+  d.rotation_fit = r.String(j, "rotation_fit", "rotation_fit");
+  if (with_uncertainty) {
+    const Json& u = r.Object(j, "uncertainty_of_a", "uncertainty_of_a");
+    DiffUncertainty du;
+    du.median_px = r.Number(u, "median_px", "uncertainty_of_a.median_px");
+    du.max_px = r.Number(u, "max_px", "uncertainty_of_a.max_px");
+    du.points = r.Integer(u, "points", "uncertainty_of_a.points");
+    du.within_1_sigma = r.Share(u, "within_1_sigma", "uncertainty_of_a.within_1_sigma");
+    du.within_2_sigma = r.Share(u, "within_2_sigma", "uncertainty_of_a.within_2_sigma");
+    du.within_3_sigma = r.Share(u, "within_3_sigma", "uncertainty_of_a.within_3_sigma");
+    d.uncertainty_of_a = du;
+  }
+  return d;
+}
+
+}  // namespace
+
+std::vector<std::string> HdaGeometry::Validate() const {
+  std::vector<std::string> errors;
+  RequireOption(range_m > 0, "range_m", range_m, "> 0 metres", &errors);
+  RequireOption(baseline_m > 0, "baseline_m", baseline_m, "> 0 metres", &errors);
+  RequireOption(site_m > 0, "site_m", site_m, "> 0 metres", &errors);
+  RequireOption(band_x0 >= 0 && band_x0 < 1, "band_x0", band_x0, "a fraction in [0,1)", &errors);
+  RequireOption(band_x1 > band_x0 && band_x1 <= 1, "band_x1", band_x1, "a fraction in (band_x0, 1]",
+                &errors);
+  RequireOption(band_y0 >= 0 && band_y0 < 1, "band_y0", band_y0, "a fraction in [0,1)", &errors);
+  RequireOption(band_y1 > band_y0 && band_y1 <= 1, "band_y1", band_y1, "a fraction in (band_y0, 1]",
+                &errors);
+  return errors;
+}
+
+std::vector<std::string> AnalysisOptions::Validate() const {
+  std::vector<std::string> errors = hda.Validate();
+  if (python.empty())
+    errors.push_back("python is empty: expected an interpreter such as /usr/bin/python3");
+  RequireOption(timeout_s > 0, "timeout_s", timeout_s, "> 0 seconds", &errors);
+  RequireOption(slope_samples >= 0, "slope_samples", slope_samples, ">= 0", &errors);
+  return errors;
+}
+
+std::vector<std::string> DiffOptions::Validate() const {
+  std::vector<std::string> errors;
+  if (python.empty())
+    errors.push_back("python is empty: expected an interpreter such as /usr/bin/python3");
+  RequireOption(timeout_s > 0, "timeout_s", timeout_s, "> 0 seconds", &errors);
+  RequireOption(gridn >= 2, "gridn", gridn, ">= 2 grid points across", &errors);
+  return errors;
+}
+
+CalibrationAnalysis AnalyseCalibration(const std::vector<std::string>& models,
+                                       const std::string& out_dir, const AnalysisOptions& options) {
+  const std::vector<std::string> errors = options.Validate();
+  if (!errors.empty()) throw InputError("calibration analysis options: " + JoinErrors(errors));
+  if (models.empty()) throw InputError("calibration analysis: no camera model given");
+  if (out_dir.empty()) throw InputError("calibration analysis: the output folder is empty");
+  for (const std::string& model : models) RequireModelFile(model);
+
+  const fs::path dir(out_dir);
+  const fs::path json = dir / "analysis.json";
+  const fs::path figures = dir / "figures";
+  const fs::path opencv = dir / "opencv";
+  const fs::path logs = dir / "logs";
+  const fs::path log = logs / "analysis.log";
+  CreateFolder(dir, "calibration analysis output");
+  CreateFolder(figures, "figures");
+  CreateFolder(opencv, "OpenCV models");
+  CreateFolder(logs, "logs");
+  // An earlier record must not pass for this run's if this one fails.
+  RemoveFile(json, "analysis record");
+
+  // Option and value on one line each.
+  // clang-format off
+  std::vector<std::string> arguments = {
+      "analyse",
+      "--json", fs::absolute(json).string(),
+      "--figures", fs::absolute(figures).string(),
+      "--opencv-dir", fs::absolute(opencv).string(),
+      "--band-x0", NumberText(options.hda.band_x0),
+      "--band-x1", NumberText(options.hda.band_x1),
+      "--band-y0", NumberText(options.hda.band_y0),
+      "--band-y1", NumberText(options.hda.band_y1),
+      "--range-m", NumberText(options.hda.range_m),
+      "--baseline-m", NumberText(options.hda.baseline_m),
+      "--site-m", NumberText(options.hda.site_m),
+      "--samples", std::to_string(options.slope_samples),
+      "--seed", std::to_string(options.seed),
+      "--"};
+  // clang-format on
+  arguments.insert(arguments.end(), models.begin(), models.end());
+  ProcessResult result;
+  try {
+    result =
+        RunScript(options.python, options.timeout_s, arguments, log, "the calibration analysis");
+  } catch (...) {
+    for (const fs::path& folder : {dir, figures, opencv}) RemoveScriptTemporaries(folder, true);
+    throw;
+  }
+
+  CalibrationAnalysis analysis = ReadAnalysis(json);
+  if (analysis.cameras.size() != models.size()) {
+    throw ExternalError(json.string() + ": unusable calibration analysis output: " +
+                        std::to_string(analysis.cameras.size()) + " cameras for " +
+                        std::to_string(models.size()) + " models");
+  }
+  analysis.json_path = json.string();
+  analysis.log_path = log.string();
+  analysis.seconds = result.seconds;
+  return analysis;
+}
+
+ProjectionDiff DiffCalibrations(const std::string& a, const std::string& b,
+                                const std::string& out_json, const std::string& heatmap_png,
+                                const DiffOptions& options) {
+  const std::vector<std::string> errors = options.Validate();
+  if (!errors.empty()) throw InputError("calibration diff options: " + JoinErrors(errors));
+  RequireModelFile(a);
+  RequireModelFile(b);
+  if (out_json.empty()) throw InputError("calibration diff: the JSON output path is empty");
+  if (heatmap_png.empty()) throw InputError("calibration diff: the heat map path is empty");
+
+  const fs::path json(out_json);
+  const fs::path png(heatmap_png);
+  fs::path log = json;
+  log.replace_extension(".log");
+  CreateFolder(json.has_parent_path() ? json.parent_path() : fs::path("."), "diff output");
+  CreateFolder(png.has_parent_path() ? png.parent_path() : fs::path("."), "heat map");
+  RemoveFile(json, "diff record");
+
+  std::vector<std::string> arguments = {"diff", "--json", fs::absolute(json).string(), "--png",
+                                        fs::absolute(png).string(), "--gridn",
+                                        std::to_string(options.gridn)};
+  if (options.with_uncertainty_of_a) arguments.push_back("--uncertainty-of-a");
+  arguments.insert(arguments.end(), {"--", a, b});
+  try {
+    RunScript(options.python, options.timeout_s, arguments, log, "the calibration diff");
+  } catch (...) {
+    RemoveScriptTemporaries(json, false);
+    RemoveScriptTemporaries(png, false);
+    throw;
+  }
+
+  ProjectionDiff diff = ReadDiff(json, options.with_uncertainty_of_a);
+  diff.json_path = json.string();
+  diff.heatmap_png = png.string();
+  diff.log_path = log.string();
+  return diff;
+}
+
+}  // namespace hdabench::calib

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -464,7 +465,16 @@ std::string CameraModel::ToText() const {
   return s;
 }
 
-void CameraModel::Save(const std::string& path) const { WriteFileAtomically(path, ToText()); }
+void CameraModel::Save(const std::string& path) const {
+  // The folder must exist: a model is never the first file of a new folder
+  // by accident of a mistyped path.
+  const std::filesystem::path parent = std::filesystem::path(path).parent_path();
+  std::error_code ec;
+  if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
+    throw InputError(path + ": cannot write the camera model (No such file or directory)");
+  }
+  WriteFileAtomically(path, ToText());
+}
 
 Rigid3d CameraModel::CamFromRef() const {
   const Eigen::Vector3d r(rt_cam_ref_[0], rt_cam_ref_[1], rt_cam_ref_[2]);

@@ -7,8 +7,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <map>
 #include <sstream>
 
@@ -21,6 +24,7 @@
 #include "calib/options_check.h"
 #include "reference/colmap_adapter.h"
 #include "reference/colmap_model.h"
+#include "reference/sift_matching.h"
 #include "calib/process.h"
 
 namespace hdabench::reference {
@@ -200,15 +204,52 @@ std::vector<Eigen::Vector2d> ToOriginalPixels(const std::vector<Eigen::Vector2d>
 }
 
 // ---------------------------------------------------------------------------
-// COLMAP's database: the ids it gave the images and the camera.
+// COLMAP's database: the ids it gave the images and the camera, the features,
+// the verified matches.
+
+// A read-only connection; error() is non-empty once anything failed.
+class DatabaseReader {
+ public:
+  explicit DatabaseReader(std::string path) : path_(std::move(path)) {
+    if (sqlite3_open_v2(path_.c_str(), &db_, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
+      error_ = path_ + ": cannot open COLMAP's database: " +
+               (db_ != nullptr ? sqlite3_errmsg(db_) : "out of memory");
+    }
+  }
+  ~DatabaseReader() { sqlite3_close(db_); }
+  DatabaseReader(const DatabaseReader&) = delete;
+  DatabaseReader& operator=(const DatabaseReader&) = delete;
+
+  // Runs `sql`, calling on_row(statement) for each row; false (error() set)
+  // on failure or after an earlier one.
+  template <typename OnRow>
+  bool Query(const char* sql, const OnRow& on_row) {
+    if (!error_.empty()) return false;
+    sqlite3_stmt* statement = nullptr;
+    if (sqlite3_prepare_v2(db_, sql, -1, &statement, nullptr) != SQLITE_OK) {
+      error_ = path_ + ": " + sqlite3_errmsg(db_) + " in '" + sql + "'";
+      sqlite3_finalize(statement);
+      return false;
+    }
+    int rc = SQLITE_ROW;
+    while ((rc = sqlite3_step(statement)) == SQLITE_ROW) on_row(statement);
+    if (rc != SQLITE_DONE) error_ = path_ + ": " + sqlite3_errmsg(db_) + " in '" + sql + "'";
+    sqlite3_finalize(statement);
+    return error_.empty();
+  }
+  const std::string& error() const { return error_; }
+
+ private:
+  std::string path_;
+  sqlite3* db_ = nullptr;
+  std::string error_;
+};
 
 struct DatabaseIds {
   std::map<std::string, std::uint32_t> image_ids;  // by name
   std::map<std::string, std::uint32_t> image_cameras;
   std::uint32_t camera_id = 0;
   int camera_count = 0;
-  // Verified (inlier) matches per image pair, keyed by COLMAP's pair id.
-  std::map<std::int64_t, std::int64_t> verified_matches;
 };
 
 // COLMAP's pair id of two image ids (smaller id first).
@@ -219,44 +260,145 @@ std::int64_t PairId(std::uint32_t a, std::uint32_t b) {
 
 // Empty on success, else the error.
 std::string ReadDatabaseIds(const std::string& path, DatabaseIds* ids) {
-  sqlite3* db = nullptr;
-  if (sqlite3_open_v2(path.c_str(), &db, SQLITE_OPEN_READONLY, nullptr) != SQLITE_OK) {
-    const std::string error = db != nullptr ? sqlite3_errmsg(db) : "out of memory";
-    sqlite3_close(db);
-    return path + ": cannot open COLMAP's database: " + error;
-  }
-  std::string error;
-  const auto query = [&](const char* sql, const auto& on_row) {
-    sqlite3_stmt* statement = nullptr;
-    if (sqlite3_prepare_v2(db, sql, -1, &statement, nullptr) != SQLITE_OK) {
-      error = path + ": " + sqlite3_errmsg(db) + " in '" + sql + "'";
-      sqlite3_finalize(statement);
-      return;
-    }
-    int rc = SQLITE_ROW;
-    while ((rc = sqlite3_step(statement)) == SQLITE_ROW) on_row(statement);
-    if (rc != SQLITE_DONE) error = path + ": " + sqlite3_errmsg(db) + " in '" + sql + "'";
-    sqlite3_finalize(statement);
-  };
-  query("SELECT image_id, name, camera_id FROM images", [&](sqlite3_stmt* s) {
+  DatabaseReader db(path);
+  db.Query("SELECT image_id, name, camera_id FROM images", [&](sqlite3_stmt* s) {
     const unsigned char* name = sqlite3_column_text(s, 1);
     const std::string text = name != nullptr ? reinterpret_cast<const char*>(name) : "";
     ids->image_ids[text] = static_cast<std::uint32_t>(sqlite3_column_int64(s, 0));
     ids->image_cameras[text] = static_cast<std::uint32_t>(sqlite3_column_int64(s, 2));
   });
-  if (error.empty()) {
-    query("SELECT camera_id FROM cameras", [&](sqlite3_stmt* s) {
-      ids->camera_id = static_cast<std::uint32_t>(sqlite3_column_int64(s, 0));
-      ++ids->camera_count;
-    });
+  db.Query("SELECT camera_id FROM cameras", [&](sqlite3_stmt* s) {
+    ids->camera_id = static_cast<std::uint32_t>(sqlite3_column_int64(s, 0));
+    ++ids->camera_count;
+  });
+  return db.error();
+}
+
+// Verified (inlier) matches per image pair, keyed by COLMAP's pair id. Empty
+// on success, else the error.
+std::string ReadVerifiedMatches(const std::string& path,
+                                std::map<std::int64_t, std::int64_t>* verified) {
+  DatabaseReader db(path);
+  db.Query("SELECT pair_id, rows FROM two_view_geometries", [&](sqlite3_stmt* s) {
+    (*verified)[sqlite3_column_int64(s, 0)] = sqlite3_column_int64(s, 1);
+  });
+  return db.error();
+}
+
+// The size of the images as COLMAP's SIFT sees them: downscaled as its
+// extractor does when a side exceeds max_image_size, the keypoints then
+// scaled back to the image's pixels.
+struct SiftImageSize {
+  int width = 0, height = 0;
+  double from_image_x = 1.0, from_image_y = 1.0;  // SIFT pixels per image pixel
+};
+
+SiftImageSize SiftImageSizeOf(int width, int height, int max_image_size) {
+  SiftImageSize size{width, height, 1.0, 1.0};
+  if (width > max_image_size || height > max_image_size) {
+    const double scale = static_cast<double>(max_image_size) / std::max(width, height);
+    size.width = static_cast<int>(width * scale);
+    size.height = static_cast<int>(height * scale);
+    size.from_image_x = static_cast<double>(size.width) / width;
+    size.from_image_y = static_cast<double>(size.height) / height;
   }
-  if (error.empty()) {
-    query("SELECT pair_id, rows FROM two_view_geometries", [&](sqlite3_stmt* s) {
-      ids->verified_matches[sqlite3_column_int64(s, 0)] = sqlite3_column_int64(s, 1);
-    });
+  return size;
+}
+
+// One image's features for the exact matcher.
+struct ImageFeatures {
+  SiftDescriptors descriptors;
+  int unset = 0;  // descriptors set to zero: COLMAP may not have computed them
+};
+
+// The SIFT descriptors of every image in `names` (by image name), checked
+// against the keypoints: as many rows, 128 bytes each. An image without rows
+// in the tables has no features. The descriptor of a keypoint whose
+// descriptor COLMAP may never have computed (SiftDescriptorMayBeUnset) is set
+// to zero, which matches nothing. Empty on success, else the error.
+std::string ReadFeatures(const std::string& path, const DatabaseIds& ids,
+                         const std::vector<std::string>& names, const SiftImageSize& sift,
+                         std::map<std::string, ImageFeatures>* features) {
+  struct Rows {
+    std::vector<float> keypoints;  // keypoint_cols per keypoint
+    std::int64_t keypoint_rows = 0, keypoint_cols = 0;
+    SiftDescriptors descriptors;
+    std::string error;
+  };
+  std::map<std::uint32_t, Rows> by_id;
+  for (const std::string& name : names) by_id[ids.image_ids.at(name)];
+  DatabaseReader db(path);
+  db.Query("SELECT image_id, rows, cols, data FROM keypoints", [&](sqlite3_stmt* s) {
+    const auto it = by_id.find(static_cast<std::uint32_t>(sqlite3_column_int64(s, 0)));
+    if (it == by_id.end()) return;
+    Rows& r = it->second;
+    r.keypoint_rows = sqlite3_column_int64(s, 1);
+    r.keypoint_cols = sqlite3_column_int64(s, 2);
+    const void* blob = sqlite3_column_blob(s, 3);
+    const std::int64_t bytes = sqlite3_column_bytes(s, 3);
+    if (r.keypoint_rows == 0) return;
+    // COLMAP's layouts: x y; x y scale orientation; x y a11 a12 a21 a22.
+    const bool known_cols = r.keypoint_cols == 2 || r.keypoint_cols == 4 || r.keypoint_cols == 6;
+    if (!known_cols || r.keypoint_rows < 0 || r.keypoint_rows > std::numeric_limits<int>::max() ||
+        bytes != r.keypoint_rows * r.keypoint_cols * 4 || blob == nullptr) {
+      r.error = "keypoints are " + std::to_string(r.keypoint_rows) + " x " +
+                std::to_string(r.keypoint_cols) + " in " + std::to_string(bytes) +
+                " bytes: expected rows x 2, 4 or 6 floats";
+      return;
+    }
+    r.keypoints.resize(static_cast<size_t>(bytes) / 4);
+    std::memcpy(r.keypoints.data(), blob, static_cast<size_t>(bytes));
+  });
+  db.Query("SELECT image_id, rows, cols, data FROM descriptors", [&](sqlite3_stmt* s) {
+    const auto it = by_id.find(static_cast<std::uint32_t>(sqlite3_column_int64(s, 0)));
+    if (it == by_id.end()) return;
+    const std::int64_t rows = sqlite3_column_int64(s, 1), cols = sqlite3_column_int64(s, 2);
+    const void* blob = sqlite3_column_blob(s, 3);
+    const std::int64_t bytes = sqlite3_column_bytes(s, 3);
+    if (rows == 0) return;
+    if (cols != 128 || rows < 0 || rows > std::numeric_limits<int>::max() / 128 ||
+        bytes != rows * cols || blob == nullptr) {
+      if (it->second.error.empty()) {
+        it->second.error = "descriptors are " + std::to_string(rows) + " x " +
+                           std::to_string(cols) + " in " + std::to_string(bytes) +
+                           " bytes: expected rows x 128 bytes";
+      }
+      return;
+    }
+    SiftDescriptors& d = it->second.descriptors;
+    d.rows = static_cast<int>(rows);
+    const auto* begin = static_cast<const std::uint8_t*>(blob);
+    d.data.assign(begin, begin + bytes);
+  });
+  if (!db.error().empty()) return db.error();
+  for (const std::string& name : names) {
+    Rows& rows = by_id.at(ids.image_ids.at(name));
+    if (rows.error.empty() && rows.keypoint_rows != rows.descriptors.rows) {
+      rows.error = std::to_string(rows.keypoint_rows) + " keypoints but " +
+                   std::to_string(rows.descriptors.rows) + " descriptors";
+    }
+    if (!rows.error.empty()) return path + ": image " + name + ": " + rows.error;
+    ImageFeatures& out = (*features)[name];
+    out.descriptors = std::move(rows.descriptors);
+    const size_t cols = static_cast<size_t>(rows.keypoint_cols);
+    for (int k = 0; k < out.descriptors.rows; ++k) {
+      const float* kp = rows.keypoints.data() + static_cast<size_t>(k) * cols;
+      double scale = 0.0;  // unknown for the x y layout: every octave is checked
+      if (cols == 4) scale = static_cast<double>(kp[2]);
+      if (cols == 6) {
+        scale = 0.5 * (std::hypot(static_cast<double>(kp[2]), static_cast<double>(kp[4])) +
+                       std::hypot(static_cast<double>(kp[3]), static_cast<double>(kp[5])));
+      }
+      const double to_sift = 0.5 * (sift.from_image_x + sift.from_image_y);
+      if (SiftDescriptorMayBeUnset(static_cast<double>(kp[0]) * sift.from_image_x,
+                                   static_cast<double>(kp[1]) * sift.from_image_y, scale * to_sift,
+                                   sift.width, sift.height)) {
+        std::fill_n(out.descriptors.data.begin() + static_cast<std::ptrdiff_t>(k) * 128, 128, 0);
+        ++out.unset;
+      }
+    }
   }
-  sqlite3_close(db);
-  return error;
+  return "";
 }
 
 // ---------------------------------------------------------------------------
@@ -270,11 +412,7 @@ class StepRunner {
 
   // Runs `colmap <name> <args>`; on failure *failure gets the one-line reason.
   bool Run(const std::string& name, const std::vector<std::string>& args, std::string* failure) {
-    ColmapStep step;
-    step.name = name;
-    char prefix[16];
-    std::snprintf(prefix, sizeof(prefix), "%02d-", ++count_);
-    step.log_file = (logs_ / (prefix + name + ".log")).string();
+    ColmapStep step = NewStep(name);
     std::vector<std::string> argv = {executable_, name};
     argv.insert(argv.end(), args.begin(), args.end());
     argv.push_back("--log_to_stderr");
@@ -299,12 +437,43 @@ class StepRunner {
     results_->steps.push_back(step);
     return step.ok;
   }
+  // Runs a step of the bench's own: work(log, &error) writes its log and
+  // returns false with a one-line error on failure; *failure then gets the
+  // one-line reason.
+  bool RunInProcess(const std::string& name,
+                    const std::function<bool(std::ostream& log, std::string* error)>& work,
+                    std::string* failure) {
+    ColmapStep step = NewStep(name);
+    const Clock::time_point start = Clock::now();
+    std::ofstream log(step.log_file, std::ios::trunc);
+    std::string error;
+    step.ok = log.good() && work(log, &error);
+    if (!log.good() && error.empty()) error = "cannot write its log file";
+    log << (step.ok ? "# done\n" : "# failed: " + error + "\n");
+    step.seconds = SecondsSince(start);
+    if (!step.ok) {
+      step.error = error;
+      *failure = name + " failed: " + error + " (log: " + step.log_file + ")";
+    }
+    results_->steps.push_back(step);
+    return step.ok;
+  }
   // Log file of the most recent step.
   std::string LastLog() const {
     return results_->steps.empty() ? "" : results_->steps.back().log_file;
   }
 
  private:
+  // A step numbered after the previous ones, with its log file's name.
+  ColmapStep NewStep(const std::string& name) {
+    ColmapStep step;
+    step.name = name;
+    char prefix[16];
+    std::snprintf(prefix, sizeof(prefix), "%02d-", ++count_);
+    step.log_file = (logs_ / (prefix + name + ".log")).string();
+    return step;
+  }
+
   std::string executable_;
   fs::path logs_;
   const ColmapOptions& options_;
@@ -319,11 +488,79 @@ void Fail(PairReconstruction* method, const std::string& failure) {
   method->has_pose = false;
 }
 
-std::vector<std::string> SiftMatchingArgs(const ColmapOptions& o) {
+// matches_importer's two-view geometric verification: COLMAP's defaults but
+// for the RANSAC threshold (its other --SiftMatching options are those of
+// the descriptor matching, which the exact matcher does instead).
+std::vector<std::string> VerificationArgs(const ColmapOptions& o) {
   return {"--SiftMatching.use_gpu",     "0",
           "--SiftMatching.num_threads", std::to_string(o.threads),
-          "--SiftMatching.max_ratio",   FormatDouble(o.sift_max_ratio),
           "--SiftMatching.max_error",   FormatDouble(o.sift_max_error_px)};
+}
+
+// The exact matcher's options: COLMAP's defaults (max_distance 0.7,
+// cross-check, max_num_matches 32768) but for the ratio.
+SiftMatchOptions ExactMatchOptions(const ColmapOptions& o) {
+  SiftMatchOptions match;
+  match.max_ratio = o.sift_max_ratio;
+  return match;
+}
+
+// Matches every pair of `names` (in that order, first with second, ...) with
+// MatchSiftExact and writes matches_importer's raw match list: per pair a line
+// "name1 name2", a line "index1 index2" per match, then an empty line. The
+// pairs share one time limit, checked before each pair. false with *error on
+// failure.
+bool MatchAllPairs(const std::string& database, const DatabaseIds& ids,
+                   const std::vector<std::string>& names, const SiftImageSize& sift,
+                   const SiftMatchOptions& match, double timeout_s, const fs::path& match_list,
+                   std::ostream& log, std::string* error) {
+  const Clock::time_point start = Clock::now();
+  log << "# exact SIFT matching of every image pair (reference/sift_matching.h): max_ratio "
+      << FormatDouble(match.max_ratio) << ", max_distance " << FormatDouble(match.max_distance)
+      << ", cross_check " << (match.cross_check ? 1 : 0) << ", max_num_matches "
+      << match.max_num_matches << "\n";
+  std::map<std::string, ImageFeatures> features;
+  *error = ReadFeatures(database, ids, names, sift, &features);
+  if (!error->empty()) return false;
+  for (const std::string& name : names) {
+    const ImageFeatures& f = features.at(name);
+    log << name << ": " << f.descriptors.rows << " descriptors, " << f.unset
+        << " left out (COLMAP may not have computed them: SiftDescriptorMayBeUnset)\n";
+  }
+  std::ofstream out(match_list, std::ios::trunc);
+  if (!out) {
+    *error = match_list.string() + ": cannot write the match list";
+    return false;
+  }
+  const size_t num_pairs = names.size() * (names.size() - 1) / 2;
+  size_t done = 0;
+  for (size_t i = 0; i < names.size(); ++i) {
+    for (size_t j = i + 1; j < names.size(); ++j) {
+      if (SecondsSince(start) > timeout_s) {
+        *error = "timed out after " + FormatDouble(timeout_s) + " s (" + std::to_string(done) +
+                 " of " + std::to_string(num_pairs) + " pairs matched)";
+        return false;
+      }
+      const Clock::time_point pair_start = Clock::now();
+      const SiftDescriptors& d1 = features.at(names[i]).descriptors;
+      const SiftDescriptors& d2 = features.at(names[j]).descriptors;
+      const std::vector<SiftMatch> matches = MatchSiftExact(d1, d2, match);
+      out << names[i] << ' ' << names[j] << '\n';
+      for (const SiftMatch& m : matches) out << m.index1 << ' ' << m.index2 << '\n';
+      out << '\n';
+      ++done;
+      char seconds[32];
+      std::snprintf(seconds, sizeof(seconds), "%.3f", SecondsSince(pair_start));
+      log << names[i] << ' ' << names[j] << ": " << d1.rows << " x " << d2.rows << " descriptors, "
+          << matches.size() << " matches, " << seconds << " s\n";
+    }
+  }
+  out.close();
+  if (!out) {
+    *error = match_list.string() + ": cannot write the match list";
+    return false;
+  }
+  return true;
 }
 
 std::vector<std::string> MapperArgs(const ColmapOptions& o) {
@@ -483,8 +720,9 @@ ColmapResults RunColmap(const ColmapInput& input, const ColmapOptions& options) 
   const fs::path database = workspace / "database.db";
   try {
     fs::create_directories(workspace);
-    for (const fs::path& old : {images_dir, logs_dir, workspace / "nav", workspace / "free",
-                                database, workspace / "database.db-journal"}) {
+    for (const fs::path& old :
+         {images_dir, logs_dir, workspace / "nav", workspace / "free", database,
+          workspace / "database.db-journal", workspace / "matches.txt"}) {
       fs::remove_all(old);
     }
     fs::create_directories(images_dir);
@@ -549,45 +787,68 @@ ColmapResults RunColmap(const ColmapInput& input, const ColmapOptions& options) 
                                                  std::to_string(options.sift_max_image_size_px),
                                                  "--SiftExtraction.max_num_features",
                                                  std::to_string(options.sift_max_num_features)};
-  std::vector<std::string> match_args = {"--database_path", database.string()};
-  for (const std::string& a : SiftMatchingArgs(options)) match_args.push_back(a);
-  if (!steps.Run("feature_extractor", extract_args, &failure) ||
-      !steps.Run("exhaustive_matcher", match_args, &failure)) {
+  if (!steps.Run("feature_extractor", extract_args, &failure)) {
     fail_both(failure);
     return results;
   }
   DatabaseIds ids;
   const std::string db_error = ReadDatabaseIds(database.string(), &ids);
   std::string id_failure;
+  std::vector<std::string> names;
+  for (size_t i = 0; i < num_used; ++i) names.push_back(ImageName(i));
   if (!db_error.empty()) {
     id_failure = "colmap feature_extractor: " + db_error;
   } else if (ids.camera_count != 1) {
     id_failure = "colmap feature_extractor: " + database.string() + " holds " +
                  std::to_string(ids.camera_count) + " cameras, expected 1";
   } else {
-    for (size_t i = 0; i < num_used; ++i) {
-      if (ids.image_ids.count(ImageName(i)) == 0) {
-        id_failure = "colmap feature_extractor: " + database.string() + " lacks image " +
-                     ImageName(i) + " (log: " + results.steps.front().log_file + ")";
+    for (const std::string& name : names) {
+      if (ids.image_ids.count(name) == 0) {
+        id_failure = "colmap feature_extractor: " + database.string() + " lacks image " + name +
+                     " (log: " + results.steps.front().log_file + ")";
         break;
       }
     }
   }
-  if (id_failure.empty()) {
-    // Without verified matches between images 1 and 2 nothing can be
-    // triangulated (and COLMAP 3.8's point_triangulator aborts on an empty
-    // bundle adjustment).
-    const auto pair = ids.verified_matches.find(
-        PairId(ids.image_ids.at(ImageName(0)), ids.image_ids.at(ImageName(1))));
-    if (pair == ids.verified_matches.end() || pair->second == 0) {
-      id_failure =
-          "colmap exhaustive_matcher: no points: no verified matches between images 1 "
-          "and 2 (log: " +
-          results.steps.back().log_file + ")";
-    }
-  }
   if (!id_failure.empty()) {
     fail_both(id_failure);
+    return results;
+  }
+
+  // Matching: the exact matcher instead of COLMAP's exhaustive_matcher, whose
+  // approximate search differs from run to run (header, "Determinism"), then
+  // COLMAP's own two-view geometric verification of those raw matches.
+  const fs::path match_list = workspace / "matches.txt";
+  const auto match_all = [&](std::ostream& log, std::string* error) {
+    return MatchAllPairs(
+        database.string(), ids, names,
+        SiftImageSizeOf(camera.WidthPx(), camera.HeightPx(), options.sift_max_image_size_px),
+        ExactMatchOptions(options), options.timeout_s, match_list, log, error);
+  };
+  std::vector<std::string> import_args = {"--database_path",   database.string(),
+                                          "--match_list_path", match_list.string(),
+                                          "--match_type",      "raw"};
+  for (const std::string& a : VerificationArgs(options)) import_args.push_back(a);
+  if (!steps.RunInProcess("exact_matcher", match_all, &failure) ||
+      !steps.Run("matches_importer", import_args, &failure)) {
+    fail_both(failure);
+    return results;
+  }
+  // Without verified matches between images 1 and 2 nothing can be
+  // triangulated (and COLMAP 3.8's point_triangulator aborts on an empty
+  // bundle adjustment).
+  std::map<std::int64_t, std::int64_t> verified;
+  const std::string verified_error = ReadVerifiedMatches(database.string(), &verified);
+  if (!verified_error.empty()) {
+    fail_both("colmap matches_importer: " + verified_error);
+    return results;
+  }
+  const auto pair =
+      verified.find(PairId(ids.image_ids.at(ImageName(0)), ids.image_ids.at(ImageName(1))));
+  if (pair == verified.end() || pair->second == 0) {
+    fail_both(
+        "colmap matches_importer: no points: no verified matches between images 1 and 2 (log: " +
+        steps.LastLog() + ")");
     return results;
   }
   results.shared_seconds = SecondsSince(start);

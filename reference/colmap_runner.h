@@ -4,7 +4,12 @@
 //
 //   feature_extractor   SIFT, one camera for all images with the intrinsics
 //                       given (never estimated), no GPU
-//   exhaustive_matcher  SIFT matching and two-view geometry, no GPU
+//   exact_matcher       not a COLMAP program: the bench reads the descriptors
+//                       from COLMAP's database and matches every image pair
+//                       exactly with COLMAP's rules (reference/sift_matching.h),
+//                       in place of COLMAP's approximate exhaustive_matcher
+//   matches_importer    COLMAP's two-view geometric verification (RANSAC) of
+//                       those raw matches (--match_type raw), no GPU
 //   colmap-nav          point_triangulator on the pair with the navigation
 //                       poses held fixed (cam_from_local): points come out in
 //                       the local frame directly. COLMAP 3.8 holds poses and
@@ -42,30 +47,56 @@
 // Every reconstructed point observed in image 1 becomes a ReconstructedPoint
 // (point in the local frame, its image-1 observation in hdabench pixels of the
 // original image). `seconds` of each method is the wall time of the shared
-// steps (image preparation, extraction, matching) plus its own step and
-// post-processing: the shared time is counted in both methods.
+// steps (image preparation, extraction, exact matching, verification) plus its
+// own step and post-processing: the shared time is counted in both methods.
 //
 // Determinism (measured with COLMAP 3.8 on this bench's synthetic pairs):
-//  * feature_extractor is reproducible: identical keypoints and descriptors.
-//  * exhaustive_matcher is NOT: COLMAP 3.8 matches on the CPU with FLANN's
-//    randomised kd-trees (approximate search, seeded from the C library's
-//    global rand(), outside COLMAP's own seeding), so every run keeps a
-//    slightly different match set (e.g. 1756 vs 1748 of ~4100 features),
-//    even with threads = 1. No option of 3.8 selects an exact matcher.
-//  * given the database, point_triangulator and mapper are reproducible
-//    byte for byte with threads = 1: COLMAP's own random numbers come from a
-//    per-thread std::mt19937 with a fixed seed. `--random_seed` changes
-//    nothing visible (seed 5 gives the same model as the default 0).
-// So two runs agree to within the effect of a few matches (point counts
-// within about 1 %, poses within a few thousandths of a degree), not bit for
-// bit; tests/reference/colmap_runner_test.cc checks the mapper part.
+//  * feature_extractor gives the same keypoints every run, and the same
+//    descriptors but for about one keypoint in 10000: those refined onto the
+//    last pixel row of their octave, whose descriptor VLFeat never computes,
+//    so COLMAP stores whatever its buffer held (zeros in one run, another
+//    vector in the next; seen on 1024 x 1024 frames). The exact matcher
+//    leaves every keypoint where that may happen out of the matching
+//    (SiftDescriptorMayBeUnset in reference/sift_matching.h; its log counts
+//    them per image: 0 to 4 of ~11000 per 1024 x 1024 frame, 1 or 2 of ~4100
+//    per 512 x 512 frame).
+//  * COLMAP's exhaustive_matcher is NOT, which is why the bench does not use
+//    it: on the CPU it searches FLANN's randomised kd-trees (approximate,
+//    seeded from the C library's global rand(), outside COLMAP's own
+//    seeding), so every run kept a slightly different match set (e.g. 1756
+//    vs 1748 of ~4100 features), even with threads = 1, and no option of 3.8
+//    selects an exact matcher.
+//  * exact_matcher compares every pair of descriptors (integer dot products,
+//    exact, single-threaded): its matches depend on the keypoints, the
+//    reliable descriptors and the options alone (the same match list on
+//    every run).
+//  * matches_importer (COLMAP 3.8's FeaturePairsFeatureMatcher) verifies the
+//    pairs one after the other in one thread whatever
+//    --SiftMatching.num_threads, with COLMAP's random numbers: a per-thread
+//    std::mt19937 with a fixed seed. point_triangulator and mapper
+//    draw from the same generators. `--random_seed` changes nothing visible
+//    (seed 5 gave the same model as the default 0).
+// So with threads = 1 a run gives the same bytes every time: two runs on the
+// same images give identical matches.txt and byte-identical nav and free
+// models (cameras.bin, images.bin, points3D.bin), and `hdabench compare`
+// gives an identical compare.json, also with use_all_frames on 13 frames, 6
+// of which had a descriptor that differed between the two extractions
+// (tests/reference/colmap_runner_test.cc, tests/reference/compare_test.cc). With threads = 2
+// the models usually agree too, but not always: in one of 8 double runs the
+// mapper's points3D.bin differed (multi-threaded bundle adjustment sums in a
+// varying order), hence the default of 1. All of this is on one machine:
+// COLMAP's bundle adjustment goes through the system's BLAS/LAPACK (ATLAS
+// here), and another implementation may round differently.
 // Workspace layout (one folder per run):
 //   images/frame_NNN.png   the frames as 8-bit grey PNG (resampled when the
 //                          lens model has no COLMAP equivalent); NNN = index
 //                          in ColmapInput::image_paths
 //   database.db            COLMAP's database (features, matches)
+//   matches.txt            exact_matcher's raw matches, matches_importer's input
 //   logs/NN-<step>.log     stdout and stderr of each COLMAP step (glog
-//                          included: --log_to_stderr 1)
+//                          included: --log_to_stderr 1); exact_matcher's
+//                          own: its options, per image the descriptors and
+//                          those left out, per pair the matches and time
 //   nav/input/             cameras.txt, images.txt (nav poses), points3D.txt (empty)
 //   nav/model/             point_triangulator's output (binary)
 //   free/0/                mapper's output (binary)
@@ -99,16 +130,18 @@ struct ColmapInput {
 
 struct ColmapOptions {
   std::string executable = "colmap";  // a name looked up on PATH, or a path
-  double timeout_s = 600.0;           // wall-time limit of each COLMAP step, seconds, > 0
-  int threads = 1;                    // threads of every step, >= 1 (1: reproducible output)
+  double timeout_s = 600.0;           // wall-time limit of each step, seconds, > 0
+  int threads = 1;                    // threads of COLMAP's steps, >= 1 (1: reproducible output)
   bool run_nav = true;                // colmap-nav (point_triangulator, nav poses fixed)
   bool run_free = true;               // colmap-free (mapper, then alignment)
   bool use_all_frames = false;        // colmap-free on every frame given instead of the pair
 
-  // SIFT (feature_extractor, exhaustive_matcher).
+  // SIFT (feature_extractor, exact_matcher, matches_importer). The exact
+  // matcher's other rules are COLMAP's defaults: max_distance 0.7 rad,
+  // cross-check, at most 32768 matches per pair.
   int sift_max_image_size_px = 3200;  // images larger than this are downscaled for SIFT
   int sift_max_num_features = 8192;   // features kept per image
-  double sift_max_ratio = 0.8;        // Lowe ratio test, in (0, 1]
+  double sift_max_ratio = 0.8;        // Lowe ratio test (exact_matcher), in (0, 1]
   double sift_max_error_px = 4.0;     // two-view geometry RANSAC threshold, pixels, > 0
 
   // Triangulation (both methods): smallest angle between the rays of a
@@ -125,9 +158,10 @@ struct ColmapOptions {
   std::vector<std::string> Validate() const;
 };
 
-// One COLMAP program run.
+// One step: a COLMAP program run, or the bench's exact_matcher.
 struct ColmapStep {
-  std::string name;  // "feature_extractor", "exhaustive_matcher", "point_triangulator", "mapper"
+  // "feature_extractor", "exact_matcher", "matches_importer", "point_triangulator", "mapper"
+  std::string name;
   std::string log_file;  // its stdout and stderr
   bool ok = false;
   double seconds = 0.0;  // wall time
@@ -142,7 +176,8 @@ struct ColmapResults {
   PairReconstruction nav;
   PairReconstruction free;
   std::vector<ColmapStep> steps;  // in the order they ran
-  double shared_seconds = 0.0;    // preparation, extraction and matching (in both methods' seconds)
+  // Preparation, extraction, matching and verification (in both methods' seconds).
+  double shared_seconds = 0.0;
   std::string camera_note;  // how the camera was given to COLMAP (model or resampling and why)
 };
 
@@ -150,7 +185,8 @@ struct ColmapResults {
 // inputs: fewer than 2 images, poses not one per image, no camera, an image
 // that is missing, unreadable or not of the camera's size, a workspace that
 // cannot be created. Everything that goes wrong with COLMAP itself (the
-// executable missing, a step exiting non-zero or timing out, a model missing
+// executable missing, a step exiting non-zero or timing out, a database the
+// exact matcher cannot use, the matching exceeding timeout_s, a model missing
 // or without points, an alignment that is degenerate) marks the affected
 // method ok = false with a one-line failure naming the step and its log file;
 // the other method still runs where it can.

@@ -320,19 +320,23 @@ TEST_F(CompareOnSyntheticScene, AMissingColmapFailsItsColumnsAndKeepsTheOthers) 
   EXPECT_TRUE(fs::exists(out / "cmp" / "flight" / "result.json"));
 }
 
-// Everything but COLMAP is deterministic: the same bytes on a second run
-// (COLMAP 3.8's CPU matcher is not; see reference/colmap_runner.h).
-TEST_F(CompareOnSyntheticScene, MethodsOtherThanColmapGiveTheSameBytesTwice) {
+// Every method is deterministic: the same bytes on a second run, COLMAP's
+// included (exact matching and one thread; see reference/colmap_runner.h).
+TEST_F(CompareOnSyntheticScene, EveryMethodGivesTheSameBytesTwice) {
   const datasets::Dataset dataset = Load();
+  const fs::path dir = FreshTestDir();
   CompareOptions options;
-  options.methods = ParseMethodList(
-      "flight,flight-refined,opengv-stewenius,opengv-nister,opengv-eight-point,"
-      "opengv-eigensolver,opengv-two-point");
+  options.methods = ParseMethodList("all");
+  options.colmap.threads = 1;
+  options.colmap.timeout_s = 120.0;
   // Which ROIs the flight's wall-time budget reaches depends on the machine's
   // load (docs/flight-method.md): an ample budget takes that out.
   options.hda.compute_budget_s = 1000.0;
-  const CompareRun first = RunCompare(dataset, 0, 6, options, "");
-  const CompareRun second = RunCompare(dataset, 0, 6, options, "");
+  const CompareRun first = RunCompare(dataset, 0, 6, options, (dir / "colmap1").string());
+  const CompareRun second = RunCompare(dataset, 0, 6, options, (dir / "colmap2").string());
+  for (size_t m = 0; m < first.methods.size(); ++m) {
+    EXPECT_TRUE(first.summaries[m].ok) << first.methods[m] << ": " << first.summaries[m].failure;
+  }
   EXPECT_EQ(CompareResultJson(first), CompareResultJson(second));
   EXPECT_EQ(CompareRoisCsv(first), CompareRoisCsv(second));
   // And the flight column is the flight method's own result.

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <sstream>
 #include <system_error>
@@ -174,21 +175,6 @@ double NumberAfter(const std::string& text, const std::string& key) {
   } catch (const std::exception&) {
     return std::numeric_limits<double>::quiet_NaN();
   }
-}
-
-std::string ReadText(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-std::string LastLine(const std::string& text) {
-  const size_t end = text.find_last_not_of("\r\n ");
-  if (end == std::string::npos) return "";
-  const size_t begin = text.rfind('\n', end);
-  return text.substr(begin == std::string::npos ? 0 : begin + 1,
-                     end - (begin == std::string::npos ? 0 : begin + 1) + 1);
 }
 
 std::string FormatNumber(double value, int decimals) {
@@ -373,13 +359,15 @@ CalibrateResult Calibrate(const CalibrateOptions& options) {
   start = Clock::now();
   const ProcessResult run = RunProcess(argv, process);
   result.seconds_mrcal = SecondsSince(start);
-  const std::string log_text = ReadText(log);
   auto fail = [&](const std::string& what) {
     fs::remove_all(work, ec);
+    const std::string last = LastLineOfLog(log.string());
     throw ExternalError("mrcal-calibrate-cameras " + what + " (log: " + log.string() + ")" +
-                        (LastLine(log_text).empty() ? "" : ": " + LastLine(log_text)));
+                        (last.empty() ? "" : ": " + last));
   };
   if (!run.Ok()) fail("failed: " + run.error);
+  std::ifstream log_in(log, std::ios::binary);
+  const std::string log_text((std::istreambuf_iterator<char>(log_in)), std::istreambuf_iterator<char>());
   result.mrcal_rms_px = NumberAfter(log_text, "## RMS error:");
   std::vector<std::string> work_models;
   for (size_t c = 0; c < cameras.size(); ++c) {

@@ -12,6 +12,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <sstream>
 #include <thread>
 
@@ -265,6 +267,17 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOpti
   }
   result.error = error.str();
   return result;
+}
+
+std::string LastLineOfLog(const std::string& log_file) {
+  std::ifstream in(log_file, std::ios::binary);
+  if (!in) return "";
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t end = text.find_last_not_of("\r\n \t");
+  if (end == std::string::npos) return "";
+  const size_t newline = text.rfind('\n', end);
+  const size_t begin = newline == std::string::npos ? 0 : newline + 1;
+  return text.substr(begin, end - begin + 1);
 }
 
 }  // namespace hdabench::calib

@@ -54,4 +54,9 @@ std::string FindExecutable(const std::string& name);
 // found, not executable, non-zero exit, signal, timeout) is in the result.
 ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOptions& options);
 
+// The last non-blank line of a program's log (ProcessOptions::log_file),
+// without its line end: what a failing program said last. Empty when the file
+// is missing, unreadable or blank.
+std::string LastLineOfLog(const std::string& log_file);
+
 }  // namespace hdabench::calib

@@ -22,10 +22,10 @@
 
 #include "calib/error.h"
 #include "calib/options_check.h"
+#include "calib/process.h"
 #include "reference/colmap_adapter.h"
 #include "reference/colmap_model.h"
 #include "reference/sift_matching.h"
-#include "calib/process.h"
 
 namespace hdabench::reference {
 

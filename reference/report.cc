@@ -16,11 +16,11 @@
 
 #include "calib/error.h"
 #include "calib/files.h"
+#include "calib/process.h"
 #include "datasets/internal/files.h"
 #include "reference/compare_outputs.h"
 #include "reference/flight_outputs.h"
 #include "reference/output_text.h"
-#include "calib/process.h"
 
 namespace hdabench::reference {
 
@@ -571,15 +571,7 @@ void DrawPlots(const fs::path& run_dir, const ReportOptions& options, Page* page
   const ProcessResult result = RunProcess(
       {python, script.string(), page->kind, fs::absolute(run_dir).string(), out.string()}, process);
   if (!result.Ok()) {
-    std::string last_line;
-    std::string log_text, ignored;
-    if (datasets::internal::ReadFileBytes(log, &log_text, &ignored)) {
-      size_t end = log_text.find_last_not_of("\n\r ");
-      if (end != std::string::npos) {
-        const size_t begin = log_text.rfind('\n', end);
-        last_line = log_text.substr(begin == std::string::npos ? 0 : begin + 1, end - (begin == std::string::npos ? 0 : begin + 1) + 1);
-      }
-    }
+    const std::string last_line = calib::LastLineOfLog(log.string());
     if (result.started && !result.timed_out && result.exit_code == kPlotsExitNoMatplotlib) {
       page->plots_error = last_line;
     } else {

@@ -141,5 +141,16 @@ TEST(FindExecutable, SearchesPathAndAcceptsPaths) {
   EXPECT_EQ(FindExecutable(""), "");
 }
 
+TEST(LastLineOfLog, TheLastNonBlankLineWithoutItsEnd) {
+  const fs::path dir = FreshTestDir();
+  WriteText(dir / "log", "first\r\nsecond: the reason\r\n\n  \n");
+  EXPECT_EQ(LastLineOfLog((dir / "log").string()), "second: the reason");
+  WriteText(dir / "one", "only line");
+  EXPECT_EQ(LastLineOfLog((dir / "one").string()), "only line");
+  WriteText(dir / "blank", "\n\n");
+  EXPECT_EQ(LastLineOfLog((dir / "blank").string()), "");
+  EXPECT_EQ(LastLineOfLog((dir / "missing").string()), "");
+}
+
 }  // namespace
 }  // namespace hdabench::calib

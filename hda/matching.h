@@ -41,6 +41,22 @@ struct MatchingOptions {
   bool subpixel_refine = true;
   int refine_window_px = 11;         // LK window side, pixels (odd, >= 5)
   double max_refine_shift_px = 2.0;  // largest accepted move from the ORB position, pixels
+  // Nav-aided refinement (after Lucas-Kanade; only with subpixel_refine):
+  // each match is refined again at full resolution with its image-1 window
+  // mapped into image 2 through the local motion expected from navigation
+  // (MatchRoiPair's motion_jacobian), solving for the position and a
+  // brightness offset. Lucas-Kanade moves a square window by a translation
+  // only; where the motion has a gradient across the window it is biased
+  // toward the window's texture. At the NOVA-C geometry (45 deg off nadir,
+  // 30 m baseline at 566 m) the disparity changes by about 0.05 px per image
+  // row, so an 11 px window's estimate moved by 0.1-0.2 px along the
+  // baseline, the dominant error of the slopes. The window is centred on the
+  // whole pixel nearest the keypoint (which becomes the match's image-1
+  // point). A match whose refinement fails (window off an image, no texture,
+  // no convergence in 20 steps) or moves farther than max_refine_shift_px is
+  // dropped.
+  bool warp_refine = true;
+  int warp_refine_window_px = 25;    // window side, pixels (odd, >= 5)
 
   // RANSAC on the epipolar geometry: essential matrix (5-point) on the bearings
   // from the camera model, inlier threshold in pixels of image 2 (converted
@@ -78,10 +94,14 @@ struct RoiMatches {
 // are CV_8UC1 (callers convert 16-bit images once: ToEightBit in
 // hda/pipeline.h), of the camera's imager size; the boxes must lie inside their images (a box that does not is
 // clipped; an empty one gives kTooFewMatches with zero counts).
+// motion_jacobian: d(image-2 pixel) / d(image-1 pixel) expected around the ROI
+// (RunHda gives the level ground's under the nav pose); the nav-aided
+// refinement maps its windows with it. The identity means a pure translation.
 // Throws InputError for invalid options, an unsupported image type, or images
 // whose size differs from the camera's imager.
 RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1_px,
                         const cv::Rect& box2_px, const calib::CameraModel& camera,
-                        const MatchingOptions& options);
+                        const MatchingOptions& options,
+                        const cv::Matx22d& motion_jacobian = cv::Matx22d::eye());
 
 }  // namespace hdabench::hda

@@ -21,6 +21,8 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegToRad = kPi / 180.0;
 constexpr double kRadToDeg = 180.0 / kPi;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
+// Step of the central differences of GroundMotionJacobian, pixels.
+constexpr double kMotionStepPx = 4.0;
 
 std::string Format(double value, int precision = 3) {
   std::ostringstream s;
@@ -148,6 +150,35 @@ struct Context {
   LevelGround ground;
   double focal_px = 0.0;        // pixels per radian at the image centre
 };
+
+// The image motion expected from navigation for ground points near pixel
+// `centre` of image 1: d(pixel in image 2) / d(pixel in image 1) for points
+// on the level ground, by central differences over +-kMotionStepPx. Identity
+// when one of the four pixels cannot be mapped (no unprojection, a ray that
+// misses the ground, a point image 2 cannot see).
+cv::Matx22d GroundMotionJacobian(const Context& ctx, const Eigen::Vector2d& centre) {
+  const std::vector<Eigen::Vector2d> pixels = {centre - Eigen::Vector2d(kMotionStepPx, 0),
+                                               centre + Eigen::Vector2d(kMotionStepPx, 0),
+                                               centre - Eigen::Vector2d(0, kMotionStepPx),
+                                               centre + Eigen::Vector2d(0, kMotionStepPx)};
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<unsigned char> valid;
+  const int count = static_cast<int>(pixels.size());
+  if (ctx.camera->Unproject(pixels, &bearings, &valid) != count) return cv::Matx22d::eye();
+  std::vector<Eigen::Vector3d> points_in_cam2;
+  for (const Eigen::Vector3d& bearing : bearings) {
+    const double depth = ctx.ground.DepthAlong(bearing);
+    if (!std::isfinite(depth)) return cv::Matx22d::eye();
+    points_in_cam2.push_back(ctx.cam2_from_cam1 * (depth * bearing));
+  }
+  std::vector<Eigen::Vector2d> pixels2;
+  if (ctx.camera->Project(points_in_cam2, &pixels2, &valid) != count) return cv::Matx22d::eye();
+  const Eigen::Vector2d d_dx = (pixels2[1] - pixels2[0]) / (2.0 * kMotionStepPx);
+  const Eigen::Vector2d d_dy = (pixels2[3] - pixels2[2]) / (2.0 * kMotionStepPx);
+  const cv::Matx22d jacobian(d_dx.x(), d_dy.x(), d_dx.y(), d_dy.y());
+  const double det = cv::determinant(jacobian);
+  return std::isfinite(det) && det > 0.0 ? jacobian : cv::Matx22d::eye();
+}
 
 // Nav-based rejection and triangulation of one ROI's matches. Fills counts,
 // points, the pixel lists of the survivors, their bearings and parallaxes.
@@ -525,7 +556,8 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
     } else {
       roi.box2_px = predicted.box_px;
       RoiMatches matches =
-          MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, camera, options.matching);
+          MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, camera, options.matching,
+                       GroundMotionJacobian(ctx, centres[i]));
       if (options.fault_match_noise_px > 0.0) {
         std::mt19937_64 rng(static_cast<std::uint64_t>(roi.id));
         std::normal_distribution<double> noise(0.0, options.fault_match_noise_px);

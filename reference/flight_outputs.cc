@@ -94,6 +94,8 @@ Json OptionsJson(const hda::HdaOptions& o) {
                    {"subpixel_refine", m.subpixel_refine},
                    {"refine_window_px", m.refine_window_px},
                    {"max_refine_shift_px", m.max_refine_shift_px},
+                   {"warp_refine", m.warp_refine},
+                   {"warp_refine_window_px", m.warp_refine_window_px},
                    {"ransac_threshold_px", m.ransac_threshold_px},
                    {"ransac_confidence", m.ransac_confidence},
                    {"ransac_max_iterations", m.ransac_max_iterations}};

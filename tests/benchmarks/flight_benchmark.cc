@@ -7,6 +7,8 @@
 // mark is the method's plus the program's and the images'.
 //
 // Run: build/tests/benchmarks/hdabench_benchmarks --benchmark_filter=Flight
+// (BM_FlightMethodWithoutNavAidedRefinement: the same with matching.warp_refine
+// off, to show what the nav-aided refinement costs.)
 // Counters: stage times in ms per run (quadtree, prediction, matching,
 // rejection, plane), rois, evaluated, and rss_before_mb / peak_rss_mb: the
 // process's resident size before the runs (program, libraries, the two images
@@ -105,12 +107,11 @@ const Pair& GetPair(int size_px) {
   return pair;
 }
 
-void BM_FlightMethod(benchmark::State& state) {
+void RunFlightMethod(benchmark::State& state, const hda::HdaOptions& options) {
   cv::setNumThreads(1);
   const Pair& pair = GetPair(static_cast<int>(state.range(0)));
   ResetPeakRss();
   const double rss_before_mb = StatusMb("VmRSS");
-  const hda::HdaOptions options;
   hda::StageTimes sum;
   hda::HdaResult result;
   for (auto _ : state) {
@@ -133,7 +134,21 @@ void BM_FlightMethod(benchmark::State& state) {
   state.counters["rss_before_mb"] = rss_before_mb;
   state.counters["peak_rss_mb"] = StatusMb("VmHWM");
 }
+void BM_FlightMethod(benchmark::State& state) { RunFlightMethod(state, hda::HdaOptions()); }
 BENCHMARK(BM_FlightMethod)->Arg(1024)->Arg(2048)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The same without the nav-aided refinement (matching.warp_refine off): its
+// cost is the difference of the matching times.
+void BM_FlightMethodWithoutNavAidedRefinement(benchmark::State& state) {
+  hda::HdaOptions options;
+  options.matching.warp_refine = false;
+  RunFlightMethod(state, options);
+}
+BENCHMARK(BM_FlightMethodWithoutNavAidedRefinement)
+    ->Arg(1024)
+    ->Arg(2048)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 }  // namespace hdabench

@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <string>
@@ -83,6 +84,24 @@ TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {
                           {"method": "flight", "metric": "slope_error_p90_deg", "max": 6})")
                 .find("given twice"),
             std::string::npos);
+}
+
+// The suites and thresholds checked in under gate/ read without error, and
+// every threshold is for a method its suite compares.
+TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
+  const fs::path gate = fs::path(HDABENCH_SOURCE_DIR) / "gate";
+  for (const std::string name : {"", "-ci", "-lateral"}) {
+    SCOPED_TRACE("gate/suite" + name + ".json");
+    const GateSuite suite = ReadGateSuite((gate / ("suite" + name + ".json")).string());
+    const GateThresholds thresholds = ReadGateThresholds((gate / ("thresholds" + name + ".json")).string());
+    EXPECT_FALSE(suite.entries.empty());
+    EXPECT_FALSE(thresholds.thresholds.empty());
+    for (const GateThreshold& threshold : thresholds.thresholds) {
+      EXPECT_NE(std::find(suite.methods.begin(), suite.methods.end(), threshold.method), suite.methods.end())
+          << threshold.method << " " << threshold.metric;
+      EXPECT_FALSE(threshold.why.empty()) << threshold.method << " " << threshold.metric;
+    }
+  }
 }
 
 // Two hand-written entries: the metrics pool their ROIs.
@@ -225,7 +244,7 @@ TEST_F(GateCommand, PassesCleanAndFailsNamingTheMetricWhenTheFlightMethodIsMadeW
   EXPECT_EQ(clean.exit_code, 0) << clean.err;
 
   // 0.6 px of noise on the flight method's matches (its own error is about
-  // 0.15 px): the slope errors grow about four times.
+  // 0.06 px): the slope errors grow several times.
   const CommandResult worse = RunHdabench(
       {"gate", "--suite", suite.string(), "--thresholds", tight.string(), "--out",
        (dir / "worse").string(), "--fault-match-noise-px", "0.6"},

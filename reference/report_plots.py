@@ -197,17 +197,25 @@ def plot_error_histograms(plots, series, colours):
                "truth (25 common bins).")
 
 
+def scatter_abs_errors(ax, data, colours, x_of):
+    """One scatter per method of |slope error| against x_of(sample); returns the largest x and
+    the largest |error| drawn (0 when nothing is)."""
+    top_x = top_error = 0.0
+    for method, samples in data.items():
+        if samples:
+            ax.scatter([x_of(s) for s in samples], [abs(s.error_deg()) for s in samples],
+                       s=24, color=colours[method], label=method)
+            top_x = max(top_x, max(x_of(s) for s in samples))
+            top_error = max(top_error, max(abs(s.error_deg()) for s in samples))
+    return top_x, top_error
+
+
 def plot_error_vs_points(plots, series, colours, min_points):
     data = {m: [s for s in ss if s.truth_deg is not None] for m, ss in series.items()}
     if not any(data.values()):
         return
     fig, ax = new_axes()
-    top = 0.0
-    for method, samples in data.items():
-        if samples:
-            ax.scatter([s.num_points for s in samples], [abs(s.error_deg()) for s in samples],
-                       s=24, color=colours[method], label=method)
-            top = max(top, max(abs(s.error_deg()) for s in samples))
+    _, top = scatter_abs_errors(ax, data, colours, lambda s: s.num_points)
     ax.axvline(min_points, color="grey", linewidth=1.0, linestyle=":",
                label="%d points (statistics)" % min_points)
     ax.set_xlabel("number of points in the plane fit")
@@ -227,14 +235,8 @@ def plot_error_vs_sigma(plots, series, colours):
     if not any(data.values()):
         return
     fig, ax = new_axes()
-    top = 0.0
-    for method, samples in data.items():
-        if samples:
-            ax.scatter([s.sigma_deg for s in samples], [abs(s.error_deg()) for s in samples],
-                       s=24, color=colours[method], label=method)
-            top = max(top, max(s.sigma_deg for s in samples))
+    top, worst = scatter_abs_errors(ax, data, colours, lambda s: s.sigma_deg)
     top = max(0.1, top * 1.05)
-    worst = max(abs(s.error_deg()) for ss in data.values() for s in ss)
     ax.plot([0.0, top], [0.0, top], color="black", linewidth=1.0, linestyle="--",
             label="1 sigma")
     ax.plot([0.0, top], [0.0, 2.0 * top], color="black", linewidth=1.0, linestyle=":",

@@ -191,6 +191,10 @@ std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOpti
                                       const Context& ctx) {
   std::vector<RoiBearings> all(flight.result.rois.size());
   hda::MatchingOptions matching = options.hda.matching;
+  // The nav-aided refinement maps each window through the motion the nav pose
+  // predicts: off, so that the relative-pose solvers see matches that owe
+  // nothing to navigation beyond the search boxes (Lucas-Kanade only).
+  matching.warp_refine = false;
   if (options.opengv_dense_features) {
     matching.orb_features_per_roi = kDenseOrbFeaturesPerRoi;
     matching.orb_fast_threshold = kDenseOrbFastThreshold;

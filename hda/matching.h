@@ -53,8 +53,8 @@ struct MatchingOptions {
   // baseline, the dominant error of the slopes. The window is centred on the
   // whole pixel nearest the keypoint (which becomes the match's image-1
   // point). A match whose refinement fails (window off an image, no texture,
-  // no convergence in 20 steps) or moves farther than max_refine_shift_px is
-  // dropped.
+  // no convergence in 20 steps) or moves farther than max_refine_shift_px
+  // from where Lucas-Kanade left it is dropped.
   bool warp_refine = true;
   int warp_refine_window_px = 25;    // window side, pixels (odd, >= 5)
 

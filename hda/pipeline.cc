@@ -555,9 +555,11 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
       roi.reason = std::string("prediction: ") + PredictionStatusName(predicted.status);
     } else {
       roi.box2_px = predicted.box_px;
+      // The expected motion only serves the nav-aided refinement.
+      const bool warp = options.matching.subpixel_refine && options.matching.warp_refine;
       RoiMatches matches =
           MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, camera, options.matching,
-                       GroundMotionJacobian(ctx, centres[i]));
+                       warp ? GroundMotionJacobian(ctx, centres[i]) : cv::Matx22d::eye());
       if (options.fault_match_noise_px > 0.0) {
         std::mt19937_64 rng(static_cast<std::uint64_t>(roi.id));
         std::normal_distribution<double> noise(0.0, options.fault_match_noise_px);

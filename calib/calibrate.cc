@@ -16,11 +16,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/files.h"
+#include "tools/util/files.h"
 #include "calib/camera_model.h"
-#include "calib/error.h"
-#include "calib/options_check.h"
-#include "calib/process.h"
+#include "tools/util/error.h"
+#include "tools/util/options_check.h"
+#include "tools/util/process.h"
 
 namespace hdabench::calib {
 
@@ -228,10 +228,241 @@ Json SummaryJson(const CalibrateOptions& options, const CalibrateResult& result)
     images.push_back(row);
   }
   j["images"] = images;
-  j["seconds"] = {{"detection", result.seconds_detection},
-                  {"mrcal", result.seconds_mrcal},
-                  {"analysis", result.seconds_analysis}};
+  j["seconds"] = {{"detection", result.detection_s},
+                  {"mrcal", result.mrcal_s},
+                  {"analysis", result.analysis_s}};
   return j;
+}
+
+// Throws one InputError listing every invalid option, before anything is written.
+void ThrowIfInvalid(const CalibrateOptions& options) {
+  const std::vector<std::string> errors = options.Validate();
+  if (!errors.empty()) {
+    std::string message = "calibration options:";
+    for (const std::string& e : errors) message += "\n  " + e;
+    throw InputError(message);
+  }
+}
+
+// Step 1: the corners of every camera's images, camera 0 first; the time is
+// the result's detection_s.
+std::vector<CameraImages> DetectAllCameras(const CalibrateOptions& options,
+                                           CalibrateResult* result) {
+  const auto start = Clock::now();
+  std::vector<CameraImages> cameras;
+  cameras.push_back(DetectCamera(options, 0, options.images, result));
+  if (!options.pair_images.empty()) {
+    cameras.push_back(DetectCamera(options, 1, options.pair_images, result));
+  }
+  result->detection_s = SecondsSince(start);
+  return cameras;
+}
+
+// corners.vnl (mrcal's input) and detections.csv, written before the checks
+// so that a rejected calibration still shows what was found.
+void WriteDetections(const fs::path& out, const std::vector<CameraImages>& cameras,
+                     const CalibrateResult& result) {
+  std::vector<CornersVnlEntry> entries;
+  for (const CameraImages& cam : cameras) {
+    for (size_t i = 0; i < cam.rows.size(); ++i) {
+      entries.push_back({result.images[cam.rows[i]].name, &cam.detections[i]});
+    }
+  }
+  util::WriteFileAtomically(out / "corners.vnl", CornersVnlText(entries));
+  util::WriteFileAtomically(out / "detections.csv", DetectionsCsv(result));
+}
+
+// Step 2: enough views per camera, and one imager size for a pair; throws
+// InputError otherwise.
+void CheckViews(const CalibrateOptions& options, const std::vector<CameraImages>& cameras,
+                const CalibrateResult& result) {
+  for (size_t c = 0; c < cameras.size(); ++c) {
+    if (cameras[c].used < options.min_views) {
+      throw InputError("camera " + std::to_string(c) + ": only " + std::to_string(cameras[c].used) +
+                       " of " + std::to_string(cameras[c].rows.size()) + " images show the whole " +
+                       options.board.SizeText() + " board; a calibration needs at least " +
+                       std::to_string(options.min_views) + " (--min-views). Images:" +
+                       RejectionList(result, static_cast<int>(c)));
+    }
+  }
+  if (cameras.size() == 2 && (cameras[0].width_px != cameras[1].width_px ||
+                              cameras[0].height_px != cameras[1].height_px)) {
+    throw InputError("the two cameras' images differ in size (" + std::to_string(cameras[0].width_px) +
+                     "x" + std::to_string(cameras[0].height_px) + " and " +
+                     std::to_string(cameras[1].width_px) + "x" +
+                     std::to_string(cameras[1].height_px) +
+                     "); a pair is calibrated with one imager size");
+  }
+}
+
+// mrcal's --focal list, one seed per camera (given, or estimated from the
+// views); camera 0's seed is the result's focal_seed_px.
+std::string FocalSeedList(const CalibrateOptions& options,
+                          const std::vector<CameraImages>& cameras, CalibrateResult* result) {
+  std::string focal_list;
+  for (const CameraImages& cam : cameras) {
+    const double focal = options.focal_px > 0.0 ? options.focal_px : EstimateFocal(options, cam);
+    if (focal_list.empty()) result->focal_seed_px = focal;
+    focal_list += (focal_list.empty() ? "" : ",") + FormatNumber(focal, 3);
+  }
+  return focal_list;
+}
+
+// The interpreter and mrcal's tool, both resolved before anything runs; throws
+// ExternalError naming the missing one.
+void FindMrcalTools(const CalibrateOptions& options, std::string* python, std::string* tool) {
+  *python = util::FindExecutable(options.python);
+  if (python->empty()) {
+    throw ExternalError("the Python interpreter '" + options.python +
+                        "' was not found; mrcal's tools need Debian's python3 with python3-mrcal");
+  }
+  *tool = util::FindExecutable(options.mrcal_calibrate);
+  if (tool->empty()) {
+    throw ExternalError("'" + options.mrcal_calibrate +
+                        "' was not found (Debian package: mrcal)");
+  }
+}
+
+// The command line of mrcal-calibrate-cameras: the corners cache, the board,
+// the seeds, and one image glob per camera.
+std::vector<std::string> MrcalArguments(const CalibrateOptions& options, const std::string& python,
+                                        const std::string& tool, const fs::path& out,
+                                        const fs::path& work, const std::string& focal_list,
+                                        size_t num_cameras, const CalibrateResult& result) {
+  std::vector<std::string> argv = {python,
+                                   tool,
+                                   "--corners-cache",
+                                   (out / "corners.vnl").string(),
+                                   "--lensmodel",
+                                   options.lensmodel,
+                                   "--focal",
+                                   focal_list,
+                                   "--imagersize",
+                                   std::to_string(result.imager_width_px),
+                                   std::to_string(result.imager_height_px),
+                                   "--object-spacing",
+                                   FormatNumber(options.board.spacing, 12),
+                                   "--object-width-n",
+                                   std::to_string(options.board.width),
+                                   "--object-height-n",
+                                   std::to_string(options.board.height),
+                                   "--outdir",
+                                   work.string()};
+  for (size_t c = 0; c < num_cameras; ++c) argv.push_back("cam" + std::to_string(c) + "-*");
+  return argv;
+}
+
+// A failed mrcal run: its scratch folder goes, and the error names the log and
+// what the log said last.
+[[noreturn]] void FailMrcal(const fs::path& work, const fs::path& log, const std::string& what) {
+  std::error_code ec;
+  fs::remove_all(work, ec);
+  const std::string last = util::LastLineOfLog(log.string());
+  throw ExternalError("mrcal-calibrate-cameras " + what + " (log: " + log.string() + ")" +
+                      (last.empty() ? "" : ": " + last));
+}
+
+// The models mrcal wrote in `work`, one per camera, each checked to load.
+std::vector<std::string> CheckedMrcalModels(const fs::path& work, const fs::path& log,
+                                            size_t num_cameras) {
+  std::error_code ec;
+  std::vector<std::string> work_models;
+  for (size_t c = 0; c < num_cameras; ++c) {
+    const fs::path model = work / ("camera-" + std::to_string(c) + ".cameramodel");
+    if (!fs::is_regular_file(model, ec)) {
+      FailMrcal(work, log, "wrote no " + model.filename().string());
+    }
+    try {
+      const CameraModel loaded = CameraModel::Load(model.string());
+      (void)loaded;
+    } catch (const InputError& e) {
+      FailMrcal(work, log, std::string("wrote a model the bench cannot read: ") + e.what());
+    }
+    work_models.push_back(model.string());
+  }
+  return work_models;
+}
+
+// Steps 3-4: mrcal-calibrate-cameras in the scratch folder `work`, logged
+// under logs/; its time is the result's mrcal_s, its RMS the result's
+// mrcal_rms_px. Returns the models it wrote (still in `work`).
+std::vector<std::string> RunMrcal(const CalibrateOptions& options, const fs::path& out,
+                                  const fs::path& work, size_t num_cameras,
+                                  const std::string& focal_list, CalibrateResult* result) {
+  std::string python, tool;
+  FindMrcalTools(options, &python, &tool);
+  const fs::path logs = out / "logs";
+  std::error_code ec;
+  fs::remove_all(work, ec);
+  fs::create_directories(work, ec);
+  fs::create_directories(logs, ec);
+  const fs::path log = logs / "mrcal-calibrate-cameras.log";
+  const std::vector<std::string> argv =
+      MrcalArguments(options, python, tool, out, work, focal_list, num_cameras, *result);
+  Progress(options, "running mrcal-calibrate-cameras (" + options.lensmodel + ", focal seed " +
+                        focal_list + " px; log " + log.string() + ")");
+  util::ProcessOptions process;
+  process.working_dir = work.string();
+  process.log_file = log.string();
+  process.timeout_s = options.mrcal_timeout_s;
+  process.environment = {{"PYTHONDONTWRITEBYTECODE", "1"}, {"MPLBACKEND", "Agg"}};
+  const auto start = Clock::now();
+  const util::ProcessResult run = util::RunProcess(argv, process);
+  result->mrcal_s = SecondsSince(start);
+  if (!run.Ok()) FailMrcal(work, log, "failed: " + run.error);
+  std::ifstream log_in(log, std::ios::binary);
+  const std::string log_text((std::istreambuf_iterator<char>(log_in)), std::istreambuf_iterator<char>());
+  result->mrcal_rms_px = NumberAfter(log_text, "## RMS error:");
+  return CheckedMrcalModels(work, log, num_cameras);
+}
+
+// Moves mrcal's models to the output folder, where the analysis records their
+// paths, then removes the scratch folder.
+void MoveModelsIntoPlace(const fs::path& out, const fs::path& work,
+                         const std::vector<std::string>& work_models, CalibrateResult* result) {
+  std::error_code ec;
+  for (size_t c = 0; c < work_models.size(); ++c) {
+    const fs::path target = out / ("camera-" + std::to_string(c) + ".cameramodel");
+    fs::rename(work_models[c], target, ec);
+    if (ec) {
+      throw InputError(target.string() + ": cannot move the calibrated model into place (" +
+                       ec.message() + ")");
+    }
+    result->model_paths.push_back(target.string());
+  }
+  fs::remove_all(work, ec);
+}
+
+// The bench's analysis of the models (timed: analysis_s). If it fails, the
+// models move to unanalysed/: nothing computed is lost, and no model sits
+// where a judged one would. The error keeps its kind.
+void AnalyseModels(const CalibrateOptions& options, const fs::path& out, CalibrateResult* result) {
+  Progress(options, "analysing the calibration (residuals, coverage, uncertainty, HDA slope, "
+                    "OpenCV cross-check)");
+  const auto start = Clock::now();
+  try {
+    result->analysis = AnalyseCalibration(result->model_paths, options.out_dir, options.analysis);
+  } catch (const std::exception& e) {
+    std::error_code ec;
+    const fs::path aside = out / "unanalysed";
+    fs::create_directories(aside, ec);
+    for (const std::string& model : result->model_paths) {
+      fs::rename(model, aside / fs::path(model).filename(), ec);
+    }
+    const std::string note = " (mrcal's model(s) kept in " + aside.string() + ")";
+    if (dynamic_cast<const InputError*>(&e) != nullptr) throw InputError(e.what() + note);
+    throw ExternalError(e.what() + note);
+  }
+  result->analysis_s = SecondsSince(start);
+}
+
+// Step 6: calibration.json and summary.md, their paths in the result first so
+// that the JSON names them.
+void WriteSummaries(const CalibrateOptions& options, const fs::path& out, CalibrateResult* result) {
+  result->summary_json = (out / "calibration.json").string();
+  result->summary_markdown = (out / "summary.md").string();
+  util::WriteFileAtomically(result->summary_json, SummaryJson(options, *result).dump(2) + "\n");
+  util::WriteFileAtomically(result->summary_markdown, CalibrationSummaryMarkdown(options, *result));
 }
 
 }  // namespace
@@ -259,164 +490,31 @@ std::vector<std::string> CalibrateOptions::Validate() const {
 }
 
 CalibrateResult Calibrate(const CalibrateOptions& options) {
-  const std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) {
-    std::string message = "calibration options:";
-    for (const std::string& e : errors) message += "\n  " + e;
-    throw InputError(message);
-  }
+  ThrowIfInvalid(options);
   PrepareOutputFolder(options.out_dir);
   const fs::path out(options.out_dir);
   CalibrateResult result;
 
   // 1-2. Corners, and enough views.
-  auto start = Clock::now();
-  std::vector<CameraImages> cameras;
-  cameras.push_back(DetectCamera(options, 0, options.images, &result));
-  if (!options.pair_images.empty()) {
-    cameras.push_back(DetectCamera(options, 1, options.pair_images, &result));
-  }
-  result.seconds_detection = SecondsSince(start);
-  std::vector<CornersVnlEntry> entries;
-  for (const CameraImages& cam : cameras) {
-    for (size_t i = 0; i < cam.rows.size(); ++i) {
-      entries.push_back({result.images[cam.rows[i]].name, &cam.detections[i]});
-    }
-  }
-  WriteFileAtomically(out / "corners.vnl", CornersVnlText(entries));
-  WriteFileAtomically(out / "detections.csv", DetectionsCsv(result));
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    if (cameras[c].used < options.min_views) {
-      throw InputError("camera " + std::to_string(c) + ": only " + std::to_string(cameras[c].used) +
-                       " of " + std::to_string(cameras[c].rows.size()) + " images show the whole " +
-                       options.board.SizeText() + " board; a calibration needs at least " +
-                       std::to_string(options.min_views) + " (--min-views). Images:" +
-                       RejectionList(result, static_cast<int>(c)));
-    }
-  }
-  if (cameras.size() == 2 && (cameras[0].width_px != cameras[1].width_px ||
-                              cameras[0].height_px != cameras[1].height_px)) {
-    throw InputError("the two cameras' images differ in size (" + std::to_string(cameras[0].width_px) +
-                     "x" + std::to_string(cameras[0].height_px) + " and " +
-                     std::to_string(cameras[1].width_px) + "x" +
-                     std::to_string(cameras[1].height_px) +
-                     "); a pair is calibrated with one imager size");
-  }
+  const std::vector<CameraImages> cameras = DetectAllCameras(options, &result);
+  WriteDetections(out, cameras, result);
+  CheckViews(options, cameras, result);
   result.imager_width_px = cameras[0].width_px;
   result.imager_height_px = cameras[0].height_px;
 
   // 3-4. mrcal.
-  std::string focal_list;
-  for (const CameraImages& cam : cameras) {
-    const double focal = options.focal_px > 0.0 ? options.focal_px : EstimateFocal(options, cam);
-    if (focal_list.empty()) result.focal_seed_px = focal;
-    focal_list += (focal_list.empty() ? "" : ",") + FormatNumber(focal, 3);
-  }
-  const std::string python = FindExecutable(options.python);
-  if (python.empty()) {
-    throw ExternalError("the Python interpreter '" + options.python +
-                        "' was not found; mrcal's tools need Debian's python3 with python3-mrcal");
-  }
-  const std::string tool = FindExecutable(options.mrcal_calibrate);
-  if (tool.empty()) {
-    throw ExternalError("'" + options.mrcal_calibrate +
-                        "' was not found (Debian package: mrcal)");
-  }
+  const std::string focal_list = FocalSeedList(options, cameras, &result);
   const fs::path work = out / ".mrcal";
-  const fs::path logs = out / "logs";
-  std::error_code ec;
-  fs::remove_all(work, ec);
-  fs::create_directories(work, ec);
-  fs::create_directories(logs, ec);
-  const fs::path log = logs / "mrcal-calibrate-cameras.log";
-  std::vector<std::string> argv = {python,
-                                   tool,
-                                   "--corners-cache",
-                                   (out / "corners.vnl").string(),
-                                   "--lensmodel",
-                                   options.lensmodel,
-                                   "--focal",
-                                   focal_list,
-                                   "--imagersize",
-                                   std::to_string(result.imager_width_px),
-                                   std::to_string(result.imager_height_px),
-                                   "--object-spacing",
-                                   FormatNumber(options.board.spacing, 12),
-                                   "--object-width-n",
-                                   std::to_string(options.board.width),
-                                   "--object-height-n",
-                                   std::to_string(options.board.height),
-                                   "--outdir",
-                                   work.string()};
-  for (size_t c = 0; c < cameras.size(); ++c) argv.push_back("cam" + std::to_string(c) + "-*");
-  Progress(options, "running mrcal-calibrate-cameras (" + options.lensmodel + ", focal seed " +
-                        focal_list + " px; log " + log.string() + ")");
-  ProcessOptions process;
-  process.working_dir = work.string();
-  process.log_file = log.string();
-  process.timeout_s = options.mrcal_timeout_s;
-  process.environment = {{"PYTHONDONTWRITEBYTECODE", "1"}, {"MPLBACKEND", "Agg"}};
-  start = Clock::now();
-  const ProcessResult run = RunProcess(argv, process);
-  result.seconds_mrcal = SecondsSince(start);
-  auto fail = [&](const std::string& what) {
-    fs::remove_all(work, ec);
-    const std::string last = LastLineOfLog(log.string());
-    throw ExternalError("mrcal-calibrate-cameras " + what + " (log: " + log.string() + ")" +
-                        (last.empty() ? "" : ": " + last));
-  };
-  if (!run.Ok()) fail("failed: " + run.error);
-  std::ifstream log_in(log, std::ios::binary);
-  const std::string log_text((std::istreambuf_iterator<char>(log_in)), std::istreambuf_iterator<char>());
-  result.mrcal_rms_px = NumberAfter(log_text, "## RMS error:");
-  std::vector<std::string> work_models;
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    const fs::path model = work / ("camera-" + std::to_string(c) + ".cameramodel");
-    if (!fs::is_regular_file(model, ec)) fail("wrote no " + model.filename().string());
-    try {
-      const CameraModel loaded = CameraModel::Load(model.string());
-      (void)loaded;
-    } catch (const InputError& e) {
-      fail(std::string("wrote a model the bench cannot read: ") + e.what());
-    }
-    work_models.push_back(model.string());
-  }
+  const std::vector<std::string> work_models =
+      RunMrcal(options, out, work, cameras.size(), focal_list, &result);
 
   // 5. The models into place (the analysis records their paths), then the
-  // bench's analysis. If the analysis fails, the models move to unanalysed/:
-  // nothing computed is lost, and no model sits where a judged one would.
-  for (size_t c = 0; c < work_models.size(); ++c) {
-    const fs::path target = out / ("camera-" + std::to_string(c) + ".cameramodel");
-    fs::rename(work_models[c], target, ec);
-    if (ec) {
-      throw InputError(target.string() + ": cannot move the calibrated model into place (" +
-                       ec.message() + ")");
-    }
-    result.model_paths.push_back(target.string());
-  }
-  fs::remove_all(work, ec);
-  Progress(options, "analysing the calibration (residuals, coverage, uncertainty, HDA slope, "
-                    "OpenCV cross-check)");
-  start = Clock::now();
-  try {
-    result.analysis = AnalyseCalibration(result.model_paths, options.out_dir, options.analysis);
-  } catch (const std::exception& e) {
-    const fs::path aside = out / "unanalysed";
-    fs::create_directories(aside, ec);
-    for (const std::string& model : result.model_paths) {
-      fs::rename(model, aside / fs::path(model).filename(), ec);
-    }
-    const std::string note = " (mrcal's model(s) kept in " + aside.string() + ")";
-    if (dynamic_cast<const InputError*>(&e) != nullptr) throw InputError(e.what() + note);
-    throw ExternalError(e.what() + note);
-  }
-  result.seconds_analysis = SecondsSince(start);
+  // bench's analysis.
+  MoveModelsIntoPlace(out, work, work_models, &result);
+  AnalyseModels(options, out, &result);
 
   // 6. The summaries.
-  result.summary_json = (out / "calibration.json").string();
-  result.summary_markdown = (out / "summary.md").string();
-  WriteFileAtomically(result.summary_json, SummaryJson(options, result).dump(2) + "\n");
-  WriteFileAtomically(result.summary_markdown, CalibrationSummaryMarkdown(options, result));
+  WriteSummaries(options, out, &result);
   return result;
 }
 
@@ -435,6 +533,165 @@ void Row(std::ostringstream& out, const std::string& label, const std::vector<st
   out << "| " << label;
   for (const std::string& cell : cells) out << " | " << cell;
   out << " |\n";
+}
+
+// One cell per camera, in the order of the analysis: fn(camera) each.
+template <typename Fn>
+std::vector<std::string> Cells(const std::vector<CameraAnalysis>& cams, Fn fn) {
+  std::vector<std::string> v;
+  for (const CameraAnalysis& cam : cams) v.push_back(fn(cam));
+  return v;
+}
+
+// The title, the inputs, the models and the verdict: what a reader needs first.
+void WriteSummaryHead(std::ostringstream& out, const CalibrateOptions& options,
+                      const CalibrateResult& result) {
+  out << "# Calibration\n\n";
+  out << "- lens model: " << options.lensmodel << "\n";
+  out << "- imager: " << result.imager_width_px << " x " << result.imager_height_px << " px\n";
+  out << "- board: " << options.board.SizeText() << " inner corners, spacing "
+      << FormatNumber(options.board.spacing, 6) << "\n";
+  out << "- focal-length seed: " << FormatNumber(result.focal_seed_px, 1) << " px\n";
+  for (size_t c = 0; c < result.model_paths.size(); ++c) {
+    out << "- camera " << c << ": " << fs::path(result.model_paths[c]).filename().string() << "\n";
+  }
+  out << "\n## Verdict\n\n";
+  for (const std::string& line : CalibrationVerdict(result)) out << "- " << line << "\n";
+}
+
+// The figures table's heading and the rows of the fit itself: views,
+// intrinsics, residuals and coverage.
+void WriteFitRows(std::ostringstream& out, const CalibrateResult& result) {
+  const std::vector<CameraAnalysis>& cams = result.analysis.cameras;
+  out << "\n## Figures\n\n| figure |";
+  for (const CameraAnalysis& cam : cams) out << " camera " << cam.index << " |";
+  out << "\n|---|";
+  for (size_t i = 0; i < cams.size(); ++i) out << "---|";
+  out << "\n";
+  Row(out, "images used / given", Cells(cams, [&](const CameraAnalysis& cam) {
+        int used = 0, given = 0;
+        for (const ImageUse& use : result.images) {
+          if (use.camera != cam.index) continue;
+          ++given;
+          used += use.used ? 1 : 0;
+        }
+        return std::to_string(used) + " / " + std::to_string(given);
+      }));
+  Row(out, "fx, fy, cx, cy (px)", Cells(cams, [&](const CameraAnalysis& cam) {
+        try {
+          const CameraModel model = CameraModel::Load(result.model_paths.at(cam.index));
+          if (!model.HasCore()) return std::string("(no core)");
+          const std::vector<double>& k = model.Intrinsics();
+          return FormatNumber(k[0], 2) + ", " + FormatNumber(k[1], 2) + ", " + FormatNumber(k[2], 2) +
+                 ", " + FormatNumber(k[3], 2);
+        } catch (const std::exception&) {
+          return std::string("-");
+        }
+      }));
+  Row(out, "corners used (inliers) / outliers", Cells(cams, [](const CameraAnalysis& cam) {
+        return std::to_string(cam.residuals.inliers) + " / " + std::to_string(cam.residuals.outliers);
+      }));
+  Row(out, "RMS reprojection error per corner (px)",
+      Cells(cams, [](const CameraAnalysis& cam) { return FormatNumber(cam.residuals.rms_px, 3); }));
+  Row(out, "worst inlier residual (px)", Cells(cams, [](const CameraAnalysis& cam) {
+        return FormatNumber(cam.residuals.worst_px, 3);
+      }));
+  Row(out, "mrcal's RMS per coordinate (px)", Cells(cams, [](const CameraAnalysis& cam) {
+        return FormatNumber(cam.residuals.mrcal_rms_px, 3);
+      }));
+  Row(out, "imager cells with corners (10 x 10)", Cells(cams, [](const CameraAnalysis& cam) {
+        return FormatNumber(100.0 * cam.coverage.share, 0) + " %";
+      }));
+  Row(out, "HDA band cells with corners", Cells(cams, [](const CameraAnalysis& cam) {
+        return FormatNumber(100.0 * cam.coverage.band_share, 0) + " %";
+      }));
+}
+
+// The table's rows of what the fit is worth: uncertainty, the HDA slope error
+// and the OpenCV cross-check.
+void WriteCheckRows(std::ostringstream& out, const CalibrateResult& result) {
+  const std::vector<CameraAnalysis>& cams = result.analysis.cameras;
+  Row(out, "projection uncertainty, HDA band median / max (px, 1 sigma)",
+      Cells(cams, [](const CameraAnalysis& cam) {
+        return cam.uncertainty ? FormatNumber(cam.uncertainty->band_median_px, 3) + " / " +
+                                     FormatNumber(cam.uncertainty->band_max_px, 3)
+                               : "- (" + cam.uncertainty_error + ")";
+      }));
+  Row(out, "projection uncertainty, imager centre / median (px)",
+      Cells(cams, [](const CameraAnalysis& cam) {
+        return cam.uncertainty ? FormatNumber(cam.uncertainty->imager_centre_px, 3) + " / " +
+                                     FormatNumber(cam.uncertainty->imager_median_px, 3)
+                               : "-";
+      }));
+  Row(out, "HDA slope error from the calibration alone, RMS / p90 (deg)",
+      Cells(cams, [](const CameraAnalysis& cam) {
+        return OptionalNumber(cam.slope.rms_deg, 4) + " / " + OptionalNumber(cam.slope.p90_deg, 4) +
+               " (" + std::to_string(cam.slope.ok) + " of " + std::to_string(cam.slope.samples) +
+               " re-solves)";
+      }));
+  Row(out, "OpenCV cross-check: RMS (px)", Cells(cams, [](const CameraAnalysis& cam) {
+        return cam.opencv ? FormatNumber(cam.opencv->rms_px, 3) : "- (" + cam.opencv_error + ")";
+      }));
+  Row(out, "mrcal vs OpenCV projection, median / p90 / max over the imager (px)",
+      Cells(cams, [](const CameraAnalysis& cam) {
+        return cam.opencv ? FormatNumber(cam.opencv->diff.median_px, 3) + " / " +
+                                FormatNumber(cam.opencv->diff.p90_px, 3) + " / " +
+                                FormatNumber(cam.opencv->diff.max_px, 3)
+                          : "-";
+      }));
+  Row(out, "mrcal vs OpenCV projection, HDA band median (px)",
+      Cells(cams, [](const CameraAnalysis& cam) {
+        return cam.opencv ? OptionalNumber(cam.opencv->diff.band_median_px, 3) : "-";
+      }));
+}
+
+// The HDA geometry the figures assume, and the pair's relative poses.
+void WriteGeometry(std::ostringstream& out, const CalibrateOptions& options,
+                   const CalibrateResult& result) {
+  out << "\nThe HDA geometry: range " << FormatNumber(options.analysis.hda.range_m, 0)
+      << " m, baseline " << FormatNumber(options.analysis.hda.baseline_m, 1) << " m, site "
+      << FormatNumber(options.analysis.hda.site_m, 1) << " m; the HDA band is x "
+      << FormatNumber(100 * options.analysis.hda.band_x0, 0) << "-"
+      << FormatNumber(100 * options.analysis.hda.band_x1, 0) << " % of the width, y "
+      << FormatNumber(100 * options.analysis.hda.band_y0, 0) << "-"
+      << FormatNumber(100 * options.analysis.hda.band_y1, 0) << " % of the height.\n";
+
+  for (const RelativePose& pose : result.analysis.relative_poses) {
+    out << "\nCamera " << pose.camera << " relative to camera " << pose.relative_to << ": baseline "
+        << OptionalNumber(pose.baseline, 4) << " (board units), rotation "
+        << OptionalNumber(pose.rotation_deg, 3) << " deg\n";
+  }
+}
+
+// The images left out and why (only when there are any), then every used
+// image's residuals under its given path, and the list of files.
+void WriteImageTables(std::ostringstream& out, const CalibrateResult& result) {
+  bool any_rejected = false;
+  for (const ImageUse& use : result.images) any_rejected = any_rejected || !use.used;
+  if (any_rejected) {
+    out << "\n## Images not used\n\n| camera | image | why |\n|---|---|---|\n";
+    for (const ImageUse& use : result.images) {
+      if (!use.used) out << "| " << use.camera << " | " << use.path << " | " << use.reason << " |\n";
+    }
+  }
+  out << "\n## Per image\n\n| camera | image | corners | outliers | RMS (px) | worst (px) |\n"
+      << "|---|---|---|---|---|---|\n";
+  for (const CameraAnalysis& cam : result.analysis.cameras) {
+    for (const ImageResiduals& image : cam.residuals.images) {
+      std::string path = image.image;
+      for (const ImageUse& use : result.images) {
+        // mrcal records the names of corners.vnl, possibly with a folder.
+        if (use.camera == cam.index && use.name == fs::path(image.image).filename().string()) {
+          path = use.path;
+        }
+      }
+      out << "| " << cam.index << " | " << path << " | " << image.corners << " | " << image.outliers
+          << " | " << OptionalNumber(image.rms_px, 3) << " | " << OptionalNumber(image.worst_px, 3)
+          << " |\n";
+    }
+  }
+  out << "\nFiles: calibration.json (this summary as data), analysis.json (every figure), "
+         "detections.csv, corners.vnl, figures/, opencv/, logs/.\n";
 }
 
 }  // namespace
@@ -483,135 +740,11 @@ std::vector<std::string> CalibrationVerdict(const CalibrateResult& result) {
 
 std::string CalibrationSummaryMarkdown(const CalibrateOptions& options, const CalibrateResult& result) {
   std::ostringstream out;
-  out << "# Calibration\n\n";
-  out << "- lens model: " << options.lensmodel << "\n";
-  out << "- imager: " << result.imager_width_px << " x " << result.imager_height_px << " px\n";
-  out << "- board: " << options.board.SizeText() << " inner corners, spacing "
-      << FormatNumber(options.board.spacing, 6) << "\n";
-  out << "- focal-length seed: " << FormatNumber(result.focal_seed_px, 1) << " px\n";
-  for (size_t c = 0; c < result.model_paths.size(); ++c) {
-    out << "- camera " << c << ": " << fs::path(result.model_paths[c]).filename().string() << "\n";
-  }
-  out << "\n## Verdict\n\n";
-  for (const std::string& line : CalibrationVerdict(result)) out << "- " << line << "\n";
-
-  const std::vector<CameraAnalysis>& cams = result.analysis.cameras;
-  out << "\n## Figures\n\n| figure |";
-  for (const CameraAnalysis& cam : cams) out << " camera " << cam.index << " |";
-  out << "\n|---|";
-  for (size_t i = 0; i < cams.size(); ++i) out << "---|";
-  out << "\n";
-  auto cells = [&](auto fn) {
-    std::vector<std::string> v;
-    for (const CameraAnalysis& cam : cams) v.push_back(fn(cam));
-    return v;
-  };
-  Row(out, "images used / given", cells([&](const CameraAnalysis& cam) {
-        int used = 0, given = 0;
-        for (const ImageUse& use : result.images) {
-          if (use.camera != cam.index) continue;
-          ++given;
-          used += use.used ? 1 : 0;
-        }
-        return std::to_string(used) + " / " + std::to_string(given);
-      }));
-  Row(out, "fx, fy, cx, cy (px)", cells([&](const CameraAnalysis& cam) {
-        try {
-          const CameraModel model = CameraModel::Load(result.model_paths.at(cam.index));
-          if (!model.HasCore()) return std::string("(no core)");
-          const std::vector<double>& k = model.Intrinsics();
-          return FormatNumber(k[0], 2) + ", " + FormatNumber(k[1], 2) + ", " + FormatNumber(k[2], 2) +
-                 ", " + FormatNumber(k[3], 2);
-        } catch (const std::exception&) {
-          return std::string("-");
-        }
-      }));
-  Row(out, "corners used (inliers) / outliers", cells([](const CameraAnalysis& cam) {
-        return std::to_string(cam.residuals.inliers) + " / " + std::to_string(cam.residuals.outliers);
-      }));
-  Row(out, "RMS reprojection error per corner (px)",
-      cells([](const CameraAnalysis& cam) { return FormatNumber(cam.residuals.rms_px, 3); }));
-  Row(out, "worst inlier residual (px)",
-      cells([](const CameraAnalysis& cam) { return FormatNumber(cam.residuals.worst_px, 3); }));
-  Row(out, "mrcal's RMS per coordinate (px)",
-      cells([](const CameraAnalysis& cam) { return FormatNumber(cam.residuals.mrcal_rms_px, 3); }));
-  Row(out, "imager cells with corners (10 x 10)", cells([](const CameraAnalysis& cam) {
-        return FormatNumber(100.0 * cam.coverage.share, 0) + " %";
-      }));
-  Row(out, "HDA band cells with corners", cells([](const CameraAnalysis& cam) {
-        return FormatNumber(100.0 * cam.coverage.band_share, 0) + " %";
-      }));
-  Row(out, "projection uncertainty, HDA band median / max (px, 1 sigma)",
-      cells([](const CameraAnalysis& cam) {
-        return cam.uncertainty ? FormatNumber(cam.uncertainty->band_median_px, 3) + " / " +
-                                     FormatNumber(cam.uncertainty->band_max_px, 3)
-                               : "- (" + cam.uncertainty_error + ")";
-      }));
-  Row(out, "projection uncertainty, imager centre / median (px)",
-      cells([](const CameraAnalysis& cam) {
-        return cam.uncertainty ? FormatNumber(cam.uncertainty->imager_centre_px, 3) + " / " +
-                                     FormatNumber(cam.uncertainty->imager_median_px, 3)
-                               : "-";
-      }));
-  Row(out, "HDA slope error from the calibration alone, RMS / p90 (deg)",
-      cells([](const CameraAnalysis& cam) {
-        return OptionalNumber(cam.slope.rms_deg, 4) + " / " + OptionalNumber(cam.slope.p90_deg, 4) +
-               " (" + std::to_string(cam.slope.ok) + " of " + std::to_string(cam.slope.samples) +
-               " re-solves)";
-      }));
-  Row(out, "OpenCV cross-check: RMS (px)", cells([](const CameraAnalysis& cam) {
-        return cam.opencv ? FormatNumber(cam.opencv->rms_px, 3) : "- (" + cam.opencv_error + ")";
-      }));
-  Row(out, "mrcal vs OpenCV projection, median / p90 / max over the imager (px)",
-      cells([](const CameraAnalysis& cam) {
-        return cam.opencv ? FormatNumber(cam.opencv->diff.median_px, 3) + " / " +
-                                FormatNumber(cam.opencv->diff.p90_px, 3) + " / " +
-                                FormatNumber(cam.opencv->diff.max_px, 3)
-                          : "-";
-      }));
-  Row(out, "mrcal vs OpenCV projection, HDA band median (px)", cells([](const CameraAnalysis& cam) {
-        return cam.opencv ? OptionalNumber(cam.opencv->diff.band_median_px, 3) : "-";
-      }));
-  out << "\nThe HDA geometry: range " << FormatNumber(options.analysis.hda.range_m, 0)
-      << " m, baseline " << FormatNumber(options.analysis.hda.baseline_m, 1) << " m, site "
-      << FormatNumber(options.analysis.hda.site_m, 1) << " m; the HDA band is x "
-      << FormatNumber(100 * options.analysis.hda.band_x0, 0) << "-"
-      << FormatNumber(100 * options.analysis.hda.band_x1, 0) << " % of the width, y "
-      << FormatNumber(100 * options.analysis.hda.band_y0, 0) << "-"
-      << FormatNumber(100 * options.analysis.hda.band_y1, 0) << " % of the height.\n";
-
-  for (const RelativePose& pose : result.analysis.relative_poses) {
-    out << "\nCamera " << pose.camera << " relative to camera " << pose.relative_to << ": baseline "
-        << OptionalNumber(pose.baseline, 4) << " (board units), rotation "
-        << OptionalNumber(pose.rotation_deg, 3) << " deg\n";
-  }
-
-  bool any_rejected = false;
-  for (const ImageUse& use : result.images) any_rejected = any_rejected || !use.used;
-  if (any_rejected) {
-    out << "\n## Images not used\n\n| camera | image | why |\n|---|---|---|\n";
-    for (const ImageUse& use : result.images) {
-      if (!use.used) out << "| " << use.camera << " | " << use.path << " | " << use.reason << " |\n";
-    }
-  }
-  out << "\n## Per image\n\n| camera | image | corners | outliers | RMS (px) | worst (px) |\n"
-      << "|---|---|---|---|---|---|\n";
-  for (const CameraAnalysis& cam : cams) {
-    for (const ImageResiduals& image : cam.residuals.images) {
-      std::string path = image.image;
-      for (const ImageUse& use : result.images) {
-        // mrcal records the names of corners.vnl, possibly with a folder.
-        if (use.camera == cam.index && use.name == fs::path(image.image).filename().string()) {
-          path = use.path;
-        }
-      }
-      out << "| " << cam.index << " | " << path << " | " << image.corners << " | " << image.outliers
-          << " | " << OptionalNumber(image.rms_px, 3) << " | " << OptionalNumber(image.worst_px, 3)
-          << " |\n";
-    }
-  }
-  out << "\nFiles: calibration.json (this summary as data), analysis.json (every figure), "
-         "detections.csv, corners.vnl, figures/, opencv/, logs/.\n";
+  WriteSummaryHead(out, options, result);
+  WriteFitRows(out, result);
+  WriteCheckRows(out, result);
+  WriteGeometry(out, options, result);
+  WriteImageTables(out, result);
   return out.str();
 }
 

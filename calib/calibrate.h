@@ -92,9 +92,9 @@ struct CalibrateResult {
   double mrcal_rms_px = 0.0;
   double mrcal_worst_px = 0.0;
   CalibrationAnalysis analysis;
-  double seconds_detection = 0.0;
-  double seconds_mrcal = 0.0;
-  double seconds_analysis = 0.0;
+  double detection_s = 0.0;
+  double mrcal_s = 0.0;
+  double analysis_s = 0.0;
   std::string summary_json;      // out_dir/calibration.json
   std::string summary_markdown;  // out_dir/summary.md
 };

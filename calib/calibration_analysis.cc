@@ -11,10 +11,12 @@
 #include <system_error>
 #include <utility>
 
-#include "calib/error.h"
-#include "calib/files.h"
-#include "calib/options_check.h"
-#include "calib/process.h"
+#include "tools/util/error.h"
+#include "tools/util/files.h"
+#include "tools/util/options_check.h"
+#include "tools/util/process.h"
+#include "tools/util/python_script.h"
+#include "tools/util/text.h"
 
 namespace hdabench::calib {
 
@@ -106,46 +108,19 @@ void RequireModelFile(const std::string& path) {
   }
 }
 
-// Numbers as the script writes them: Python's repr of a finite double, so
-// shortest round-trip text.
-std::string NumberText(double value) {
-  std::ostringstream out;
-  out.precision(17);
-  out << value;
-  return out.str();
-}
-
 // Runs the script with `arguments` and turns every failure into an exception.
 // `what` says what the script was doing ("the calibration analysis").
-ProcessResult RunScript(const std::string& python, double timeout_s,
-                        const std::vector<std::string>& arguments, const fs::path& log,
-                        const std::string& what) {
-  TempFolder temp("calibration");
-  const fs::path script = temp.path() / "calibration_analysis.py";
-  const fs::path config = temp.path() / "matplotlib";
-  CreateFolder(config, "matplotlib configuration");
-  WriteFileAtomically(script, CalibrationAnalysisScript());
-  // A fresh log per run, so that its last line is this run's.
-  RemoveFile(log, "log");
-
-  ProcessOptions process;
-  process.log_file = log.string();
-  process.timeout_s = timeout_s;
-  // A fresh matplotlib configuration (no user style changes the figures),
-  // no byte-code files next to the temporary script, fixed hashing, and one
-  // thread for the numerical libraries (repeatable sums).
-  process.environment = {{"MPLBACKEND", "Agg"},
-                         {"MPLCONFIGDIR", config.string()},
-                         {"MATPLOTLIBRC", config.string()},
-                         {"PYTHONDONTWRITEBYTECODE", "1"},
-                         {"PYTHONHASHSEED", "0"},
-                         {"SOURCE_DATE_EPOCH", "0"},
-                         {"OPENBLAS_NUM_THREADS", "1"},
-                         {"OMP_NUM_THREADS", "1"},
-                         {"MKL_NUM_THREADS", "1"}};
-  std::vector<std::string> argv = {python, script.string()};
-  argv.insert(argv.end(), arguments.begin(), arguments.end());
-  const ProcessResult result = RunProcess(argv, process);
+util::ProcessResult RunScript(const std::string& python, double timeout_s,
+                              const std::vector<std::string>& arguments, const fs::path& log,
+                              const std::string& what) {
+  const util::PythonScript script("calibration", "calibration_analysis.py",
+                                  CalibrationAnalysisScript());
+  util::PythonScriptOptions run;
+  run.python = python;
+  run.log_file = log.string();
+  run.timeout_s = timeout_s;
+  run.single_threaded_math = true;  // repeatable sums
+  const util::ProcessResult result = script.Run(arguments, run);
   if (result.Ok()) return result;
 
   std::string last_line, script_message;
@@ -284,34 +259,35 @@ ProjectionSpread ReadSpread(const Reader& r, const Json& j, const std::string& w
   return s;
 }
 
-CameraAnalysis ReadCamera(const Reader& r, const Json& j, const std::string& where) {
-  CameraAnalysis c;
-  c.index = r.Integer(j, "index", where + ".index");
-  c.model = r.String(j, "model", where + ".model");
-  c.icam_intrinsics = r.Integer(j, "icam_intrinsics", where + ".icam_intrinsics");
-  c.lensmodel = r.String(j, "lensmodel", where + ".lensmodel");
+// The camera's identity, imager size and HDA band: the head of its section.
+void ReadCameraHeader(const Reader& r, const Json& j, const std::string& where, CameraAnalysis* c) {
+  c->index = r.Integer(j, "index", where + ".index");
+  c->model = r.String(j, "model", where + ".model");
+  c->icam_intrinsics = r.Integer(j, "icam_intrinsics", where + ".icam_intrinsics");
+  c->lensmodel = r.String(j, "lensmodel", where + ".lensmodel");
   const Json& size = r.Array(j, "imager_size", where + ".imager_size");
   if (size.size() != 2) r.Fail(where + ".imager_size", "expected [width, height]");
-  c.width_px = static_cast<int>(r.Number(size[0], where + ".imager_size"));
-  c.height_px = static_cast<int>(r.Number(size[1], where + ".imager_size"));
+  c->width_px = static_cast<int>(r.Number(size[0], where + ".imager_size"));
+  c->height_px = static_cast<int>(r.Number(size[1], where + ".imager_size"));
   const Json& band = r.Object(j, "band_px", where + ".band_px");
-  c.band_px = {
+  c->band_px = {
       r.Number(band, "x0", where + ".band_px.x0"), r.Number(band, "x1", where + ".band_px.x1"),
       r.Number(band, "y0", where + ".band_px.y0"), r.Number(band, "y1", where + ".band_px.y1")};
+}
 
-  // Residuals.
+// The "residuals" section, with its per-image rows.
+void ReadResiduals(const Reader& r, const Json& j, const std::string& where, ResidualSummary* s) {
   const std::string rw = where + ".residuals";
   const Json& res = r.Object(j, "residuals", rw);
-  ResidualSummary& s = c.residuals;
-  s.rms_px = r.Number(res, "rms_px", rw + ".rms_px");
-  s.worst_px = r.Number(res, "worst_px", rw + ".worst_px");
-  s.median_px = r.Number(res, "median_px", rw + ".median_px");
-  s.noise_stdev_px = r.Number(res, "noise_stdev_px", rw + ".noise_stdev_px");
-  s.mrcal_rms_px = r.Number(res, "mrcal_rms_px", rw + ".mrcal_rms_px");
-  s.inliers = r.Integer(res, "inliers", rw + ".inliers");
-  s.outliers = r.Integer(res, "outliers", rw + ".outliers");
-  s.detected = r.Integer(res, "detected", rw + ".detected");
-  s.board_points = r.Integer(res, "board_points", rw + ".board_points");
+  s->rms_px = r.Number(res, "rms_px", rw + ".rms_px");
+  s->worst_px = r.Number(res, "worst_px", rw + ".worst_px");
+  s->median_px = r.Number(res, "median_px", rw + ".median_px");
+  s->noise_stdev_px = r.Number(res, "noise_stdev_px", rw + ".noise_stdev_px");
+  s->mrcal_rms_px = r.Number(res, "mrcal_rms_px", rw + ".mrcal_rms_px");
+  s->inliers = r.Integer(res, "inliers", rw + ".inliers");
+  s->outliers = r.Integer(res, "outliers", rw + ".outliers");
+  s->detected = r.Integer(res, "detected", rw + ".detected");
+  s->board_points = r.Integer(res, "board_points", rw + ".board_points");
   const Json& images = r.Array(res, "per_image", rw + ".per_image");
   for (size_t i = 0; i < images.size(); ++i) {
     const std::string iw = rw + ".per_image[" + std::to_string(i) + "]";
@@ -323,24 +299,26 @@ CameraAnalysis ReadCamera(const Reader& r, const Json& j, const std::string& whe
     image.outliers = r.Integer(images[i], "outliers", iw + ".outliers");
     image.rms_px = r.OptionalNumber(images[i], "rms_px", iw + ".rms_px");
     image.worst_px = r.OptionalNumber(images[i], "worst_px", iw + ".worst_px");
-    s.images.push_back(std::move(image));
+    s->images.push_back(std::move(image));
   }
+}
 
-  // Coverage.
+// The "coverage" section; the count grid must match its stated cell size.
+void ReadCoverage(const Reader& r, const Json& j, const std::string& where, CameraAnalysis* c) {
   const std::string cw = where + ".coverage";
   const Json& cov = r.Object(j, "coverage", cw);
   const Json& cells = r.Array(cov, "cells", cw + ".cells");
   if (cells.size() != 2) r.Fail(cw + ".cells", "expected [columns, rows]");
-  c.coverage.cells_x = static_cast<int>(r.Number(cells[0], cw + ".cells"));
-  c.coverage.cells_y = static_cast<int>(r.Number(cells[1], cw + ".cells"));
-  c.coverage.share = r.Share(cov, "share", cw + ".share");
-  c.coverage.band_cells = r.Integer(cov, "band_cells", cw + ".band_cells");
-  c.coverage.band_share = r.Share(cov, "band_share", cw + ".band_share");
+  c->coverage.cells_x = static_cast<int>(r.Number(cells[0], cw + ".cells"));
+  c->coverage.cells_y = static_cast<int>(r.Number(cells[1], cw + ".cells"));
+  c->coverage.share = r.Share(cov, "share", cw + ".share");
+  c->coverage.band_cells = r.Integer(cov, "band_cells", cw + ".band_cells");
+  c->coverage.band_share = r.Share(cov, "band_share", cw + ".band_share");
   const Json& counts = r.Array(cov, "counts", cw + ".counts");
-  if (counts.size() != static_cast<size_t>(c.coverage.cells_y))
+  if (counts.size() != static_cast<size_t>(c->coverage.cells_y))
     r.Fail(cw + ".counts", "expected one row per cell row");
   for (const Json& row : counts) {
-    if (!row.is_array() || row.size() != static_cast<size_t>(c.coverage.cells_x)) {
+    if (!row.is_array() || row.size() != static_cast<size_t>(c->coverage.cells_x)) {
       r.Fail(cw + ".counts", "expected one count per cell column");
     }
     std::vector<int> values;
@@ -349,15 +327,17 @@ CameraAnalysis ReadCamera(const Reader& r, const Json& j, const std::string& whe
         r.Fail(cw + ".counts", "expected counts >= 0");
       values.push_back(v.get<int>());
     }
-    c.coverage.counts.push_back(std::move(values));
+    c->coverage.counts.push_back(std::move(values));
   }
-  c.coverage.figure = r.Path(cov, "figure", cw + ".figure");
+  c->coverage.figure = r.Path(cov, "figure", cw + ".figure");
+}
 
-  // Uncertainty.
+// The "uncertainty" section: its figures only when the script reports no error.
+void ReadUncertainty(const Reader& r, const Json& j, const std::string& where, CameraAnalysis* c) {
   const std::string uw = where + ".uncertainty";
   const Json& unc = r.Object(j, "uncertainty", uw);
-  c.uncertainty_error = r.Error(unc, uw);
-  if (c.uncertainty_error.empty()) {
+  c->uncertainty_error = r.Error(unc, uw);
+  if (c->uncertainty_error.empty()) {
     UncertaintySummary u;
     u.band_median_px = r.Number(unc, "band_median_px", uw + ".band_median_px");
     u.band_max_px = r.Number(unc, "band_max_px", uw + ".band_max_px");
@@ -366,55 +346,60 @@ CameraAnalysis ReadCamera(const Reader& r, const Json& j, const std::string& whe
     u.imager_median_px = r.Number(unc, "imager_median_px", uw + ".imager_median_px");
     u.imager_max_px = r.Number(unc, "imager_max_px", uw + ".imager_max_px");
     u.figure = r.Path(unc, "figure", uw + ".figure");
-    c.uncertainty = u;
+    c->uncertainty = u;
   }
+}
 
-  // Slope error.
+// The "slope_error" section; its optional parts (failures, spreads, geometry)
+// only when present, and its counts must agree with its statistics.
+void ReadSlopeError(const Reader& r, const Json& j, const std::string& where,
+                    SlopeErrorSummary* e) {
   const std::string sw = where + ".slope_error";
   const Json& slope = r.Object(j, "slope_error", sw);
-  SlopeErrorSummary& e = c.slope;
-  e.error = r.Error(slope, sw);
-  e.samples = r.Integer(slope, "samples", sw + ".samples");
-  e.ok = r.Integer(slope, "ok", sw + ".ok");
-  e.failed = r.Integer(slope, "failed", sw + ".failed");
+  e->error = r.Error(slope, sw);
+  e->samples = r.Integer(slope, "samples", sw + ".samples");
+  e->ok = r.Integer(slope, "ok", sw + ".ok");
+  e->failed = r.Integer(slope, "failed", sw + ".failed");
   if (slope.contains("failures")) {
     for (const Json& f : r.Array(slope, "failures", sw + ".failures")) {
       if (!f.is_string()) r.Fail(sw + ".failures", "expected strings");
-      e.failures.push_back(f.get<std::string>());
+      e->failures.push_back(f.get<std::string>());
     }
   }
-  e.rms_deg = r.OptionalNumber(slope, "rms_deg", sw + ".rms_deg");
-  e.median_deg = r.OptionalNumber(slope, "median_deg", sw + ".median_deg");
-  e.p90_deg = r.OptionalNumber(slope, "p90_deg", sw + ".p90_deg");
-  e.max_deg = r.OptionalNumber(slope, "max_deg", sw + ".max_deg");
-  e.nominal_deg = r.OptionalNumber(slope, "nominal_deg", sw + ".nominal_deg");
-  e.rotation_fit_median_deg =
+  e->rms_deg = r.OptionalNumber(slope, "rms_deg", sw + ".rms_deg");
+  e->median_deg = r.OptionalNumber(slope, "median_deg", sw + ".median_deg");
+  e->p90_deg = r.OptionalNumber(slope, "p90_deg", sw + ".p90_deg");
+  e->max_deg = r.OptionalNumber(slope, "max_deg", sw + ".max_deg");
+  e->nominal_deg = r.OptionalNumber(slope, "nominal_deg", sw + ".nominal_deg");
+  e->rotation_fit_median_deg =
       r.OptionalNumber(slope, "rotation_fit_median_deg", sw + ".rotation_fit_median_deg");
-  e.noise_stdev_px = r.OptionalNumber(slope, "noise_stdev_px", sw + ".noise_stdev_px");
-  e.mrcal_band_centre_stdev_px =
+  e->noise_stdev_px = r.OptionalNumber(slope, "noise_stdev_px", sw + ".noise_stdev_px");
+  e->mrcal_band_centre_stdev_px =
       r.OptionalNumber(slope, "mrcal_band_centre_stdev_px", sw + ".mrcal_band_centre_stdev_px");
   if (slope.contains("band_centre_spread")) {
     const Json& spread = r.Object(slope, "band_centre_spread", sw + ".band_centre_spread");
-    e.fitted_rotation_spread = ReadSpread(
+    e->fitted_rotation_spread = ReadSpread(
         r, r.Object(spread, "fitted_rotation", sw + ".band_centre_spread.fitted_rotation"),
         sw + ".band_centre_spread.fitted_rotation");
-    e.board_rotation_spread =
+    e->board_rotation_spread =
         ReadSpread(r, r.Object(spread, "board_rotation", sw + ".band_centre_spread.board_rotation"),
                    sw + ".band_centre_spread.board_rotation");
   }
   if (slope.contains("geometry")) {
-    e.convergence_deg = r.OptionalNumber(r.Object(slope, "geometry", sw + ".geometry"),
-                                         "convergence_deg", sw + ".geometry.convergence_deg");
+    e->convergence_deg = r.OptionalNumber(r.Object(slope, "geometry", sw + ".geometry"),
+                                          "convergence_deg", sw + ".geometry.convergence_deg");
   }
-  if (e.error.empty() && (e.ok + e.failed != e.samples || (e.ok > 0 && !e.rms_deg))) {
+  if (e->error.empty() && (e->ok + e->failed != e->samples || (e->ok > 0 && !e->rms_deg))) {
     r.Fail(sw, "inconsistent sample counts or missing statistics");
   }
+}
 
-  // OpenCV.
+// The "opencv" section: the cross-check only when the script reports no error.
+void ReadOpenCv(const Reader& r, const Json& j, const std::string& where, CameraAnalysis* c) {
   const std::string ow = where + ".opencv";
   const Json& cv = r.Object(j, "opencv", ow);
-  c.opencv_error = r.Error(cv, ow);
-  if (c.opencv_error.empty()) {
+  c->opencv_error = r.Error(cv, ow);
+  if (c->opencv_error.empty()) {
     OpenCvCrossCheck o;
     o.model = r.Path(cv, "model", ow + ".model");
     o.images = r.Integer(cv, "images", ow + ".images");
@@ -430,8 +415,20 @@ CameraAnalysis ReadCamera(const Reader& r, const Json& j, const std::string& whe
         o.inliers_only_diff = ReadDiffSummary(r, in, ow + ".inliers_only");
       }
     }
-    c.opencv = o;
+    c->opencv = o;
   }
+}
+
+// One camera's section, read in the order of its parts: the first problem
+// found is the one reported.
+CameraAnalysis ReadCamera(const Reader& r, const Json& j, const std::string& where) {
+  CameraAnalysis c;
+  ReadCameraHeader(r, j, where, &c);
+  ReadResiduals(r, j, where, &c.residuals);
+  ReadCoverage(r, j, where, &c);
+  ReadUncertainty(r, j, where, &c);
+  ReadSlopeError(r, j, where, &c.slope);
+  ReadOpenCv(r, j, where, &c);
   return c;
 }
 
@@ -560,19 +557,19 @@ CalibrationAnalysis AnalyseCalibration(const std::vector<std::string>& models,
       "--json", fs::absolute(json).string(),
       "--figures", fs::absolute(figures).string(),
       "--opencv-dir", fs::absolute(opencv).string(),
-      "--band-x0", NumberText(options.hda.band_x0),
-      "--band-x1", NumberText(options.hda.band_x1),
-      "--band-y0", NumberText(options.hda.band_y0),
-      "--band-y1", NumberText(options.hda.band_y1),
-      "--range-m", NumberText(options.hda.range_m),
-      "--baseline-m", NumberText(options.hda.baseline_m),
-      "--site-m", NumberText(options.hda.site_m),
+      "--band-x0", util::ShortestText(options.hda.band_x0),
+      "--band-x1", util::ShortestText(options.hda.band_x1),
+      "--band-y0", util::ShortestText(options.hda.band_y0),
+      "--band-y1", util::ShortestText(options.hda.band_y1),
+      "--range-m", util::ShortestText(options.hda.range_m),
+      "--baseline-m", util::ShortestText(options.hda.baseline_m),
+      "--site-m", util::ShortestText(options.hda.site_m),
       "--samples", std::to_string(options.slope_samples),
       "--seed", std::to_string(options.seed),
       "--"};
   // clang-format on
   arguments.insert(arguments.end(), models.begin(), models.end());
-  ProcessResult result;
+  util::ProcessResult result;
   try {
     result =
         RunScript(options.python, options.timeout_s, arguments, log, "the calibration analysis");
@@ -589,7 +586,7 @@ CalibrationAnalysis AnalyseCalibration(const std::vector<std::string>& models,
   }
   analysis.json_path = json.string();
   analysis.log_path = log.string();
-  analysis.seconds = result.seconds;
+  analysis.wall_s = result.wall_s;
   return analysis;
 }
 

@@ -5,7 +5,7 @@
 //
 // The work is done by calib/calibration_analysis.py, compiled into the library
 // and run with Debian's /usr/bin/python3 (which sees python3-mrcal, numpy,
-// OpenCV and matplotlib) through RunProcess, with a time limit and a clean
+// OpenCV and matplotlib) through util::RunProcess, with a time limit and a clean
 // matplotlib configuration. The script writes a JSON record (format
 // "hdabench-calibration-analysis" or "hdabench-calibration-diff", version 1)
 // that is read back here; the same inputs and options give the same bytes.
@@ -202,7 +202,7 @@ struct CalibrationAnalysis {
   std::vector<RelativePose> relative_poses;  // cameras 1.. relative to camera 0
   std::string json_path;                     // out_dir/analysis.json
   std::string log_path;                      // out_dir/logs/analysis.log
-  double seconds = 0;                        // wall time of the script
+  double wall_s = 0;                        // wall time of the script
 };
 
 // Analyses the models written by mrcal-calibrate-cameras (each must hold its

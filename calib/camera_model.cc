@@ -19,9 +19,10 @@
 #include <sstream>
 #include <system_error>
 
-#include "calib/files.h"
-#include "calib/error.h"
-#include "calib/stderr_capture.h"
+#include "tools/util/files.h"
+#include "tools/util/error.h"
+#include "tools/util/stderr_capture.h"
+#include "tools/util/text.h"
 
 extern "C" {
 #include <mrcal/mrcal.h>
@@ -266,12 +267,6 @@ bool ParseLensModel(const std::string& name, mrcal_lensmodel_t* lensmodel) {
          mrcal_lensmodel_type_is_valid(lensmodel->type);
 }
 
-std::string FormatDouble(double v) {
-  char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
-  return std::string(buffer, result.ptr);
-}
-
 std::string ReadWholeFile(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
@@ -378,8 +373,8 @@ CameraModel::CameraModel(const std::string& lensmodel, std::vector<double> intri
   has_opencv_equivalent_ =
       model.type == MRCAL_LENSMODEL_PINHOLE || MRCAL_LENSMODEL_IS_OPENCV(model.type);
   if (has_core_ && (intrinsics_[0] <= 0.0 || intrinsics_[1] <= 0.0)) {
-    throw InputError(origin + ": focal lengths fx=" + FormatDouble(intrinsics_[0]) +
-                     ", fy=" + FormatDouble(intrinsics_[1]) + " must be positive");
+    throw InputError(origin + ": focal lengths fx=" + util::ShortestText(intrinsics_[0]) +
+                     ", fy=" + util::ShortestText(intrinsics_[1]) + " must be positive");
   }
 }
 
@@ -425,13 +420,13 @@ CameraModel CameraModel::Parse(const std::string& text, const std::string& origi
     if (imagersize[i] < 1 || imagersize[i] > 1e6 || imagersize[i] != std::floor(imagersize[i])) {
       scanner.Fail(entries.at("imagersize").value_begin,
                    "'imagersize' must be two positive whole numbers of pixels, got " +
-                       FormatDouble(imagersize[0]) + ", " + FormatDouble(imagersize[1]));
+                       util::ShortestText(imagersize[0]) + ", " + util::ShortestText(imagersize[1]));
     }
   }
 
   // libmrcal reads the values: it is the authority on the format.
   mrcal_cameramodel_t* parsed = nullptr;
-  const std::string captured = CaptureStderr(
+  const std::string captured = util::CaptureStderr(
       [&] { parsed = mrcal_read_cameramodel_string(text.c_str(), static_cast<int>(text.size())); });
   if (parsed == nullptr) throw InputError(origin + ":" + TranslateMrcalMessage(captured, text));
   std::unique_ptr<mrcal_cameramodel_t, void (*)(mrcal_cameramodel_t*)> owner(
@@ -457,9 +452,9 @@ CameraModel CameraModel::Parse(const std::string& text, const std::string& origi
 std::string CameraModel::ToText() const {
   std::string s = "{\n    'lensmodel':  '" + lensmodel_ + "',\n\n";
   s += "    # intrinsics are fx,fy,cx,cy,distortion0,distortion1,....\n    'intrinsics': [";
-  for (double v : intrinsics_) s += " " + FormatDouble(v) + ",";
+  for (double v : intrinsics_) s += " " + util::ShortestText(v) + ",";
   s += " ],\n\n    # extrinsics are rt_fromref\n    'extrinsics': [";
-  for (double v : rt_cam_ref_) s += " " + FormatDouble(v) + ",";
+  for (double v : rt_cam_ref_) s += " " + util::ShortestText(v) + ",";
   s += " ],\n\n    'imagersize': [ " + std::to_string(width_px_) + ", " +
        std::to_string(height_px_) + ", ],\n}\n";
   return s;
@@ -473,7 +468,7 @@ void CameraModel::Save(const std::string& path) const {
   if (!parent.empty() && !std::filesystem::is_directory(parent, ec)) {
     throw InputError(path + ": cannot write the camera model (No such file or directory)");
   }
-  WriteFileAtomically(path, ToText());
+  util::WriteFileAtomically(path, ToText());
 }
 
 Rigid3d CameraModel::CamFromRef() const {

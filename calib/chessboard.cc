@@ -11,8 +11,8 @@
 
 #include <mrgingham/mrgingham.hh>
 
-#include "calib/error.h"
-#include "calib/options_check.h"
+#include "tools/util/error.h"
+#include "tools/util/options_check.h"
 
 namespace hdabench::calib {
 

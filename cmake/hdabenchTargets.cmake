@@ -11,27 +11,71 @@ function(hdabench_set_warnings target)
   endif()
 endfunction()
 
-# hdabench_add_module(<name> SOURCES ... PUBLIC_LIBS ... PRIVATE_LIBS ... HEADERS ...)
-# Declares library target hdabench_<name>, exported as hdabench::<name>. Headers
-# are included as "<name>/<file>.h" both from the source tree and once installed.
+# hdabench_add_module(<name> [INTERFACE] USES ... SOURCES ... HEADERS ... PUBLIC_LIBS ... PRIVATE_LIBS ...)
+# Declares library target hdabench_<name>, exported as hdabench::<name>, for
+# the folder of the calling CMakeLists.txt. Headers are included by their path
+# from the top of the tree ("reference/colmap/colmap_runner.h"), both from the
+# source tree and once installed. USES names the bench modules this one may
+# include and link (docs/architecture.md); each must have been declared before
+# it, so modules form layers. The test module_rules checks every module's
+# links and every #include of its folder against USES.
 function(hdabench_add_module name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;HEADERS;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "INTERFACE" "" "SOURCES;HEADERS;USES;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
   set(target hdabench_${name})
-  add_library(${target} ${ARG_SOURCES})
+  file(RELATIVE_PATH folder ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR})
+  if(ARG_INTERFACE)
+    add_library(${target} INTERFACE)
+    set(scope INTERFACE)
+    set(links_property INTERFACE_LINK_LIBRARIES)
+  else()
+    add_library(${target} ${ARG_SOURCES})
+    set(scope PUBLIC)
+    set(links_property LINK_LIBRARIES)
+    set_target_properties(${target} PROPERTIES OUTPUT_NAME hdabench_${name}
+                                               POSITION_INDEPENDENT_CODE ON)
+    target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_LIBS} PRIVATE ${ARG_PRIVATE_LIBS})
+    hdabench_set_warnings(${target})
+  endif()
   add_library(hdabench::${name} ALIAS ${target})
-  set_target_properties(${target} PROPERTIES EXPORT_NAME ${name} OUTPUT_NAME hdabench_${name}
-                                             POSITION_INDEPENDENT_CODE ON)
-  target_compile_features(${target} PUBLIC cxx_std_17)
-  target_include_directories(${target} PUBLIC
+  set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})
+  target_compile_features(${target} ${scope} cxx_std_17)
+  target_include_directories(${target} ${scope}
     $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
     $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/hdabench>)
-  target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_LIBS} PRIVATE ${ARG_PRIVATE_LIBS})
-  hdabench_set_warnings(${target})
-  if(HDABENCH_SANITIZE)
+  if(ARG_INTERFACE)
+    target_link_libraries(${target} INTERFACE ${ARG_PUBLIC_LIBS})
+  endif()
+  if(HDABENCH_SANITIZE AND NOT ARG_INTERFACE)
     # Code built with the sanitizers needs their runtime wherever it is linked,
     # including in projects that use the installed package.
     target_link_options(${target} INTERFACE -fsanitize=address,undefined)
   endif()
-  install(FILES ${ARG_HEADERS} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/hdabench/${name})
+  install(FILES ${ARG_HEADERS} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/hdabench/${folder})
+  hdabench_register_module(${name} ${folder} "${ARG_USES}" ${target} ${links_property})
   set_property(GLOBAL APPEND PROPERTY HDABENCH_MODULE_TARGETS ${target})
+endfunction()
+
+# hdabench_register_module(<name> <folder> <uses> <target> <links property>):
+# records a module for the module_rules test, refusing a USES entry that names
+# a module not declared before this one (a layer above it, or itself).
+function(hdabench_register_module name folder uses target links_property)
+  get_property(declared GLOBAL PROPERTY HDABENCH_MODULE_NAMES)
+  foreach(used IN LISTS uses)
+    if(NOT used IN_LIST declared)
+      message(FATAL_ERROR "module ${name} (${folder}) uses '${used}', which is not a module "
+                          "declared before it: modules may use only lower layers")
+    endif()
+  endforeach()
+  set_property(GLOBAL APPEND PROPERTY HDABENCH_MODULE_NAMES ${name})
+  string(REPLACE ";" "," uses_text "${uses}")
+  set_property(GLOBAL APPEND PROPERTY HDABENCH_MODULE_RULES
+    "${name}|${folder}|${uses_text}|$<JOIN:$<TARGET_PROPERTY:${target},${links_property}>,,>")
+endfunction()
+
+# hdabench_write_module_rules(): the modules, their folders, what each may use
+# and what each links, for tests/architecture/check_module_rules.cmake.
+function(hdabench_write_module_rules)
+  get_property(rules GLOBAL PROPERTY HDABENCH_MODULE_RULES)
+  string(REPLACE ";" "\n" content "${rules}")
+  file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/module_rules.txt CONTENT "${content}\n")
 endfunction()

@@ -5,7 +5,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "datasets/internal/text.h"
+#include "tools/util/text.h"
 
 namespace hdabench::datasets {
 
@@ -22,9 +22,9 @@ void Locate(const std::vector<Sample>& samples, double time_s, const char* what,
   const double first = samples.front().time_s;
   const double last = samples.back().time_s;
   if (!std::isfinite(time_s) || time_s < first || time_s > last) {
-    throw std::out_of_range("time " + internal::FormatDouble(time_s) + " s is outside the " + what +
-                            " span [" + internal::FormatDouble(first) + ", " +
-                            internal::FormatDouble(last) + "] s");
+    throw std::out_of_range("time " + util::ShortestText(time_s) + " s is outside the " + what +
+                            " span [" + util::ShortestText(first) + ", " +
+                            util::ShortestText(last) + "] s");
   }
   if (samples.size() == 1) {
     *index = 0;

@@ -19,7 +19,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 
 namespace hdabench::datasets {
 
@@ -165,6 +165,181 @@ const StereoLunarCamera& FindCamera(const std::vector<StereoLunarCamera>& camera
   throw InputError(cameras_txt + ": no line for " + key + " (nor " + stem + ")");
 }
 
+// The two frames of one sun position: their source names, cameras (lines of
+// cameras.txt), grey images and z-depths.
+struct PairFrames {
+  SourceFrame source[2];
+  const StereoLunarCamera* camera[2] = {nullptr, nullptr};
+  cv::Mat image[2];
+  cv::Mat depth[2];
+};
+
+// Throws unless the folder holds sun position `sun` (0-based; two frames each).
+void RequireSun(const std::string& pair_dir, const std::vector<SourceFrame>& frames, int sun) {
+  const int suns = static_cast<int>(frames.size()) / 2;
+  if (sun >= suns) {
+    throw InputError(pair_dir + ": sun " + std::to_string(sun) + " requested; the folder holds " +
+                     std::to_string(suns) + " sun position(s) (0.." + std::to_string(suns - 1) +
+                     ")");
+  }
+}
+
+// Finds the cameras of both frames; they must share K, as a dataset has one
+// camera model.
+void FindPairCameras(const std::vector<StereoLunarCamera>& cameras,
+                     const std::string& cameras_txt, const std::string& folder,
+                     PairFrames* pair) {
+  for (int i = 0; i < 2; ++i) {
+    pair->camera[i] = &FindCamera(cameras, cameras_txt, folder, pair->source[i].stem);
+  }
+  const StereoLunarCamera* const* camera = pair->camera;
+  if (camera[0]->k != camera[1]->k) {
+    throw InputError(cameras_txt + ":" + std::to_string(camera[1]->line) + ": K of " +
+                     camera[1]->key + " differs from K of " + camera[0]->key + " (line " +
+                     std::to_string(camera[0]->line) + "); the bench needs one camera per dataset");
+  }
+}
+
+// Reads the image and z-depth of both frames; all four rasters must have the
+// size of frame 0's image.
+void ReadPairRasters(const fs::path& dir, PairFrames* pair) {
+  const SourceFrame* source = pair->source;
+  for (int i = 0; i < 2; ++i) {
+    pair->image[i] = ReadImage(dir / (source[i].stem + ".jpg"));
+    pair->depth[i] = ReadDepth(dir / (source[i].stem + ".exr"));
+  }
+  const cv::Size size = pair->image[0].size();
+  for (int i = 0; i < 2; ++i) {
+    for (const std::pair<const cv::Mat*, const char*> raster :
+         {std::make_pair(&pair->image[i], ".jpg"), std::make_pair(&pair->depth[i], ".exr")}) {
+      if (raster.first->size() != size) {
+        throw InputError((dir / (source[i].stem + raster.second)).string() + ": " +
+                         std::to_string(raster.first->cols) + " x " +
+                         std::to_string(raster.first->rows) + " px; expected " +
+                         std::to_string(size.width) + " x " + std::to_string(size.height) +
+                         " px like " + source[0].stem + ".jpg");
+      }
+    }
+  }
+}
+
+// The pinhole intrinsics of the pair: K with the principal point moved to the
+// mrcal convention.
+struct Pinhole {
+  double fx = 0.0;
+  double fy = 0.0;
+  double cx = 0.0;
+  double cy = 0.0;
+
+  // Ray of pixel (col, row), mrcal convention, with unit z: depth * ray is the
+  // point in the camera frame.
+  Eigen::Vector3d Ray(double col, double row) const {
+    return Eigen::Vector3d((col - cx) / fx, (row - cy) / fy, 1.0);
+  }
+};
+
+Pinhole PinholeFromK(const Eigen::Matrix3d& k) {
+  Pinhole pinhole;
+  pinhole.fx = k(0, 0);
+  pinhole.fy = k(1, 1);
+  pinhole.cx = k(0, 2) + kStereoLunarPrincipalPointShiftPx;
+  pinhole.cy = k(1, 2) + kStereoLunarPrincipalPointShiftPx;
+  return pinhole;
+}
+
+// A depth the renderer wrote for a surface: finite and positive.
+bool ValidDepth(double d) { return std::isfinite(d) && d > 0.0; }
+
+// moon_from_cam of a frame, rotation projected onto SO(3) (the source is float32).
+Rigid3d MoonFromCam(const StereoLunarCamera& camera) {
+  const Eigen::Matrix4d& m = camera.cam2world;
+  return Rigid3d(Eigen::Quaterniond(NearestRotation(m.topLeftCorner<3, 3>())).normalized(),
+                 m.topRightCorner<3, 1>());
+}
+
+// The depth of frame i at the centre pixel, which must be valid: it places the
+// ILS and the LRF spot.
+double CentreDepth(const fs::path& dir, const PairFrames& pair, int i,
+                   const Eigen::Vector2d& centre) {
+  const double depth = static_cast<double>(
+      pair.depth[i].at<float>(static_cast<int>(centre.y()), static_cast<int>(centre.x())));
+  if (!ValidDepth(depth)) {
+    throw InputError((dir / (pair.source[i].stem + ".exr")).string() + ": depth " + Str(depth) +
+                     " at the centre pixel (" + Str(centre.x()) + ", " + Str(centre.y()) +
+                     "); expected a finite depth > 0 (the ILS and LRF spot)");
+  }
+  return depth;
+}
+
+// The dataset's name and description, which documents the conventions of the
+// conversion and the limits of the truth.
+void DescribeDataset(const std::string& folder, int sun, const PairFrames& pair,
+                     double centre_depth_m, double fx, Dataset* dataset) {
+  const SourceFrame* source = pair.source;
+  dataset->name = "stereolunar-" + folder + "-sun" + std::to_string(sun);
+  dataset->description =
+      "StereoLunar nadir pair " + folder + " (rendered with true z-depth and exact poses), sun " +
+      "position " + std::to_string(sun) + ": frame 0 = " + source[0].stem + ", frame 1 = " +
+      source[1].stem + ", times 0 s and 1 s by convention. Local frame: east-north-up at the "
+      "ground point of frame 0's centre pixel (up radial from the Moon's centre). Body = camera; "
+      "navigation = truth. Truth points from half-precision depth (steps of about 16 m at 30 km): "
+      "truth for slopes over hundreds of metres, not for metre-scale roughness. Pixel footprint "
+      "about " + Str(std::round(centre_depth_m / fx)) + " m: use a site size of several hundred "
+      "metres (docs/stereolunar.md).";
+}
+
+// Adds frame i at time i * kFrameStepS: its record, its navigation sample (also
+// the truth navigation: body = camera, exact poses) and the LRF sample along
+// the centre pixel's ray.
+void AddFrameRecords(int i, const cv::Mat& image, const Rigid3d& local_from_cam,
+                     double centre_depth, const Eigen::Vector3d& centre_ray, Dataset* dataset) {
+  const double time_s = i * kFrameStepS;
+
+  FrameRecord frame;
+  frame.index = i;
+  frame.time_s = time_s;
+  frame.image_path = "images/frame_00000" + std::to_string(i) + ".png";
+  frame.image = image;
+  dataset->frames.push_back(frame);
+
+  NavSample nav;
+  nav.time_s = time_s;
+  nav.local_from_body = local_from_cam;  // body = camera
+  dataset->nav.push_back(nav);
+  dataset->truth.navigation.push_back(nav);
+
+  LrfSample lrf;
+  lrf.time_s = time_s;
+  lrf.range_m = centre_depth * centre_ray.norm();
+  lrf.boresight_in_body = centre_ray.normalized();
+  dataset->lrf.push_back(lrf);
+}
+
+// The truth points of a frame: each pixel's depth along its ray, in the local
+// frame; NaN where the depth is not valid.
+cv::Mat TruthPointsFromDepth(const cv::Mat& depth, const Pinhole& pinhole,
+                             const Rigid3d& local_from_cam) {
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const cv::Size size = depth.size();
+  const Eigen::Matrix3d rotation = local_from_cam.RotationMatrix();
+  const Eigen::Vector3d& translation = local_from_cam.translation;
+  cv::Mat points(size, CV_32FC3);
+  for (int row = 0; row < size.height; ++row) {
+    for (int col = 0; col < size.width; ++col) {
+      const double d = depth.at<float>(row, col);
+      cv::Vec3f& point = points.at<cv::Vec3f>(row, col);
+      if (!ValidDepth(d)) {
+        point = cv::Vec3f(nan, nan, nan);
+        continue;
+      }
+      const Eigen::Vector3d p = rotation * (d * pinhole.Ray(col, row)) + translation;
+      point = cv::Vec3f(static_cast<float>(p.x()), static_cast<float>(p.y()),
+                        static_cast<float>(p.z()));
+    }
+  }
+  return points;
+}
+
 }  // namespace
 
 std::vector<StereoLunarCamera> ReadStereoLunarCameras(const std::string& path) {
@@ -279,145 +454,45 @@ Dataset ConvertStereoLunarPair(const std::string& pair_dir, const std::string& c
     throw InputError(pair_dir + (fs::exists(dir, ec) ? ": is not a folder" : ": no such folder"));
   }
   const std::vector<SourceFrame> frames = ListFrames(dir);
-  const int suns = static_cast<int>(frames.size()) / 2;
-  if (sun >= suns) {
-    throw InputError(pair_dir + ": sun " + std::to_string(sun) + " requested; the folder holds " +
-                     std::to_string(suns) + " sun position(s) (0.." + std::to_string(suns - 1) +
-                     ")");
-  }
+  RequireSun(pair_dir, frames, sun);
   const std::vector<StereoLunarCamera> cameras = ReadStereoLunarCameras(cameras_txt);
   const std::string folder = FolderName(dir);
 
-  const SourceFrame source[2] = {frames[static_cast<size_t>(2 * sun)],
-                                 frames[static_cast<size_t>(2 * sun + 1)]};
-  const StereoLunarCamera* camera[2] = {
-      &FindCamera(cameras, cameras_txt, folder, source[0].stem),
-      &FindCamera(cameras, cameras_txt, folder, source[1].stem)};
-  if (camera[0]->k != camera[1]->k) {
-    throw InputError(cameras_txt + ":" + std::to_string(camera[1]->line) + ": K of " +
-                     camera[1]->key + " differs from K of " + camera[0]->key + " (line " +
-                     std::to_string(camera[0]->line) + "); the bench needs one camera per dataset");
-  }
-  cv::Mat image[2];
-  cv::Mat depth[2];
-  for (int i = 0; i < 2; ++i) {
-    image[i] = ReadImage(dir / (source[i].stem + ".jpg"));
-    depth[i] = ReadDepth(dir / (source[i].stem + ".exr"));
-  }
-  const cv::Size size = image[0].size();
-  for (int i = 0; i < 2; ++i) {
-    for (const std::pair<const cv::Mat*, const char*> raster :
-         {std::make_pair(&image[i], ".jpg"), std::make_pair(&depth[i], ".exr")}) {
-      if (raster.first->size() != size) {
-        throw InputError((dir / (source[i].stem + raster.second)).string() + ": " +
-                         std::to_string(raster.first->cols) + " x " +
-                         std::to_string(raster.first->rows) + " px; expected " +
-                         std::to_string(size.width) + " x " + std::to_string(size.height) +
-                         " px like " + source[0].stem + ".jpg");
-      }
-    }
-  }
+  PairFrames pair;
+  pair.source[0] = frames[static_cast<size_t>(2 * sun)];
+  pair.source[1] = frames[static_cast<size_t>(2 * sun + 1)];
+  FindPairCameras(cameras, cameras_txt, folder, &pair);
+  ReadPairRasters(dir, &pair);
+  const cv::Size size = pair.image[0].size();
 
-  const Eigen::Matrix3d& k = camera[0]->k;
-  const double fx = k(0, 0);
-  const double fy = k(1, 1);
-  const double cx = k(0, 2) + kStereoLunarPrincipalPointShiftPx;
-  const double cy = k(1, 2) + kStereoLunarPrincipalPointShiftPx;
-  Dataset dataset(calib::CameraModel("LENSMODEL_PINHOLE", {fx, fy, cx, cy}, size.width,
-                                     size.height, {}, cameras_txt));
-  // Ray of pixel (col, row), mrcal convention, with unit z: depth * ray is the
-  // point in the camera frame.
-  const auto ray = [&](double col, double row) {
-    return Eigen::Vector3d((col - cx) / fx, (row - cy) / fy, 1.0);
-  };
-  const auto depth_at = [&](int i, const Eigen::Vector2d& pixel) {
-    return static_cast<double>(
-        depth[i].at<float>(static_cast<int>(pixel.y()), static_cast<int>(pixel.x())));
-  };
-  const auto valid_depth = [](double d) { return std::isfinite(d) && d > 0.0; };
-
-  // moon_from_cam of each frame, rotation projected onto SO(3) (the source is float32).
+  const Pinhole pinhole = PinholeFromK(pair.camera[0]->k);
+  Dataset dataset(calib::CameraModel("LENSMODEL_PINHOLE",
+                                     {pinhole.fx, pinhole.fy, pinhole.cx, pinhole.cy},
+                                     size.width, size.height, {}, cameras_txt));
   Rigid3d moon_from_cam[2];
-  for (int i = 0; i < 2; ++i) {
-    const Eigen::Matrix4d& m = camera[i]->cam2world;
-    moon_from_cam[i] = Rigid3d(
-        Eigen::Quaterniond(NearestRotation(m.topLeftCorner<3, 3>())).normalized(),
-        m.topRightCorner<3, 1>());
-  }
+  for (int i = 0; i < 2; ++i) moon_from_cam[i] = MoonFromCam(*pair.camera[i]);
 
+  // The local frame is level at the ground point of frame 0's centre pixel.
   const Eigen::Vector2d centre = StereoLunarCentrePixel(size.width, size.height);
-  const Eigen::Vector3d centre_ray = ray(centre.x(), centre.y());
+  const Eigen::Vector3d centre_ray = pinhole.Ray(centre.x(), centre.y());
   double centre_depth[2];
-  for (int i = 0; i < 2; ++i) {
-    centre_depth[i] = depth_at(i, centre);
-    if (!valid_depth(centre_depth[i])) {
-      throw InputError((dir / (source[i].stem + ".exr")).string() + ": depth " +
-                       Str(centre_depth[i]) + " at the centre pixel (" + Str(centre.x()) + ", " +
-                       Str(centre.y()) + "); expected a finite depth > 0 (the ILS and LRF spot)");
-    }
-  }
+  for (int i = 0; i < 2; ++i) centre_depth[i] = CentreDepth(dir, pair, i, centre);
   const Eigen::Vector3d ground_in_moon = moon_from_cam[0] * (centre_depth[0] * centre_ray);
   const Rigid3d local_from_moon = LocalLevelFromMoon(ground_in_moon);
 
-  dataset.name = "stereolunar-" + folder + "-sun" + std::to_string(sun);
-  dataset.description =
-      "StereoLunar nadir pair " + folder + " (rendered with true z-depth and exact poses), sun " +
-      "position " + std::to_string(sun) + ": frame 0 = " + source[0].stem + ", frame 1 = " +
-      source[1].stem + ", times 0 s and 1 s by convention. Local frame: east-north-up at the "
-      "ground point of frame 0's centre pixel (up radial from the Moon's centre). Body = camera; "
-      "navigation = truth. Truth points from half-precision depth (steps of about 16 m at 30 km): "
-      "truth for slopes over hundreds of metres, not for metre-scale roughness. Pixel footprint "
-      "about " + Str(std::round(centre_depth[0] / fx)) + " m: use a site size of several hundred "
-      "metres (docs/stereolunar.md).";
+  DescribeDataset(folder, sun, pair, centre_depth[0], pinhole.fx, &dataset);
   dataset.cam_from_body = Rigid3d();
   dataset.gravity_in_local_mps2 = Eigen::Vector3d(0.0, 0.0, -kMoonGravityMps2);
   dataset.ils_in_local_m = Eigen::Vector3d::Zero();
   dataset.lrf_origin_in_body_m = Eigen::Vector3d::Zero();
 
-  const float nan = std::numeric_limits<float>::quiet_NaN();
   for (int i = 0; i < 2; ++i) {
-    const double time_s = i * kFrameStepS;
     const Rigid3d local_from_cam = local_from_moon * moon_from_cam[i];
-
-    FrameRecord frame;
-    frame.index = i;
-    frame.time_s = time_s;
-    frame.image_path = "images/frame_00000" + std::to_string(i) + ".png";
-    frame.image = image[i];
-    dataset.frames.push_back(frame);
-
-    NavSample nav;
-    nav.time_s = time_s;
-    nav.local_from_body = local_from_cam;  // body = camera
-    dataset.nav.push_back(nav);
-    dataset.truth.navigation.push_back(nav);
-
-    LrfSample lrf;
-    lrf.time_s = time_s;
-    lrf.range_m = centre_depth[i] * centre_ray.norm();
-    lrf.boresight_in_body = centre_ray.normalized();
-    dataset.lrf.push_back(lrf);
-
-    const Eigen::Matrix3d rotation = local_from_cam.RotationMatrix();
-    const Eigen::Vector3d& translation = local_from_cam.translation;
-    cv::Mat points(size, CV_32FC3);
-    for (int row = 0; row < size.height; ++row) {
-      for (int col = 0; col < size.width; ++col) {
-        const double d = depth[i].at<float>(row, col);
-        cv::Vec3f& point = points.at<cv::Vec3f>(row, col);
-        if (!valid_depth(d)) {
-          point = cv::Vec3f(nan, nan, nan);
-          continue;
-        }
-        const Eigen::Vector3d p = rotation * (d * ray(col, row)) + translation;
-        point = cv::Vec3f(static_cast<float>(p.x()), static_cast<float>(p.y()),
-                          static_cast<float>(p.z()));
-      }
-    }
+    AddFrameRecords(i, pair.image[i], local_from_cam, centre_depth[i], centre_ray, &dataset);
     TruthPoints truth;
     truth.frame = i;
     truth.file = "truth/points_00000" + std::to_string(i) + ".npy";
-    truth.points_in_local_m = points;
+    truth.points_in_local_m = TruthPointsFromDepth(pair.depth[i], pinhole, local_from_cam);
     dataset.truth.points.push_back(truth);
   }
   dataset.truth.navigation_file = "truth/navigation.csv";

@@ -9,15 +9,17 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
-#include "calib/options_check.h"
+#include "tools/util/options_check.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::hda {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
-constexpr double kRadToDeg = 180.0 / kPi;
+using util::kPi;
+using util::kDegToRad;
+using util::kRadToDeg;
+
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 
 bool IsFinite(const Eigen::Vector3d& v) { return v.allFinite(); }

@@ -1,6 +1,6 @@
 #include "hda/hda_options.h"
 
-#include "calib/options_check.h"
+#include "tools/util/options_check.h"
 
 namespace hdabench::hda {
 

@@ -11,8 +11,8 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/video/tracking.hpp>
 
-#include "calib/error.h"
-#include "calib/options_check.h"
+#include "tools/util/error.h"
+#include "tools/util/options_check.h"
 
 namespace hdabench::hda {
 

@@ -11,15 +11,15 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::hda {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
-constexpr double kRadToDeg = 180.0 / kPi;
+using util::kDegToRad;
+
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // Step of the central differences of GroundMotionJacobian, pixels.
 constexpr double kMotionStepPx = 4.0;
@@ -241,30 +241,23 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
   }
 }
 
-// Plane fit, uncertainty and status of one ROI from its triangulated points.
-void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bearings1,
-                    const std::vector<Eigen::Vector3d>& bearings2,
-                    const std::vector<Eigen::Vector3d>& points_in_cam1,
-                    const std::vector<double>& parallaxes_deg, RoiResult* roi) {
-  const HdaOptions& options = *ctx.options;
-  const size_t n = points_in_cam1.size();
-  const Eigen::Matrix3d local_r_cam1 = ctx.local_from_cam1.rotation.toRotationMatrix();
-  roi->points_in_local_m.reserve(n);
-  for (const Eigen::Vector3d& p : points_in_cam1) roi->points_in_local_m.push_back(ctx.local_from_cam1 * p);
-  roi->median_parallax_deg = Median(parallaxes_deg);
-  if (static_cast<int>(n) < options.min_points) {
-    roi->status = RoiStatus::kTooFewPoints;
-    roi->reason = std::to_string(n) + " points survived (" + std::to_string(roi->counts.matches) +
-                  " matches, " + std::to_string(roi->counts.ransac_inliers) + " RANSAC inliers, " +
-                  std::to_string(roi->counts.epipolar_inliers) + " nav epipolar inliers): fewer than " +
-                  std::to_string(options.min_points);
-    return;
-  }
+// Fewer points than a plane fit needs: says where the matches were lost.
+void MarkTooFewPoints(size_t n, const HdaOptions& options, RoiResult* roi) {
+  roi->status = RoiStatus::kTooFewPoints;
+  roi->reason = std::to_string(n) + " points survived (" + std::to_string(roi->counts.matches) +
+                " matches, " + std::to_string(roi->counts.ransac_inliers) + " RANSAC inliers, " +
+                std::to_string(roi->counts.epipolar_inliers) + " nav epipolar inliers): fewer than " +
+                std::to_string(options.min_points);
+}
 
-  // Matching noise: the spread of the signed Sampson distances under the nav
-  // pose (for equal noise in both images it equals the per-image noise). Their
-  // mean is left out: a nav attitude error shifts every match of the ROI alike,
-  // which moves the site as a whole but not its points against each other.
+// Matching noise: the spread of the signed Sampson distances under the nav
+// pose (for equal noise in both images it equals the per-image noise). Their
+// mean is left out: a nav attitude error shifts every match of the ROI alike,
+// which moves the site as a whole but not its points against each other.
+// 0 with fewer than two finite distances.
+double SignedSampsonSpreadPx(const Context& ctx, const std::vector<Eigen::Vector3d>& bearings1,
+                             const std::vector<Eigen::Vector3d>& bearings2) {
+  const size_t n = bearings1.size();
   const Eigen::Matrix3d rotation = ctx.cam2_from_cam1.rotation.toRotationMatrix();
   std::vector<double> signed_residuals;
   signed_residuals.reserve(n);
@@ -283,11 +276,18 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
     for (const double r : signed_residuals) sum_squares += (r - mean) * (r - mean);
     spread = std::sqrt(sum_squares / static_cast<double>(signed_residuals.size() - 1));
   }
-  roi->pixel_sigma_px = std::max(options.pixel_sigma_floor_px, spread);
-  const double sigma_angle = roi->pixel_sigma_px / ctx.focal_px;
+  return spread;
+}
 
-  std::vector<Eigen::Matrix3d> covariances_in_local;
-  covariances_in_local.reserve(n);
+// Each point's triangulation covariance, rotated into the local frame for the
+// plane fit. False, with the ROI marked degenerate, when one cannot be
+// propagated.
+bool LocalCovariances(const Context& ctx, const std::vector<Eigen::Vector3d>& bearings1,
+                      const std::vector<Eigen::Vector3d>& bearings2, double sigma_angle,
+                      const Eigen::Matrix3d& local_r_cam1,
+                      std::vector<Eigen::Matrix3d>* covariances_in_local, RoiResult* roi) {
+  const size_t n = bearings1.size();
+  covariances_in_local->reserve(n);
   for (size_t i = 0; i < n; ++i) {
     Eigen::Matrix3d covariance;
     if (!TriangulationCovariance(bearings1[i], bearings2[i], ctx.cam2_from_cam1, sigma_angle,
@@ -295,17 +295,18 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
       roi->status = RoiStatus::kDegenerate;
       roi->reason = "the uncertainty of point " + std::to_string(i + 1) +
                     " cannot be propagated (rays nearly parallel)";
-      return;
+      return false;
     }
-    covariances_in_local.push_back(local_r_cam1 * covariance * local_r_cam1.transpose());
+    covariances_in_local->push_back(local_r_cam1 * covariance * local_r_cam1.transpose());
   }
-  const PlaneFitResult plane = FitPlaneWithCovariance(roi->points_in_local_m, covariances_in_local,
-                                                      ctx.gravity_in_local, options.min_points);
-  if (plane.status != PlaneFitStatus::kOk) {
-    roi->status = RoiStatus::kDegenerate;
-    roi->reason = std::string("plane fit: ") + ToString(plane.status);
-    return;
-  }
+  return true;
+}
+
+// The fitted plane's figures into the ROI, with the noise the covariances put
+// along its normal and the relief left once that noise is taken out.
+void RecordPlane(const PlaneFitResult& plane,
+                 const std::vector<Eigen::Matrix3d>& covariances_in_local, size_t n,
+                 RoiResult* roi) {
   roi->has_fit = true;
   roi->slope_deg = plane.slope_deg;
   roi->normal_in_local = plane.normal_in_local;
@@ -319,7 +320,15 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
   roi->noise_rms_m = std::sqrt(noise_squares / static_cast<double>(n));
   roi->roughness_excess_m = std::sqrt(
       std::max(0.0, roi->roughness_rms_m * roi->roughness_rms_m - roi->noise_rms_m * roi->noise_rms_m));
+}
 
+// The slope's predicted sigma and the site's footprint area, both worked out
+// in camera 1's frame from the fitted plane.
+void PredictSlopeSigmaAndArea(const Context& ctx,
+                              const std::vector<Eigen::Vector3d>& points_in_cam1,
+                              const PlaneFitResult& plane, const Eigen::Matrix3d& local_r_cam1,
+                              RoiResult* roi) {
+  const HdaOptions& options = *ctx.options;
   const Eigen::Vector3d normal_in_cam1 = local_r_cam1.transpose() * plane.normal_in_local;
   SlopeSigmaOptions sigma_options;
   sigma_options.pixel_sigma_px = roi->pixel_sigma_px;
@@ -331,7 +340,11 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
   const Eigen::Vector3d centroid_in_cam1 =
       ctx.local_from_cam1.Inverse() * plane.centroid_in_local_m;
   roi->area_m2 = FootprintAreaM2(*ctx.camera, roi->box1_px, normal_in_cam1, centroid_in_cam1);
+}
 
+// The verdict on a fitted ROI of n points, checked in order: slope not
+// observable, too steep, too rough, else safe.
+void Classify(const HdaOptions& options, size_t n, RoiResult* roi) {
   if (!std::isfinite(roi->slope_sigma_deg) || roi->slope_sigma_deg > options.max_slope_sigma_deg) {
     roi->status = RoiStatus::kDegenerate;
     roi->reason = "predicted slope sigma " +
@@ -363,6 +376,44 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
   roi->status = RoiStatus::kEvaluated;
   roi->reason = "safe: slope " + Format(roi->slope_deg, 2) + " +- " + Format(roi->slope_sigma_deg, 2) +
                 " deg, relief " + Format(roi->roughness_excess_m, 3) + " m RMS";
+}
+
+// Plane fit, uncertainty and status of one ROI from its triangulated points
+// (one bearing pair and parallax per point).
+void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bearings1,
+                    const std::vector<Eigen::Vector3d>& bearings2,
+                    const std::vector<Eigen::Vector3d>& points_in_cam1,
+                    const std::vector<double>& parallaxes_deg, RoiResult* roi) {
+  const HdaOptions& options = *ctx.options;
+  const size_t n = points_in_cam1.size();
+  const Eigen::Matrix3d local_r_cam1 = ctx.local_from_cam1.rotation.toRotationMatrix();
+  roi->points_in_local_m.reserve(n);
+  for (const Eigen::Vector3d& p : points_in_cam1) roi->points_in_local_m.push_back(ctx.local_from_cam1 * p);
+  roi->median_parallax_deg = Median(parallaxes_deg);
+  if (static_cast<int>(n) < options.min_points) {
+    MarkTooFewPoints(n, options, roi);
+    return;
+  }
+
+  roi->pixel_sigma_px =
+      std::max(options.pixel_sigma_floor_px, SignedSampsonSpreadPx(ctx, bearings1, bearings2));
+  const double sigma_angle = roi->pixel_sigma_px / ctx.focal_px;
+
+  std::vector<Eigen::Matrix3d> covariances_in_local;
+  if (!LocalCovariances(ctx, bearings1, bearings2, sigma_angle, local_r_cam1, &covariances_in_local,
+                        roi)) {
+    return;
+  }
+  const PlaneFitResult plane = FitPlaneWithCovariance(roi->points_in_local_m, covariances_in_local,
+                                                      ctx.gravity_in_local, options.min_points);
+  if (plane.status != PlaneFitStatus::kOk) {
+    roi->status = RoiStatus::kDegenerate;
+    roi->reason = std::string("plane fit: ") + ToString(plane.status);
+    return;
+  }
+  RecordPlane(plane, covariances_in_local, n, roi);
+  PredictSlopeSigmaAndArea(ctx, points_in_cam1, plane, local_r_cam1, roi);
+  Classify(options, n, roi);
 }
 
 }  // namespace
@@ -443,15 +494,205 @@ cv::Mat ToEightBit(const cv::Mat& image, const char* what) {
                    " is not supported: expected CV_8UC1 or CV_16UC1");
 }
 
+namespace {
+
+// Charges the clock time since the last mark to a stage, so that the stages
+// add up to the run's time; every lap reads the clock once, as before.
+class StageTimer {
+ public:
+  StageTimer(const Clock& clock, double mark) : clock_(clock), mark_(mark) {}
+  void Lap(double* stage) {
+    const double now = clock_();
+    *stage += now - mark_;
+    mark_ = now;
+  }
+  // A new mark without a reading: the time before it is charged to no stage.
+  void Restart(double mark) { mark_ = mark; }
+
+ private:
+  const Clock& clock_;
+  double mark_;
+};
+
+// Fills the context's navigation geometry (poses, up, camera 2's centre, the
+// focal length, the level ground through the LRF spot); returns that spot in
+// cam1. Throws when the camera model cannot give a focal length.
+Eigen::Vector3d SetUpGeometry(const HdaInput& input, Context* ctx) {
+  const calib::CameraModel& camera = *ctx->camera;
+  ctx->cam2_from_cam1 = Normalized(input.cam2_from_cam1);
+  ctx->local_from_cam1 = Normalized(input.local_from_cam1);
+  ctx->gravity_in_local = input.gravity_in_local_mps2;
+  ctx->up_in_cam1 =
+      ctx->local_from_cam1.rotation.inverse() * (-input.gravity_in_local_mps2.normalized());
+  ctx->c2_in_cam1 = ctx->cam2_from_cam1.Inverse().translation;
+  const Eigen::Vector2d centre((camera.WidthPx() - 1) / 2.0, (camera.HeightPx() - 1) / 2.0);
+  ctx->focal_px = PixelsPerRadian(camera, centre);
+  if (!(ctx->focal_px > 0.0)) {
+    throw InputError("RunHda: the camera model cannot unproject and project around the image centre");
+  }
+  const Eigen::Vector3d spot_in_cam1 =
+      input.lrf_origin_in_cam1_m + input.lrf_range_m * input.lrf_beam_in_cam1.normalized();
+  ctx->ground.up_in_cam1 = ctx->up_in_cam1;
+  ctx->ground.offset = ctx->up_in_cam1.dot(spot_in_cam1);
+  return spot_in_cam1;
+}
+
+// Per ROI: the range of its centre's ground point (for the nav thresholds)
+// and its depth along the optical axis (the prediction's ground plane); the
+// LRF spot's where the centre's ray misses the level ground. Also the centre
+// pixels and the order of evaluation.
+struct RoiPlacement {
+  std::vector<double> range_m;
+  std::vector<double> axis_depth_m;
+  std::vector<Eigen::Vector2d> centres;
+  std::vector<size_t> order;  // ROI indices, nearest to the ILS first
+};
+
+// Creates the ROI results (id, box, ILS distance) and places each ROI on the
+// level ground. Order: nearest to the ILS first (horizontal distance of the
+// ROI centre's ground point), ties and ROIs whose ray misses the ground by id.
+RoiPlacement PlaceRois(const Context& ctx, const Eigen::Vector3d& ils_in_local_m,
+                       const Eigen::Vector3d& spot_in_cam1, HdaResult* result) {
+  const Eigen::Vector3d ils_in_cam1 = ctx.local_from_cam1.Inverse() * ils_in_local_m;
+  const size_t num_rois = result->quadtree.rois.size();
+  result->rois.resize(num_rois);
+  RoiPlacement placement;
+  placement.range_m.assign(num_rois, spot_in_cam1.norm());
+  placement.axis_depth_m.assign(num_rois, spot_in_cam1.z());
+  placement.centres.resize(num_rois);
+  for (size_t i = 0; i < num_rois; ++i) {
+    placement.centres[i] = BoxCentre(result->quadtree.rois[i].box_px);
+  }
+  std::vector<Eigen::Vector3d> centre_bearings;
+  std::vector<unsigned char> valid;
+  ctx.camera->Unproject(placement.centres, &centre_bearings, &valid);
+  for (size_t i = 0; i < num_rois; ++i) {
+    RoiResult& roi = result->rois[i];
+    roi.id = result->quadtree.rois[i].id;
+    roi.box1_px = result->quadtree.rois[i].box_px;
+    roi.ils_distance_m = kInfinity;
+    if (!valid[i]) continue;
+    const double depth = ctx.ground.DepthAlong(centre_bearings[i]);
+    if (!std::isfinite(depth)) continue;
+    const Eigen::Vector3d ground = depth * centre_bearings[i];
+    const Eigen::Vector3d offset = ground - ils_in_cam1;
+    roi.ils_distance_m = (offset - ctx.up_in_cam1 * ctx.up_in_cam1.dot(offset)).norm();
+    placement.range_m[i] = depth;
+    if (ground.z() > 0.0) placement.axis_depth_m[i] = ground.z();
+  }
+  placement.order.resize(num_rois);
+  std::iota(placement.order.begin(), placement.order.end(), size_t{0});
+  std::stable_sort(placement.order.begin(), placement.order.end(), [&](size_t a, size_t b) {
+    return result->rois[a].ils_distance_m < result->rois[b].ils_distance_m;
+  });
+  return placement;
+}
+
+// Matches the ROI pair. The expected motion only serves the nav-aided
+// refinement; the fault injection's noise on image 2's points is seeded by the
+// ROI id so that a run repeats.
+RoiMatches MatchRoi(const Context& ctx, const RoiResult& roi, const Eigen::Vector2d& centre) {
+  const HdaOptions& options = *ctx.options;
+  const bool warp = options.matching.subpixel_refine && options.matching.warp_refine;
+  RoiMatches matches =
+      MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, *ctx.camera, options.matching,
+                   warp ? GroundMotionJacobian(ctx, centre) : cv::Matx22d::eye());
+  if (options.fault_match_noise_px > 0.0) {
+    std::mt19937_64 rng(static_cast<std::uint64_t>(roi.id));
+    std::normal_distribution<double> noise(0.0, options.fault_match_noise_px);
+    for (cv::Point2d& p : matches.points2_px) {
+      p.x += noise(rng);
+      p.y += noise(rng);
+    }
+  }
+  return matches;
+}
+
+// One ROI through prediction, matching, rejection and the plane fit, each
+// stage's time charged to its timing.
+void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, StageTimer* timer,
+                 HdaResult* result) {
+  const HdaOptions& options = *ctx.options;
+  RoiResult& roi = result->rois[i];
+  const PredictedRoi predicted =
+      PredictRoi(result->quadtree.rois[i], *ctx.camera, ctx.cam2_from_cam1,
+                 placement.axis_depth_m[i], options.prediction);
+  timer->Lap(&result->times.prediction_s);
+  roi.prediction_margin_px = predicted.margin_px;
+  if (predicted.status != PredictionStatus::kOk) {
+    roi.status = RoiStatus::kNotInImage2;
+    roi.reason = std::string("prediction: ") + PredictionStatusName(predicted.status);
+    return;
+  }
+  roi.box2_px = predicted.box_px;
+  const RoiMatches matches = MatchRoi(ctx, roi, placement.centres[i]);
+  timer->Lap(&result->times.matching_s);
+  roi.matching_status = matches.status;
+  roi.counts.keypoints1 = matches.keypoints1;
+  roi.counts.keypoints2 = matches.keypoints2;
+  roi.counts.matches = matches.matches;
+  roi.counts.refine_rejected = matches.refine_rejected;
+  roi.counts.ransac_inliers = matches.ransac_inliers;
+  std::vector<Eigen::Vector3d> bearings1, bearings2, points_in_cam1;
+  std::vector<double> parallaxes_deg;
+  RejectAndTriangulate(ctx, matches, placement.range_m[i], &roi, &bearings1, &bearings2,
+                       &points_in_cam1, &parallaxes_deg);
+  timer->Lap(&result->times.rejection_s);
+  FitAndClassify(ctx, bearings1, bearings2, points_in_cam1, parallaxes_deg, &roi);
+  timer->Lap(&result->times.plane_s);
+}
+
+// Evaluates the ROIs in placement order until the budget runs out. Kick-out:
+// stop when the next ROI, at the mean cost so far, would not fit in what is
+// left of the budget; the rest are marked not evaluated.
+void EvaluateRois(const Context& ctx, const RoiPlacement& placement, const Clock& clock,
+                  double start, StageTimer* timer, HdaResult* result) {
+  double roi_seconds_total = 0.0;
+  int rois_done = 0;
+  for (size_t rank = 0; rank < placement.order.size(); ++rank) {
+    const size_t i = placement.order[rank];
+    RoiResult& roi = result->rois[i];
+    roi.order = static_cast<int>(rank) + 1;
+    const double roi_start = clock();
+    const double mean_cost = rois_done > 0 ? roi_seconds_total / rois_done : 0.0;
+    if (result->budget_exhausted || roi_start - start + mean_cost > result->budget_s) {
+      result->budget_exhausted = true;
+      roi.status = RoiStatus::kNotEvaluated;
+      roi.reason = "time budget of " + Format(result->budget_s, 3) + " s used up before this ROI";
+      continue;
+    }
+    timer->Restart(roi_start);
+    EvaluateRoi(ctx, placement, i, timer, result);
+    roi.wall_s = clock() - roi_start;
+    roi_seconds_total += roi.wall_s;
+    ++rois_done;
+  }
+}
+
+// Scores the safe sites and ranks them, best first (ties by id).
+void RankSafeSites(const HdaOptions& options, HdaResult* result) {
+  std::vector<size_t> safe;
+  for (size_t i = 0; i < result->rois.size(); ++i) {
+    RoiResult& roi = result->rois[i];
+    if (roi.status != RoiStatus::kEvaluated) continue;
+    roi.score = RankingScore(roi.area_m2, roi.slope_deg, roi.roughness_excess_m, options);
+    safe.push_back(i);
+  }
+  std::stable_sort(safe.begin(), safe.end(), [&](size_t a, size_t b) {
+    return result->rois[a].score > result->rois[b].score;
+  });
+  for (size_t r = 0; r < safe.size(); ++r) {
+    result->rois[safe[r]].rank = static_cast<int>(r) + 1;
+    result->ranking.push_back(result->rois[safe[r]].id);
+  }
+}
+
+}  // namespace
+
 HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options,
                  const Clock& clock) {
   const double start = clock();
-  double mark = start;
-  const auto lap = [&](double* stage) {
-    const double now = clock();
-    *stage += now - mark;
-    mark = now;
-  };
+  StageTimer timer(clock, start);
   CheckInput(input, camera, options);
   HdaResult result;
   result.budget_s = options.compute_budget_s * options.processor_scale;
@@ -467,142 +708,21 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
   ctx.options = &options;
   ctx.image1 = ToEightBit(input.image1, "RunHda: image 1");
   ctx.image2 = ToEightBit(input.image2, "RunHda: image 2");
-  lap(&result.times.convert_s);
-  ctx.cam2_from_cam1 = Normalized(input.cam2_from_cam1);
-  ctx.local_from_cam1 = Normalized(input.local_from_cam1);
-  ctx.gravity_in_local = input.gravity_in_local_mps2;
-  ctx.up_in_cam1 =
-      ctx.local_from_cam1.rotation.inverse() * (-input.gravity_in_local_mps2.normalized());
-  ctx.c2_in_cam1 = ctx.cam2_from_cam1.Inverse().translation;
-  const Eigen::Vector2d centre((camera.WidthPx() - 1) / 2.0, (camera.HeightPx() - 1) / 2.0);
-  ctx.focal_px = PixelsPerRadian(camera, centre);
-  if (!(ctx.focal_px > 0.0)) {
-    throw InputError("RunHda: the camera model cannot unproject and project around the image centre");
-  }
-  const Eigen::Vector3d spot_in_cam1 =
-      input.lrf_origin_in_cam1_m + input.lrf_range_m * input.lrf_beam_in_cam1.normalized();
-  ctx.ground.up_in_cam1 = ctx.up_in_cam1;
-  ctx.ground.offset = ctx.up_in_cam1.dot(spot_in_cam1);
+  timer.Lap(&result.times.convert_s);
+  const Eigen::Vector3d spot_in_cam1 = SetUpGeometry(input, &ctx);
 
   // Quadtree on image 1.
   const int min_block_px = MinimumBlockSizePx(camera, spot_in_cam1.norm(), options.quadtree);
-  std::vector<unsigned char> valid;
   result.quadtree = RunQuadtree(ctx.image1, min_block_px, options.quadtree);
-  lap(&result.times.quadtree_s);
+  timer.Lap(&result.times.quadtree_s);
   if (result.quadtree.rois.empty()) {
     result.note = "the quadtree kept no block: " + result.quadtree.Summary();
   }
 
-  // Order: nearest to the ILS first (horizontal distance of the ROI centre's
-  // ground point), ties and ROIs whose ray misses the ground by id.
-  const Eigen::Vector3d ils_in_cam1 = ctx.local_from_cam1.Inverse() * input.ils_in_local_m;
-  const size_t num_rois = result.quadtree.rois.size();
-  result.rois.resize(num_rois);
-  // Per ROI: the range of its centre's ground point (for the nav thresholds)
-  // and its depth along the optical axis (the prediction's ground plane); the
-  // LRF spot's where the centre's ray misses the level ground.
-  std::vector<double> roi_range_m(num_rois, spot_in_cam1.norm());
-  std::vector<double> roi_axis_depth_m(num_rois, spot_in_cam1.z());
-  std::vector<Eigen::Vector2d> centres(num_rois);
-  for (size_t i = 0; i < num_rois; ++i) centres[i] = BoxCentre(result.quadtree.rois[i].box_px);
-  std::vector<Eigen::Vector3d> centre_bearings;
-  camera.Unproject(centres, &centre_bearings, &valid);
-  for (size_t i = 0; i < num_rois; ++i) {
-    RoiResult& roi = result.rois[i];
-    roi.id = result.quadtree.rois[i].id;
-    roi.box1_px = result.quadtree.rois[i].box_px;
-    roi.ils_distance_m = kInfinity;
-    if (!valid[i]) continue;
-    const double depth = ctx.ground.DepthAlong(centre_bearings[i]);
-    if (!std::isfinite(depth)) continue;
-    const Eigen::Vector3d ground = depth * centre_bearings[i];
-    const Eigen::Vector3d offset = ground - ils_in_cam1;
-    roi.ils_distance_m = (offset - ctx.up_in_cam1 * ctx.up_in_cam1.dot(offset)).norm();
-    roi_range_m[i] = depth;
-    if (ground.z() > 0.0) roi_axis_depth_m[i] = ground.z();
-  }
-  std::vector<size_t> order(num_rois);
-  std::iota(order.begin(), order.end(), size_t{0});
-  std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
-    return result.rois[a].ils_distance_m < result.rois[b].ils_distance_m;
-  });
-
-  double roi_seconds_total = 0.0;
-  int rois_done = 0;
-  for (size_t rank = 0; rank < num_rois; ++rank) {
-    const size_t i = order[rank];
-    RoiResult& roi = result.rois[i];
-    roi.order = static_cast<int>(rank) + 1;
-    // Kick-out: stop when the next ROI, at the mean cost so far, would not
-    // fit in what is left of the budget.
-    const double roi_start = clock();
-    const double mean_cost = rois_done > 0 ? roi_seconds_total / rois_done : 0.0;
-    if (result.budget_exhausted || roi_start - start + mean_cost > result.budget_s) {
-      result.budget_exhausted = true;
-      roi.status = RoiStatus::kNotEvaluated;
-      roi.reason = "time budget of " + Format(result.budget_s, 3) + " s used up before this ROI";
-      continue;
-    }
-    mark = roi_start;
-
-    const PredictedRoi predicted =
-        PredictRoi(result.quadtree.rois[i], camera, ctx.cam2_from_cam1,
-                   roi_axis_depth_m[i], options.prediction);
-    lap(&result.times.prediction_s);
-    roi.prediction_margin_px = predicted.margin_px;
-    if (predicted.status != PredictionStatus::kOk) {
-      roi.status = RoiStatus::kNotInImage2;
-      roi.reason = std::string("prediction: ") + PredictionStatusName(predicted.status);
-    } else {
-      roi.box2_px = predicted.box_px;
-      // The expected motion only serves the nav-aided refinement.
-      const bool warp = options.matching.subpixel_refine && options.matching.warp_refine;
-      RoiMatches matches =
-          MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, camera, options.matching,
-                       warp ? GroundMotionJacobian(ctx, centres[i]) : cv::Matx22d::eye());
-      if (options.fault_match_noise_px > 0.0) {
-        std::mt19937_64 rng(static_cast<std::uint64_t>(roi.id));
-        std::normal_distribution<double> noise(0.0, options.fault_match_noise_px);
-        for (cv::Point2d& p : matches.points2_px) {
-          p.x += noise(rng);
-          p.y += noise(rng);
-        }
-      }
-      lap(&result.times.matching_s);
-      roi.matching_status = matches.status;
-      roi.counts.keypoints1 = matches.keypoints1;
-      roi.counts.keypoints2 = matches.keypoints2;
-      roi.counts.matches = matches.matches;
-      roi.counts.refine_rejected = matches.refine_rejected;
-      roi.counts.ransac_inliers = matches.ransac_inliers;
-      std::vector<Eigen::Vector3d> bearings1, bearings2, points_in_cam1;
-      std::vector<double> parallaxes_deg;
-      RejectAndTriangulate(ctx, matches, roi_range_m[i], &roi, &bearings1, &bearings2,
-                           &points_in_cam1, &parallaxes_deg);
-      lap(&result.times.rejection_s);
-      FitAndClassify(ctx, bearings1, bearings2, points_in_cam1, parallaxes_deg, &roi);
-      lap(&result.times.plane_s);
-    }
-    roi.seconds = clock() - roi_start;
-    roi_seconds_total += roi.seconds;
-    ++rois_done;
-  }
-
-  // Ranking of the safe sites.
-  std::vector<size_t> safe;
-  for (size_t i = 0; i < num_rois; ++i) {
-    RoiResult& roi = result.rois[i];
-    if (roi.status != RoiStatus::kEvaluated) continue;
-    roi.score = RankingScore(roi.area_m2, roi.slope_deg, roi.roughness_excess_m, options);
-    safe.push_back(i);
-  }
-  std::stable_sort(safe.begin(), safe.end(),
-                   [&](size_t a, size_t b) { return result.rois[a].score > result.rois[b].score; });
-  for (size_t r = 0; r < safe.size(); ++r) {
-    result.rois[safe[r]].rank = static_cast<int>(r) + 1;
-    result.ranking.push_back(result.rois[safe[r]].id);
-  }
-  lap(&result.times.ranking_s);
+  const RoiPlacement placement = PlaceRois(ctx, input.ils_in_local_m, spot_in_cam1, &result);
+  EvaluateRois(ctx, placement, clock, start, &timer, &result);
+  RankSafeSites(options, &result);
+  timer.Lap(&result.times.ranking_s);
   result.times.total_s = clock() - start;
   return result;
 }

@@ -105,7 +105,7 @@ struct RoiResult {
 
   double score = 0.0;                  // ranking score (RankingScore), evaluated sites only
   int rank = 0;                        // 1 = best safe site; 0 for the others
-  double seconds = 0.0;                // wall time spent on this ROI (not part of the results' bytes)
+  double wall_s = 0.0;                // wall time spent on this ROI (not part of the results' bytes)
 };
 
 // Wall times of the stages, seconds. Not deterministic: kept apart from the

@@ -7,8 +7,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/error.h"
-#include "calib/options_check.h"
+#include "tools/util/error.h"
+#include "tools/util/options_check.h"
 
 namespace hdabench::hda {
 

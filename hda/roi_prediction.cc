@@ -4,14 +4,16 @@
 #include <cmath>
 #include <sstream>
 
-#include "calib/error.h"
-#include "calib/options_check.h"
+#include "tools/util/error.h"
+#include "tools/util/options_check.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::hda {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using util::kPi;
+
 // Slack when turning continuous pixel-edge bounds into whole pixels, pixels.
 constexpr double kPixelSlackPx = 1e-6;
 // Angular step for the local pixel scale, radians (central differences: the

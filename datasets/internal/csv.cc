@@ -3,9 +3,14 @@
 #include <set>
 #include <string_view>
 
-#include "datasets/internal/text.h"
+#include "tools/util/text.h"
 
 namespace hdabench::datasets::internal {
+
+using util::ParseDouble;
+using util::ParseInt;
+using util::ParseStatus;
+using util::Trim;
 
 namespace {
 

@@ -8,36 +8,12 @@
 
 #include <unistd.h>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 
 namespace hdabench::datasets::internal {
 
 namespace fs = std::filesystem;
 
-bool ReadFileBytes(const fs::path& path, std::string* bytes, std::string* error) {
-  bytes->clear();
-  std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) {
-    *error = "file not found";
-    return false;
-  }
-  if (fs::is_directory(status)) {
-    *error = "is a directory; expected a file";
-    return false;
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    *error = std::string("cannot be opened (") + std::strerror(errno) + ")";
-    return false;
-  }
-  bytes->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  if (in.bad()) {
-    *error = "cannot be read (I/O error)";
-    return false;
-  }
-  return true;
-}
 
 std::string CheckDatasetPath(const std::string& path) {
   if (path.empty()) return "is empty; expected a path relative to the dataset folder";

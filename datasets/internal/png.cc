@@ -9,7 +9,7 @@
 #include <opencv2/core/utils/logger.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/stderr_capture.h"
+#include "tools/util/stderr_capture.h"
 
 namespace hdabench::datasets::internal {
 
@@ -174,7 +174,7 @@ bool DecodePngQuietly(const std::string& bytes, cv::Mat* image, std::string* err
       cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   std::string exception_text;
   std::string captured;
-  captured = CaptureStderr([&] {
+  captured = util::CaptureStderr([&] {
     try {
       const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1,
                            const_cast<char*>(bytes.data()));

@@ -13,22 +13,25 @@
 
 #include <Eigen/Geometry>
 
-#include "calib/error.h"
-#include "calib/options_check.h"
+#include "tools/util/error.h"
+#include "tools/util/options_check.h"
 #include "datasets/internal/csv.h"
-#include "datasets/internal/files.h"
+#include "tools/util/files.h"
 #include "datasets/internal/png.h"
-#include "datasets/internal/text.h"
+#include "tools/util/text.h"
 #include "datasets/synth/noise.h"
+#include "tools/util/angles.h"
+#include "tools/util/parallel_for.h"
 
 namespace hdabench::datasets::synth {
 
 namespace {
 
+using util::kPi;
+using util::kDegToRad;
+
 namespace fs = std::filesystem;
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 
 // Sample bearings: libmrcal unprojects a lattice of knots this far apart
 // (pixels); samples start from the bilinear blend of the four knots around
@@ -85,33 +88,6 @@ class Uniforms {
   std::uint64_t stream_;
   std::uint64_t counter_ = 0;
 };
-
-// Runs body(row) for rows [0, rows) on `threads` workers, the caller being one
-// of them. Rows are handed out one at a time; results never depend on the split.
-// The first exception a worker throws is rethrown on the calling thread once
-// all workers have stopped (an exception escaping a std::thread would abort).
-template <typename Body>
-void ForEachRow(int rows, int threads, const Body& body) {
-  std::atomic<int> next_row{0};
-  std::mutex failure_mutex;
-  std::exception_ptr failure;
-  const auto work = [&] {
-    try {
-      for (int row = next_row.fetch_add(1); row < rows; row = next_row.fetch_add(1)) body(row);
-    } catch (...) {
-      next_row.store(rows);
-      const std::lock_guard<std::mutex> lock(failure_mutex);
-      if (!failure) failure = std::current_exception();
-    }
-  };
-  std::vector<std::thread> workers;
-  const int extra = std::max(0, std::min(threads, rows) - 1);
-  workers.reserve(static_cast<size_t>(extra));
-  for (int i = 0; i < extra; ++i) workers.emplace_back(work);
-  work();
-  for (std::thread& worker : workers) worker.join();
-  if (failure) std::rethrow_exception(failure);
-}
 
 // Bearings of arbitrary pixels through a camera model, each solving
 // camera.Project(bearing) = pixel to kBearingTolerancePx. libmrcal's own
@@ -487,7 +463,7 @@ std::vector<std::string> ChessboardViewsOptions::Validate() const {
   RequireOption(black >= 0.0 && black <= 255.0, "black", black, "in [0, 255]", &errors);
   RequireOption(white >= 0.0 && white <= 255.0, "white", white, "in [0, 255]", &errors);
   if (std::isfinite(black) && std::isfinite(white)) {
-    RequireOption(white > black, "white", white, "> black (" + internal::FormatDouble(black) + ")", &errors);
+    RequireOption(white > black, "white", white, "> black (" + util::ShortestText(black) + ")", &errors);
   }
   RequireOption(background >= 0.0 && background <= 255.0, "background", background, "in [0, 255]", &errors);
   RequireOption(background_gradient >= 0.0, "background_gradient", background_gradient, ">= 0 grey levels",
@@ -513,13 +489,319 @@ std::vector<std::string> ChessboardViewsOptions::Validate() const {
   return errors;
 }
 
-std::vector<ChessboardView> RenderChessboardViews(const calib::CameraModel& camera,
-                                                  const ChessboardBoard& board,
-                                                  const ChessboardViewsOptions& options) {
+namespace {
+
+// Throws InputError listing every problem of the board and the options.
+void ThrowIfInvalid(const ChessboardBoard& board, const ChessboardViewsOptions& options) {
   std::vector<std::string> errors = board.Validate();
   for (const std::string& error : options.Validate()) errors.push_back(error);
   if (!errors.empty()) throw InputError(JoinErrors("RenderChessboardViews: invalid board or options: ", errors));
+}
 
+// One view's placement: the board pose and the pixels of its inner corners.
+struct Placement {
+  Rigid3d pose;
+  std::vector<Eigen::Vector2d> corners_px;
+};
+
+// Draws the random part of a pose, in this order: where in the view's slice
+// (`stratum`) of the distance range, tilt, tilt axis, roll.
+PoseDraw DrawPose(const Placer& placer, const ChessboardViewsOptions& options, int stratum, bool by_fill,
+                  Uniforms* random) {
+  PoseDraw draw;
+  // Distances spread evenly: each view has its own slice of the range.
+  const double where = (stratum + random->Next()) / options.views;
+  draw.distance_m =
+      by_fill ? placer.DistanceForFill(options.min_fill + where * (options.max_fill - options.min_fill))
+              : options.min_distance_m + where * (options.max_distance_m - options.min_distance_m);
+  draw.tilt_rad = random->Between(options.min_tilt_deg, options.max_tilt_deg) * kDegToRad;
+  draw.tilt_axis_rad = random->Between(0.0, 2.0 * kPi);
+  draw.roll_rad = random->Between(-options.max_roll_deg, options.max_roll_deg) * kDegToRad;
+  return draw;
+}
+
+// Places view v: draws poses until kPlacementCandidates (one for the centre
+// anchor) fit at the imager centre, slides each toward the view's anchor and
+// keeps the one whose corners come nearest to it. Throws InputError when no
+// draw out of max_attempts fits.
+Placement PlaceView(const Placer& placer, const ChessboardViewsOptions& options, const std::array<double, 2>& anchor,
+                    int stratum, size_t v, bool by_fill, int width, int height, Uniforms* random) {
+  const Eigen::Vector2d half_size((width - 1) / 2.0, (height - 1) / 2.0);
+  const Eigen::Vector2d target =
+      placer.ImagerCentre() +
+      options.coverage * Eigen::Vector2d(anchor[0] * half_size.x(), anchor[1] * half_size.y());
+  // How far a placement leaves the corners from the anchor: along both axes
+  // for an imager corner, across the edge for an edge anchor.
+  const double weight_x = std::abs(anchor[0]) == 1.0 ? 1.0 : 0.0;
+  const double weight_y = std::abs(anchor[1]) == 1.0 ? 1.0 : 0.0;
+  const auto shortfall = [&](const std::vector<Eigen::Vector2d>& corners) {
+    double best = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector2d& p : corners) {
+      const Eigen::Vector2d d = p - target;
+      best = std::min(best, std::sqrt(weight_x * d.x() * d.x() + weight_y * d.y() * d.y()));
+    }
+    return best;
+  };
+  const int candidates = weight_x + weight_y > 0.0 ? kPlacementCandidates : 1;
+  Placement best;
+  double best_shortfall = std::numeric_limits<double>::infinity();
+  int fitted = 0;
+  for (int attempt = 0; attempt < options.max_attempts && fitted < candidates; ++attempt) {
+    const PoseDraw draw = DrawPose(placer, options, stratum, by_fill, random);
+    Rigid3d candidate;
+    std::vector<Eigen::Vector2d> candidate_corners;
+    if (!(draw.distance_m > 0.0) || !placer.PoseAt(draw, placer.ImagerCentre(), &candidate) ||
+        !placer.Fits(candidate, &candidate_corners)) {
+      continue;  // redraw
+    }
+    ++fitted;
+    // Toward the anchor, then along each axis, so that the board hugs an
+    // imager corner.
+    Eigen::Vector2d at = placer.Slide(draw, placer.ImagerCentre(), target);
+    at = placer.Slide(draw, at, Eigen::Vector2d(target.x(), at.y()));
+    at = placer.Slide(draw, at, Eigen::Vector2d(at.x(), target.y()));
+    if (!placer.PoseAt(draw, at, &candidate) || !placer.Fits(candidate, &candidate_corners)) {
+      // Slide() only returns points where the board fits.
+      throw std::logic_error("RenderChessboardViews: the slid pose does not fit");
+    }
+    const double miss = shortfall(candidate_corners);
+    if (miss < best_shortfall || fitted == 1) {
+      best_shortfall = miss;
+      best.pose = candidate;
+      best.corners_px = candidate_corners;
+    }
+  }
+  if (fitted == 0) {
+    throw InputError("RenderChessboardViews: view " + std::to_string(v + 1) + ": no pose out of " +
+                     std::to_string(options.max_attempts) +
+                     " keeps the whole board in front of the camera with every corner " +
+                     util::ShortestText(options.min_border_squares) +
+                     " squares inside the imager; expected a smaller board, a larger distance or fill, or "
+                     "less tilt");
+  }
+  return best;
+}
+
+// Fills the view's pose, true corners, and the distance and tilt they imply.
+void DescribeView(const Placement& placement, const Placer& placer, int width, int height, ChessboardView* view) {
+  const Rigid3d& pose = placement.pose;
+  const std::vector<Eigen::Vector2d>& corners_px = placement.corners_px;
+  view->cam_from_board = pose;
+  view->true_corners_px = corners_px;
+  const Eigen::Vector3d centre = pose * placer.CentreInBoard();
+  view->distance_m = centre.norm();
+  const Eigen::Vector3d normal = pose.rotation * Eigen::Vector3d::UnitZ();
+  view->tilt_deg = std::acos(std::clamp(normal.dot(centre.normalized()), -1.0, 1.0)) / kDegToRad;
+  view->all_corners_visible = std::all_of(corners_px.begin(), corners_px.end(), [&](const Eigen::Vector2d& p) {
+    return p.x() >= -0.5 && p.y() >= -0.5 && p.x() <= width - 0.5 && p.y() <= height - 0.5;
+  });
+}
+
+// What the renderer needs about view v at `pose`; draws the direction of its
+// background gradient.
+ViewShading ShadingFor(const Rigid3d& pose, const ChessboardViewsOptions& options, size_t v, int width, int height,
+                       Uniforms* random) {
+  const Rigid3d board_from_cam = pose.Inverse();
+  const Eigen::Matrix3d rotation = board_from_cam.RotationMatrix();
+  ViewShading shade;
+  shade.row_x = rotation.row(0).transpose();
+  shade.row_y = rotation.row(1).transpose();
+  shade.row_z = rotation.row(2).transpose();
+  shade.camera_in_board = board_from_cam.translation;
+  const double gradient_angle = random->Between(0.0, 2.0 * kPi);
+  shade.gradient_x = options.background_gradient * std::cos(gradient_angle) / std::max(1, width - 1);
+  shade.gradient_y = options.background_gradient * std::sin(gradient_angle) / std::max(1, height - 1);
+  shade.noise_key = Mix64(Mix64(options.seed ^ kNoiseStream) + v);
+  return shade;
+}
+
+// Render workers: options.threads, or every hardware thread when it is 0.
+int RenderThreads(const ChessboardViewsOptions& options) {
+  return options.threads > 0 ? options.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+// The imager, the sampling and the board's squares, as the noise-free render reads them.
+struct BoardRaster {
+  int width = 0;
+  int height = 0;
+  int n = 1;                     // samples per pixel along each axis
+  double inverse_spacing = 0.0;  // 1 / square side, 1/metres
+  double squares_x = 0.0;        // squares span u in [-1, corners_x)
+  double squares_y = 0.0;
+  double margin = 0.0;           // margin width, squares
+  double inverse_samples = 0.0;  // 1 / (n * n)
+  double centre_x = 0.0;         // imager centre, pixels
+  double centre_y = 0.0;
+};
+
+// The raster of `board` through a width x height imager.
+BoardRaster MakeBoardRaster(const ChessboardBoard& board, const ChessboardViewsOptions& options, int width,
+                            int height) {
+  BoardRaster raster;
+  raster.width = width;
+  raster.height = height;
+  raster.n = options.supersampling;
+  raster.inverse_spacing = 1.0 / board.spacing_m;
+  raster.squares_x = board.corners_x;
+  raster.squares_y = board.corners_y;
+  raster.margin = board.margin_squares;
+  raster.inverse_samples = 1.0 / (raster.n * raster.n);
+  raster.centre_x = (width - 1) / 2.0;
+  raster.centre_y = (height - 1) / 2.0;
+  return raster;
+}
+
+// Sample pixels of one image row: sub-row k, then column, then sub-column l.
+std::vector<Eigen::Vector2d> RowSamplePixels(const BoardRaster& raster, int row) {
+  const int n = raster.n;
+  const size_t row_samples = static_cast<size_t>(raster.width) * n;
+  std::vector<Eigen::Vector2d> pixels;
+  pixels.reserve(row_samples * n);
+  for (int k = 0; k < n; ++k) {
+    const double y = row + (k + 0.5) / n - 0.5;
+    for (int col = 0; col < raster.width; ++col) {
+      for (int l = 0; l < n; ++l) pixels.emplace_back(col + (l + 0.5) / n - 0.5, y);
+    }
+  }
+  return pixels;
+}
+
+// Noise-free grey level of pixel (row, col) of one view: the mean of what its
+// samples (bearings of RowSamplePixels(row)) hit: square, margin or background.
+float PixelMean(const BoardRaster& raster, const ViewShading& shade, const ChessboardViewsOptions& options,
+                const std::vector<Eigen::Vector3d>& bearings, int row, int col) {
+  const int n = raster.n;
+  const size_t row_samples = static_cast<size_t>(raster.width) * n;
+  int black_samples = 0;
+  int white_samples = 0;
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector3d* sample = &bearings[static_cast<size_t>(k) * row_samples + static_cast<size_t>(col) * n];
+    for (int l = 0; l < n; ++l) {
+      const Eigen::Vector3d& b = sample[l];
+      // The camera sits on the board's -z side: only rays going toward
+      // +z in the board frame meet the printed side.
+      const double toward = shade.row_z.dot(b);
+      if (!(toward > 0.0)) continue;
+      const double range = -shade.camera_in_board.z() / toward;
+      const double u = (shade.camera_in_board.x() + range * shade.row_x.dot(b)) * raster.inverse_spacing;
+      const double w = (shade.camera_in_board.y() + range * shade.row_y.dot(b)) * raster.inverse_spacing;
+      if (u >= -1.0 && u < raster.squares_x && w >= -1.0 && w < raster.squares_y) {
+        // Square (floor(u), floor(w)); both are >= -1 here, so the
+        // truncation of u + 1 is floor(u) + 1 (and cheaper than floor).
+        const long parity = static_cast<long>(u + 1.0) + static_cast<long>(w + 1.0);
+        ((parity & 1) == 0 ? black_samples : white_samples) += 1;
+      } else if (u >= -1.0 - raster.margin && u <= raster.squares_x + raster.margin &&
+                 w >= -1.0 - raster.margin && w <= raster.squares_y + raster.margin) {
+        ++white_samples;
+      }
+    }
+  }
+  // The background is linear in the pixel position, so the mean over
+  // the pixel's samples is its value at the pixel centre.
+  const double background = options.background + shade.gradient_x * (col - raster.centre_x) +
+                            shade.gradient_y * (row - raster.centre_y);
+  const int background_samples = n * n - black_samples - white_samples;
+  return static_cast<float>(
+      (black_samples * options.black + white_samples * options.white + background_samples * background) *
+      raster.inverse_samples);
+}
+
+// The noise-free images of every view (CV_32FC1, grey levels), row by row:
+// the row's sample bearings are solved once and shaded for every view.
+std::vector<cv::Mat> RenderMeans(const BearingSolver& solver, const BoardRaster& raster,
+                                 const std::vector<ViewShading>& shading, const ChessboardViewsOptions& options,
+                                 int threads) {
+  std::vector<cv::Mat> means(shading.size());
+  for (cv::Mat& mean : means) mean = cv::Mat(raster.height, raster.width, CV_32FC1);
+  util::ParallelFor("chessboard rows", raster.height, threads, [&](int row) {
+    std::vector<Eigen::Vector3d> bearings;
+    solver.Solve(RowSamplePixels(raster, row), &bearings);
+    for (size_t v = 0; v < shading.size(); ++v) {
+      auto* out = means[v].ptr<float>(row);
+      for (int col = 0; col < raster.width; ++col) {
+        out[col] = PixelMean(raster, shading[v], options, bearings, row, col);
+      }
+    }
+  });
+  return means;
+}
+
+// Blurs `mean` along rows with `kernel` into `across`. The border repeats the
+// edge pixel (the scene goes on beyond the imager).
+void BlurRows(const cv::Mat& mean, const std::vector<float>& kernel, int threads, cv::Mat* across) {
+  const int width = mean.cols;
+  const int radius = static_cast<int>(kernel.size() / 2);
+  util::ParallelFor("chessboard rows", mean.rows, threads, [&](int row) {
+    const float* in = mean.ptr<float>(row);
+    float* out = across->ptr<float>(row);
+    for (int col = 0; col < width; ++col) {
+      float sum = 0.0F;
+      for (int d = -radius; d <= radius; ++d) {
+        sum += kernel[static_cast<size_t>(d + radius)] * in[std::clamp(col + d, 0, width - 1)];
+      }
+      out[col] = sum;
+    }
+  });
+}
+
+// The sensor at one pixel: Gaussian noise (Box-Muller from two hashed
+// uniforms of (view, pixel)), clamping to [0, 255] and rounding.
+unsigned char NoisyGrey(double value, std::uint64_t noise_key, std::uint64_t pixel, double noise_sigma) {
+  const double u1 = 1.0 - HashUniform(noise_key, pixel, 0);  // (0, 1]
+  const double u2 = HashUniform(noise_key, pixel, 1);
+  const double noise = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
+  const double noisy = std::clamp(value + noise_sigma * noise, 0.0, 255.0);
+  return static_cast<unsigned char>(std::lround(noisy));
+}
+
+// Blurs `across` along columns (or, without blur, takes `mean` as it is),
+// then the sensor, into the view's 8-bit `image`.
+void BlurColumnsAndSense(const cv::Mat& mean, const cv::Mat& across, const std::vector<float>& kernel,
+                         const ViewShading& shade, const ChessboardViewsOptions& options, int threads,
+                         cv::Mat* image) {
+  const int width = mean.cols;
+  const int height = mean.rows;
+  const int radius = static_cast<int>(kernel.size() / 2);
+  util::ParallelFor("chessboard rows", height, threads, [&](int row) {
+    auto* out = image->ptr<unsigned char>(row);
+    for (int col = 0; col < width; ++col) {
+      double value = 0.0;
+      if (radius > 0) {
+        for (int d = -radius; d <= radius; ++d) {
+          value += static_cast<double>(kernel[static_cast<size_t>(d + radius)] *
+                                       across.at<float>(std::clamp(row + d, 0, height - 1), col));
+        }
+      } else {
+        value = mean.at<float>(row, col);
+      }
+      const std::uint64_t pixel = static_cast<std::uint64_t>(row) * width + col;
+      out[col] = NoisyGrey(value, shade.noise_key, pixel, options.noise_sigma);
+    }
+  });
+}
+
+// Optics, then the sensor, for every view: blur, noise, clamping, rounding,
+// from the noise-free `means` into each view's image.
+void ExposeViews(const std::vector<cv::Mat>& means, const std::vector<ViewShading>& shading,
+                 const ChessboardViewsOptions& options, int width, int height, int threads,
+                 std::vector<ChessboardView>* views) {
+  const std::vector<float> kernel = GaussianKernel(options.blur_sigma_px);
+  const int radius = static_cast<int>(kernel.size() / 2);
+  cv::Mat across(height, width, CV_32FC1);
+  for (size_t v = 0; v < views->size(); ++v) {
+    const cv::Mat& mean = means[v];
+    // Separable: along rows into `across`, then along columns.
+    if (radius > 0) BlurRows(mean, kernel, threads, &across);
+    BlurColumnsAndSense(mean, across, kernel, shading[v], options, threads, &(*views)[v].image);
+  }
+}
+
+}  // namespace
+
+std::vector<ChessboardView> RenderChessboardViews(const calib::CameraModel& camera,
+                                                  const ChessboardBoard& board,
+                                                  const ChessboardViewsOptions& options) {
+  ThrowIfInvalid(board, options);
   const int width = camera.WidthPx();
   const int height = camera.HeightPx();
   const BearingSolver solver(camera);
@@ -533,208 +815,18 @@ std::vector<ChessboardView> RenderChessboardViews(const calib::CameraModel& came
   std::vector<ChessboardView> views(static_cast<size_t>(options.views));
   std::vector<ViewShading> shading(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
-    const std::array<double, 2>& anchor = anchors[v];
-    const Eigen::Vector2d half_size((width - 1) / 2.0, (height - 1) / 2.0);
-    const Eigen::Vector2d target =
-        placer.ImagerCentre() +
-        options.coverage * Eigen::Vector2d(anchor[0] * half_size.x(), anchor[1] * half_size.y());
-    // How far a placement leaves the corners from the anchor: along both axes
-    // for an imager corner, across the edge for an edge anchor.
-    const double weight_x = std::abs(anchor[0]) == 1.0 ? 1.0 : 0.0;
-    const double weight_y = std::abs(anchor[1]) == 1.0 ? 1.0 : 0.0;
-    const auto shortfall = [&](const std::vector<Eigen::Vector2d>& corners) {
-      double best = std::numeric_limits<double>::infinity();
-      for (const Eigen::Vector2d& p : corners) {
-        const Eigen::Vector2d d = p - target;
-        best = std::min(best, std::sqrt(weight_x * d.x() * d.x() + weight_y * d.y() * d.y()));
-      }
-      return best;
-    };
-    const int candidates = weight_x + weight_y > 0.0 ? kPlacementCandidates : 1;
-    Rigid3d pose;
-    std::vector<Eigen::Vector2d> corners_px;
-    double best_shortfall = std::numeric_limits<double>::infinity();
-    int fitted = 0;
-    for (int attempt = 0; attempt < options.max_attempts && fitted < candidates; ++attempt) {
-      PoseDraw draw;
-      // Distances spread evenly: each view has its own slice of the range.
-      const double where = (strata[v] + random.Next()) / options.views;
-      draw.distance_m =
-          by_fill ? placer.DistanceForFill(options.min_fill + where * (options.max_fill - options.min_fill))
-                  : options.min_distance_m + where * (options.max_distance_m - options.min_distance_m);
-      draw.tilt_rad = random.Between(options.min_tilt_deg, options.max_tilt_deg) * kDegToRad;
-      draw.tilt_axis_rad = random.Between(0.0, 2.0 * kPi);
-      draw.roll_rad = random.Between(-options.max_roll_deg, options.max_roll_deg) * kDegToRad;
-      Rigid3d candidate;
-      std::vector<Eigen::Vector2d> candidate_corners;
-      if (!(draw.distance_m > 0.0) || !placer.PoseAt(draw, placer.ImagerCentre(), &candidate) ||
-          !placer.Fits(candidate, &candidate_corners)) {
-        continue;  // redraw
-      }
-      ++fitted;
-      // Toward the anchor, then along each axis, so that the board hugs an
-      // imager corner.
-      Eigen::Vector2d at = placer.Slide(draw, placer.ImagerCentre(), target);
-      at = placer.Slide(draw, at, Eigen::Vector2d(target.x(), at.y()));
-      at = placer.Slide(draw, at, Eigen::Vector2d(at.x(), target.y()));
-      if (!placer.PoseAt(draw, at, &candidate) || !placer.Fits(candidate, &candidate_corners)) {
-        // Slide() only returns points where the board fits.
-        throw std::logic_error("RenderChessboardViews: the slid pose does not fit");
-      }
-      const double miss = shortfall(candidate_corners);
-      if (miss < best_shortfall || fitted == 1) {
-        best_shortfall = miss;
-        pose = candidate;
-        corners_px = candidate_corners;
-      }
-    }
-    if (fitted == 0) {
-      throw InputError("RenderChessboardViews: view " + std::to_string(v + 1) + ": no pose out of " +
-                       std::to_string(options.max_attempts) +
-                       " keeps the whole board in front of the camera with every corner " +
-                       internal::FormatDouble(options.min_border_squares) +
-                       " squares inside the imager; expected a smaller board, a larger distance or fill, or "
-                       "less tilt");
-    }
-
-    ChessboardView& view = views[v];
-    view.cam_from_board = pose;
-    view.true_corners_px = corners_px;
-    const Eigen::Vector3d centre = pose * placer.CentreInBoard();
-    view.distance_m = centre.norm();
-    const Eigen::Vector3d normal = pose.rotation * Eigen::Vector3d::UnitZ();
-    view.tilt_deg = std::acos(std::clamp(normal.dot(centre.normalized()), -1.0, 1.0)) / kDegToRad;
-    view.all_corners_visible = std::all_of(corners_px.begin(), corners_px.end(), [&](const Eigen::Vector2d& p) {
-      return p.x() >= -0.5 && p.y() >= -0.5 && p.x() <= width - 0.5 && p.y() <= height - 0.5;
-    });
-
-    const Rigid3d board_from_cam = pose.Inverse();
-    const Eigen::Matrix3d rotation = board_from_cam.RotationMatrix();
-    ViewShading& shade = shading[v];
-    shade.row_x = rotation.row(0).transpose();
-    shade.row_y = rotation.row(1).transpose();
-    shade.row_z = rotation.row(2).transpose();
-    shade.camera_in_board = board_from_cam.translation;
-    const double gradient_angle = random.Between(0.0, 2.0 * kPi);
-    shade.gradient_x = options.background_gradient * std::cos(gradient_angle) / std::max(1, width - 1);
-    shade.gradient_y = options.background_gradient * std::sin(gradient_angle) / std::max(1, height - 1);
-    shade.noise_key = Mix64(Mix64(options.seed ^ kNoiseStream) + v);
-    view.image = cv::Mat(height, width, CV_8UC1);
+    const Placement placement =
+        PlaceView(placer, options, anchors[v], strata[v], v, by_fill, width, height, &random);
+    DescribeView(placement, placer, width, height, &views[v]);
+    shading[v] = ShadingFor(placement.pose, options, v, width, height, &random);
+    views[v].image = cv::Mat(height, width, CV_8UC1);
   }
 
-  // Rendering, row by row: the row's sample bearings are solved once and
-  // shaded for every view.
-  const int n = options.supersampling;
-  const double inverse_spacing = 1.0 / board.spacing_m;
-  const double squares_x = board.corners_x;  // squares span u in [-1, corners_x)
-  const double squares_y = board.corners_y;
-  const double margin = board.margin_squares;
-  const double inverse_samples = 1.0 / (n * n);
-  const double centre_x = (width - 1) / 2.0;
-  const double centre_y = (height - 1) / 2.0;
-  const int threads =
-      options.threads > 0 ? options.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  // The noise-free pixel values of every view, grey levels.
-  std::vector<cv::Mat> means(views.size());
-  for (cv::Mat& mean : means) mean = cv::Mat(height, width, CV_32FC1);
-  ForEachRow(height, threads, [&](int row) {
-    // Samples of the row: sub-row k, then column, then sub-column l.
-    const size_t row_samples = static_cast<size_t>(width) * n;
-    std::vector<Eigen::Vector2d> pixels;
-    pixels.reserve(row_samples * n);
-    for (int k = 0; k < n; ++k) {
-      const double y = row + (k + 0.5) / n - 0.5;
-      for (int col = 0; col < width; ++col) {
-        for (int l = 0; l < n; ++l) pixels.emplace_back(col + (l + 0.5) / n - 0.5, y);
-      }
-    }
-    std::vector<Eigen::Vector3d> bearings;
-    solver.Solve(pixels, &bearings);
-    for (size_t v = 0; v < views.size(); ++v) {
-      const ViewShading& shade = shading[v];
-      auto* out = means[v].ptr<float>(row);
-      for (int col = 0; col < width; ++col) {
-        int black_samples = 0;
-        int white_samples = 0;
-        for (int k = 0; k < n; ++k) {
-          const Eigen::Vector3d* sample =
-              &bearings[static_cast<size_t>(k) * row_samples + static_cast<size_t>(col) * n];
-          for (int l = 0; l < n; ++l) {
-            const Eigen::Vector3d& b = sample[l];
-            // The camera sits on the board's -z side: only rays going toward
-            // +z in the board frame meet the printed side.
-            const double toward = shade.row_z.dot(b);
-            if (!(toward > 0.0)) continue;
-            const double range = -shade.camera_in_board.z() / toward;
-            const double u = (shade.camera_in_board.x() + range * shade.row_x.dot(b)) * inverse_spacing;
-            const double w = (shade.camera_in_board.y() + range * shade.row_y.dot(b)) * inverse_spacing;
-            if (u >= -1.0 && u < squares_x && w >= -1.0 && w < squares_y) {
-              // Square (floor(u), floor(w)); both are >= -1 here, so the
-              // truncation of u + 1 is floor(u) + 1 (and cheaper than floor).
-              const long parity = static_cast<long>(u + 1.0) + static_cast<long>(w + 1.0);
-              ((parity & 1) == 0 ? black_samples : white_samples) += 1;
-            } else if (u >= -1.0 - margin && u <= squares_x + margin && w >= -1.0 - margin &&
-                       w <= squares_y + margin) {
-              ++white_samples;
-            }
-          }
-        }
-        // The background is linear in the pixel position, so the mean over
-        // the pixel's samples is its value at the pixel centre.
-        const double background =
-            options.background + shade.gradient_x * (col - centre_x) + shade.gradient_y * (row - centre_y);
-        const int background_samples = n * n - black_samples - white_samples;
-        out[col] = static_cast<float>(
-            (black_samples * options.black + white_samples * options.white + background_samples * background) *
-            inverse_samples);
-      }
-    }
-  });
-
-  // Optics, then the sensor: blur, noise, clamping, rounding.
-  const std::vector<float> kernel = GaussianKernel(options.blur_sigma_px);
-  const int radius = static_cast<int>(kernel.size() / 2);
-  cv::Mat across(height, width, CV_32FC1);
-  for (size_t v = 0; v < views.size(); ++v) {
-    const cv::Mat& mean = means[v];
-    if (radius > 0) {
-      // Separable: along rows into `across`, then along columns below. The
-      // border repeats the edge pixel (the scene goes on beyond the imager).
-      ForEachRow(height, threads, [&](int row) {
-        const float* in = mean.ptr<float>(row);
-        float* out = across.ptr<float>(row);
-        for (int col = 0; col < width; ++col) {
-          float sum = 0.0F;
-          for (int d = -radius; d <= radius; ++d) {
-            sum += kernel[static_cast<size_t>(d + radius)] * in[std::clamp(col + d, 0, width - 1)];
-          }
-          out[col] = sum;
-        }
-      });
-    }
-    const ViewShading& shade = shading[v];
-    ForEachRow(height, threads, [&](int row) {
-      auto* out = views[v].image.ptr<unsigned char>(row);
-      for (int col = 0; col < width; ++col) {
-        double value = 0.0;
-        if (radius > 0) {
-          for (int d = -radius; d <= radius; ++d) {
-            value += static_cast<double>(kernel[static_cast<size_t>(d + radius)] *
-                                         across.at<float>(std::clamp(row + d, 0, height - 1), col));
-          }
-        } else {
-          value = mean.at<float>(row, col);
-        }
-        // Box-Muller from two hashed uniforms of (view, pixel).
-        const std::uint64_t pixel = static_cast<std::uint64_t>(row) * width + col;
-        const double u1 = 1.0 - HashUniform(shade.noise_key, pixel, 0);  // (0, 1]
-        const double u2 = HashUniform(shade.noise_key, pixel, 1);
-        const double noise = std::sqrt(-2.0 * std::log(u1)) * std::cos(2.0 * kPi * u2);
-        const double noisy = std::clamp(value + options.noise_sigma * noise, 0.0, 255.0);
-        out[col] = static_cast<unsigned char>(std::lround(noisy));
-      }
-    });
-  }
+  // Rendering, then optics and the sensor.
+  const int threads = RenderThreads(options);
+  const std::vector<cv::Mat> means =
+      RenderMeans(solver, MakeBoardRaster(board, options, width, height), shading, options, threads);
+  ExposeViews(means, shading, options, width, height, threads, &views);
   return views;
 }
 
@@ -755,8 +847,7 @@ void WriteChessboardViews(const std::vector<ChessboardView>& views, const std::s
     std::string text = std::to_string(v + 1);
     return std::string(digits - text.size(), '0') + text;
   };
-  using internal::FormatDouble;
-  std::string truth = "view,corner,x_px,y_px\n";
+    std::string truth = "view,corner,x_px,y_px\n";
   std::string poses = "view,image,qw,qx,qy,qz,tx_m,ty_m,tz_m,distance_m,tilt_deg\n";
   for (size_t v = 0; v < views.size(); ++v) {
     const ChessboardView& view = views[v];
@@ -765,19 +856,19 @@ void WriteChessboardViews(const std::vector<ChessboardView>& views, const std::s
       throw InputError((folder / image_name).string() + ": view " + std::to_string(v + 1) +
                        " has no 8-bit grey image (CV_8UC1)");
     }
-    internal::WriteFileAtomically(folder / image_name, internal::EncodePng(view.image));
+    util::WriteFileAtomically(folder / image_name, internal::EncodePng(view.image));
     for (size_t c = 0; c < view.true_corners_px.size(); ++c) {
-      truth += std::to_string(v + 1) + "," + std::to_string(c) + "," + FormatDouble(view.true_corners_px[c].x()) +
-               "," + FormatDouble(view.true_corners_px[c].y()) + "\n";
+      truth += std::to_string(v + 1) + "," + std::to_string(c) + "," + util::ShortestText(view.true_corners_px[c].x()) +
+               "," + util::ShortestText(view.true_corners_px[c].y()) + "\n";
     }
     const Eigen::Quaterniond& q = view.cam_from_board.rotation;
     const Eigen::Vector3d& t = view.cam_from_board.translation;
-    poses += internal::CsvLine({std::to_string(v + 1), image_name, FormatDouble(q.w()), FormatDouble(q.x()),
-                                FormatDouble(q.y()), FormatDouble(q.z()), FormatDouble(t.x()), FormatDouble(t.y()),
-                                FormatDouble(t.z()), FormatDouble(view.distance_m), FormatDouble(view.tilt_deg)});
+    poses += internal::CsvLine({std::to_string(v + 1), image_name, util::ShortestText(q.w()), util::ShortestText(q.x()),
+                                util::ShortestText(q.y()), util::ShortestText(q.z()), util::ShortestText(t.x()), util::ShortestText(t.y()),
+                                util::ShortestText(t.z()), util::ShortestText(view.distance_m), util::ShortestText(view.tilt_deg)});
   }
-  internal::WriteFileAtomically(folder / "truth.csv", truth);
-  internal::WriteFileAtomically(folder / "poses.csv", poses);
+  util::WriteFileAtomically(folder / "truth.csv", truth);
+  util::WriteFileAtomically(folder / "poses.csv", poses);
 }
 
 }  // namespace hdabench::datasets::synth

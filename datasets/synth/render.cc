@@ -8,45 +8,23 @@
 #include <sstream>
 #include <thread>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "datasets/synth/noise.h"
+#include "tools/util/angles.h"
+#include "tools/util/parallel_for.h"
 
 namespace hdabench::datasets::synth {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
+using util::kPi;
+using util::kDegToRad;
+
 
 std::string Number(double value) {
   std::ostringstream out;
   out << value;
   return out.str();
-}
-
-// Runs body(row) for every row in [0, rows) on `threads` workers (the caller
-// is one of them). Rows are handed out one at a time, so the split adapts to
-// uneven rows; results never depend on it. after_row(rows_done) is called on
-// the calling thread only.
-template <typename Body, typename AfterRow>
-void ForEachRow(int rows, int threads, const Body& body, const AfterRow& after_row) {
-  std::atomic<int> next_row{0};
-  std::atomic<int> rows_done{0};
-  const auto work = [&](bool caller) {
-    for (;;) {
-      const int row = next_row.fetch_add(1);
-      if (row >= rows) return;
-      body(row);
-      const int done = rows_done.fetch_add(1) + 1;
-      if (caller) after_row(done);
-    }
-  };
-  std::vector<std::thread> workers;
-  const int extra = std::max(0, std::min(threads, rows) - 1);
-  workers.reserve(static_cast<size_t>(extra));
-  for (int i = 0; i < extra; ++i) workers.emplace_back(work, false);
-  work(true);
-  for (std::thread& worker : workers) worker.join();
 }
 
 // A pair of independent standard normal deviates from two uniforms (Box-Muller).
@@ -162,8 +140,8 @@ CameraRays::CameraRays(const calib::CameraModel& camera, int threads)
     : width_px_(camera.WidthPx()), height_px_(camera.HeightPx()) {
   if (threads < 1) throw InputError("threads: " + std::to_string(threads) + "; expected >= 1");
   centres_.assign(static_cast<size_t>(width_px_) * height_px_, Eigen::Vector3d::Zero());
-  ForEachRow(
-      height_px_, threads,
+  util::ParallelFor(
+      "camera rays", height_px_, threads,
       [&](int row) {
         std::vector<Eigen::Vector2d> pixels;
         pixels.reserve(static_cast<size_t>(width_px_));
@@ -175,8 +153,7 @@ CameraRays::CameraRays(const calib::CameraModel& camera, int threads)
         for (int col = 0; col < width_px_; ++col) {
           if (valid[static_cast<size_t>(col)]) centres_[row_start + col] = bearings[static_cast<size_t>(col)];
         }
-      },
-      [](int) {});
+      });
 }
 
 Eigen::Vector3d CameraRays::SampleBearing(int row, int col, double dx_px, double dy_px) const {
@@ -266,6 +243,241 @@ Sample Shade(const FrameContext& frame, const Eigen::Vector3d& bearing_in_cam, b
   return sample;
 }
 
+
+using FrameProgress = std::function<void(double fraction_done)>;
+
+// The camera pose, sun and fill light of one frame, as Shade() reads them.
+FrameContext MakeFrameContext(const SceneRaycaster& raycaster, const Rigid3d& cam_from_local,
+                              const RenderOptions& options) {
+  const Rigid3d local_from_cam = cam_from_local.Inverse();
+  FrameContext context;
+  context.raycaster = &raycaster;
+  context.local_from_cam = local_from_cam.RotationMatrix();
+  context.camera_in_local = local_from_cam.translation;
+  context.sun_in_local = SunDirectionInLocal(options.sun_azimuth_deg, options.sun_elevation_deg);
+  context.ambient_reflectance = options.ambient_reflectance;
+  return context;
+}
+
+// The state the passes of one RenderFrame call share: the sampling plan, the
+// per-row ray counts (each row written by one worker only) and the
+// reflectances the ray passes leave for the image pass.
+struct FramePasses {
+  FramePasses(const FrameContext& frame_context, const CameraRays& camera_rays_in,
+              const RenderOptions& render_options)
+      : context(frame_context),
+        rays(camera_rays_in),
+        options(render_options),
+        width(camera_rays_in.WidthPx()),
+        height(camera_rays_in.HeightPx()),
+        n(render_options.samples_per_pixel_axis),
+        samples_per_pixel(n * n),
+        // With odd n the middle sample is the pixel centre: reuse its hit.
+        centre_sample(n % 2 == 1 ? (n / 2) * n + n / 2 : -1),
+        quincunx(render_options.anti_aliasing == RenderOptions::AntiAliasing::kQuincunx),
+        centre_in_image(quincunx || centre_sample >= 0),
+        camera_rays(static_cast<size_t>(height), 0),
+        shadow_rays(static_cast<size_t>(height), 0),
+        centre_reflectance(centre_in_image ? static_cast<size_t>(width) * height : 0),
+        corner_reflectance(quincunx ? static_cast<size_t>(width + 1) * (height + 1) : 0) {}
+
+  const FrameContext& context;
+  const CameraRays& rays;
+  const RenderOptions& options;
+  const int width;
+  const int height;
+  const int n;
+  const int samples_per_pixel;
+  const int centre_sample;
+  const bool quincunx;
+  const bool centre_in_image;
+  std::vector<std::int64_t> camera_rays;
+  std::vector<std::int64_t> shadow_rays;
+  std::vector<double> centre_reflectance;  // per pixel, when the centre is also an image sample
+  std::vector<double> corner_reflectance;  // per pixel corner, quincunx only
+};
+
+// Allocates the image and the per-pixel truth of a width x height frame.
+void AllocateFrame(int width, int height, int bit_depth, RenderedFrame* frame) {
+  frame->image = cv::Mat(height, width, bit_depth == 8 ? CV_8UC1 : CV_16UC1);
+  frame->points_in_local_m = cv::Mat(height, width, CV_32FC3);
+  frame->shadow_mask = cv::Mat(height, width, CV_8UC1);
+  frame->rock_index = cv::Mat(height, width, CV_32SC1);
+}
+
+// Pass 1, the truth: every pixel-centre ray with its own shadow ray, into the
+// frame's points, shadow mask and rock index (progress 0 to 0.2).
+void TraceCentres(FramePasses& passes, const FrameProgress& progress, RenderedFrame* frame) {
+  const int width = passes.width;
+  const int height = passes.height;
+  const auto trace_centres = [&](int row) {
+    std::int64_t row_shadow_rays = 0;
+    auto* points = frame->points_in_local_m.ptr<cv::Vec3f>(row);
+    auto* mask = frame->shadow_mask.ptr<unsigned char>(row);
+    auto* rock = frame->rock_index.ptr<std::int32_t>(row);
+    for (int col = 0; col < width; ++col) {
+      // Its albedo only matters when it is also an image sample.
+      const Sample centre = Shade(passes.context, passes.rays.CentreBearing(row, col), passes.centre_in_image,
+                                  ShadowMode::kTrace, &row_shadow_rays);
+      if (centre.hit) {
+        const Eigen::Vector3f p = centre.ray_hit.point_in_local_m.cast<float>();
+        points[col] = cv::Vec3f(p.x(), p.y(), p.z());
+      } else {
+        const float nan = std::numeric_limits<float>::quiet_NaN();
+        points[col] = cv::Vec3f(nan, nan, nan);
+      }
+      mask[col] = centre.shadow;
+      rock[col] = centre.hit ? centre.ray_hit.rock_index : -1;
+      if (passes.centre_in_image) {
+        passes.centre_reflectance[static_cast<size_t>(row) * width + col] = centre.reflectance;
+      }
+    }
+    passes.camera_rays[static_cast<size_t>(row)] = width;
+    passes.shadow_rays[static_cast<size_t>(row)] = row_shadow_rays;
+  };
+  util::ParallelFor("render rows", height, passes.options.threads, trace_centres, [&](int rows_done) {
+    if (progress && (rows_done % 16 == 0)) progress(0.2 * rows_done / height);
+  });
+}
+
+// Shadow mode of the samples of pixels rows [row0, row1] x cols [col0, col1]
+// (clipped to the imager): a shadow ray only where the pixel centres of the
+// box disagree about cast shadow (255), else the centres' common state.
+ShadowMode ShadowModeOfBox(const cv::Mat& shadow_mask, int row0, int row1, int col0, int col1) {
+  const int height = shadow_mask.rows;
+  const int width = shadow_mask.cols;
+  bool any_cast = false;
+  bool any_not_cast = false;
+  for (int r = std::max(0, row0); r <= std::min(height - 1, row1); ++r) {
+    const auto* mask = shadow_mask.ptr<unsigned char>(r);
+    for (int c = std::max(0, col0); c <= std::min(width - 1, col1); ++c) {
+      if (mask[c] == 255) {
+        any_cast = true;
+      } else {
+        any_not_cast = true;
+      }
+    }
+  }
+  if (any_cast && any_not_cast) return ShadowMode::kTrace;
+  return any_cast ? ShadowMode::kAssumeShadowed : ShadowMode::kAssumeLit;
+}
+
+// Quincunx corners (progress 0.2 to 0.9): corner (r, c) is the pixel corner
+// at x = c - 0.5, y = r - 0.5; its shadow mode comes from the 4 x 4 pixel
+// centres around it (the 2 x 2 pixels that share it, grown by one, as for
+// grid samples). Needs pass 1 complete.
+void TraceCorners(FramePasses& passes, const cv::Mat& shadow_mask, const FrameProgress& progress) {
+  const int width = passes.width;
+  const int height = passes.height;
+  const auto trace_corners = [&](int r) {
+    std::int64_t row_shadow_rays = 0;
+    const int rr = std::min(r, height - 1);
+    for (int c = 0; c <= width; ++c) {
+      const int cc = std::min(c, width - 1);
+      const double dx_px = (c - 0.5) - cc;
+      const double dy_px = (r - 0.5) - rr;
+      passes.corner_reflectance[static_cast<size_t>(r) * (width + 1) + c] =
+          Shade(passes.context, passes.rays.SampleBearing(rr, cc, dx_px, dy_px), true,
+                ShadowModeOfBox(shadow_mask, r - 2, r + 1, c - 2, c + 1), &row_shadow_rays)
+              .reflectance;
+    }
+    passes.camera_rays[static_cast<size_t>(std::min(r, height - 1))] += width + 1;
+    passes.shadow_rays[static_cast<size_t>(std::min(r, height - 1))] += row_shadow_rays;
+  };
+  // Corner rows 0..height-1 in the workers (each writes its own row's
+  // counters), then the bottom corner row here, adding to the last row's.
+  util::ParallelFor("render rows", height, passes.options.threads, trace_corners, [&](int rows_done) {
+    if (progress && (rows_done % 16 == 0)) progress(0.2 + 0.7 * rows_done / height);
+  });
+  trace_corners(height);
+}
+
+// Sum over the pixel's samples of their reflectance, in units of one sample:
+// the quincunx weights of centre and corners, or the grid samples (casting
+// the sub-pixel rays, counted in *row_camera_rays and *row_shadow_rays).
+double PixelReflectanceSum(const FramePasses& passes, int row, int col, ShadowMode shadow_mode,
+                           std::int64_t* row_shadow_rays, std::int64_t* row_camera_rays) {
+  const int width = passes.width;
+  const int n = passes.n;
+  double reflectance_sum = 0.0;
+  if (passes.quincunx) {
+    const size_t stride = static_cast<size_t>(width) + 1;
+    const size_t top_left = static_cast<size_t>(row) * stride + col;
+    const std::vector<double>& corner = passes.corner_reflectance;
+    reflectance_sum = passes.samples_per_pixel *
+                      (0.5 * passes.centre_reflectance[static_cast<size_t>(row) * width + col] +
+                       0.125 * (corner[top_left] + corner[top_left + 1] + corner[top_left + stride] +
+                                corner[top_left + stride + 1]));
+  }
+  for (int k = 0; !passes.quincunx && k < passes.samples_per_pixel; ++k) {
+    if (k == passes.centre_sample) {
+      reflectance_sum += passes.centre_reflectance[static_cast<size_t>(row) * width + col];
+      continue;
+    }
+    const double dx_px = (k % n + 0.5) / n - 0.5;
+    const double dy_px = (k / n + 0.5) / n - 0.5;
+    reflectance_sum += Shade(passes.context, passes.rays.SampleBearing(row, col, dx_px, dy_px), true, shadow_mode,
+                             row_shadow_rays)
+                           .reflectance;
+    ++*row_camera_rays;
+  }
+  return reflectance_sum;
+}
+
+// The sensor: shot noise on the electrons, full-well clip, read noise,
+// rounding and clipping to [0, max_dn]; the noise is seeded per pixel.
+double SensorDn(const RenderOptions& options, double signal_dn, std::uint64_t noise_seed,
+                std::uint64_t pixel_index, double max_dn) {
+  double shot = 0.0, read = 0.0;
+  if (options.shot_noise || options.read_noise_dn > 0.0) GaussianPair(noise_seed, pixel_index, &shot, &read);
+  double electrons = signal_dn * options.gain_electrons_per_dn;
+  if (options.shot_noise) electrons += std::sqrt(std::max(electrons, 0.0)) * shot;
+  electrons = std::clamp(electrons, 0.0, options.full_well_electrons);
+  return std::clamp(std::round(electrons / options.gain_electrons_per_dn + options.read_noise_dn * read), 0.0,
+                    max_dn);
+}
+
+// Pass 2, the image: the sub-pixel samples, then the sensor. Their shadow
+// rays are cast only near shadow edges, where the 3x3 pixel centres around
+// the pixel disagree about cast shadow (255); elsewhere every sample takes the
+// centres' state. Pass 1 (and the corners) are complete, so this depends on
+// nothing but its inputs: the output stays the same for any thread count.
+void RenderImage(FramePasses& passes, std::uint64_t noise_seed, const FrameProgress& progress,
+                 RenderedFrame* frame) {
+  const RenderOptions& options = passes.options;
+  const int width = passes.width;
+  const int height = passes.height;
+  const double max_dn = options.bit_depth == 8 ? 255.0 : 65535.0;
+  const auto render_row = [&](int row) {
+    std::int64_t row_shadow_rays = 0;
+    std::int64_t row_camera_rays = 0;
+    for (int col = 0; col < width; ++col) {
+      const ShadowMode shadow_mode = ShadowModeOfBox(frame->shadow_mask, row - 1, row + 1, col - 1, col + 1);
+      // Image: the weighted mean reflectance of the pixel's rays.
+      const double reflectance_sum =
+          PixelReflectanceSum(passes, row, col, shadow_mode, &row_shadow_rays, &row_camera_rays);
+      const double signal_dn = frame->dn_per_reflectance * reflectance_sum / passes.samples_per_pixel;
+      const std::uint64_t pixel_index = static_cast<std::uint64_t>(row) * static_cast<std::uint64_t>(width) +
+                                        static_cast<std::uint64_t>(col);
+      const double dn = SensorDn(options, signal_dn, noise_seed, pixel_index, max_dn);
+      if (options.bit_depth == 8) {
+        frame->image.ptr<std::uint8_t>(row)[col] = static_cast<std::uint8_t>(dn);
+      } else {
+        frame->image.ptr<std::uint16_t>(row)[col] = static_cast<std::uint16_t>(dn);
+      }
+    }
+    passes.camera_rays[static_cast<size_t>(row)] += row_camera_rays;
+    passes.shadow_rays[static_cast<size_t>(row)] += row_shadow_rays;
+  };
+  // Progress: centres 0-0.2, quincunx corners 0.2-0.9, then this pass to 1.
+  const double pass2_start = passes.quincunx ? 0.9 : 0.2;
+  util::ParallelFor("render rows", height, options.threads, render_row, [&](int rows_done) {
+    if (progress && (rows_done % 16 == 0)) {
+      progress(pass2_start + (1.0 - pass2_start) * rows_done / height);
+    }
+  });
+}
+
 }  // namespace
 
 RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, const calib::CameraModel& camera,
@@ -275,7 +487,7 @@ RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, c
   const auto start = std::chrono::steady_clock::now();
   const CameraRays rays(camera, options.threads);
   RenderedFrame frame = RenderFrame(raycaster, scene, rays, cam_from_local, options, noise_seed, progress);
-  frame.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  frame.stats.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return frame;
 }
 
@@ -288,176 +500,26 @@ RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, c
   }
   if (rays.WidthPx() < 1 || rays.HeightPx() < 1) throw InputError("RenderFrame: the camera rays are empty");
   const auto start = std::chrono::steady_clock::now();
-  const Rigid3d local_from_cam = cam_from_local.Inverse();
-  FrameContext context;
-  context.raycaster = &raycaster;
-  context.local_from_cam = local_from_cam.RotationMatrix();
-  context.camera_in_local = local_from_cam.translation;
-  context.sun_in_local = SunDirectionInLocal(options.sun_azimuth_deg, options.sun_elevation_deg);
-  context.ambient_reflectance = options.ambient_reflectance;
+  const FrameContext context = MakeFrameContext(raycaster, cam_from_local, options);
 
   RenderedFrame frame;
   frame.dn_per_reflectance =
       options.dn_per_reflectance > 0.0
           ? options.dn_per_reflectance
           : ExposureFor(options, scene.albedo.mean, -(context.local_from_cam * Eigen::Vector3d::UnitZ()));
-  const int width = rays.WidthPx();
-  const int height = rays.HeightPx();
-  const int n = options.samples_per_pixel_axis;
-  const int samples_per_pixel = n * n;
-  // With odd n the middle sample is the pixel centre: reuse its hit.
-  const int centre_sample = n % 2 == 1 ? (n / 2) * n + n / 2 : -1;
-  const double max_dn = options.bit_depth == 8 ? 255.0 : 65535.0;
-  frame.image = cv::Mat(height, width, options.bit_depth == 8 ? CV_8UC1 : CV_16UC1);
-  frame.points_in_local_m = cv::Mat(height, width, CV_32FC3);
-  frame.shadow_mask = cv::Mat(height, width, CV_8UC1);
-  frame.rock_index = cv::Mat(height, width, CV_32SC1);
-  std::vector<std::int64_t> camera_rays(static_cast<size_t>(height), 0);
-  std::vector<std::int64_t> shadow_rays(static_cast<size_t>(height), 0);
-
-  // Pass 1, the truth: every pixel-centre ray with its own shadow ray.
-  const bool quincunx = options.anti_aliasing == RenderOptions::AntiAliasing::kQuincunx;
-  const bool centre_in_image = quincunx || centre_sample >= 0;
-  std::vector<double> centre_reflectance(centre_in_image ? static_cast<size_t>(width) * height : 0);
-  const auto trace_centres = [&](int row) {
-    std::int64_t row_shadow_rays = 0;
-    auto* points = frame.points_in_local_m.ptr<cv::Vec3f>(row);
-    auto* mask = frame.shadow_mask.ptr<unsigned char>(row);
-    auto* rock = frame.rock_index.ptr<std::int32_t>(row);
-    for (int col = 0; col < width; ++col) {
-      // Its albedo only matters when it is also an image sample.
-      const Sample centre = Shade(context, rays.CentreBearing(row, col), centre_in_image,
-                                  ShadowMode::kTrace, &row_shadow_rays);
-      if (centre.hit) {
-        const Eigen::Vector3f p = centre.ray_hit.point_in_local_m.cast<float>();
-        points[col] = cv::Vec3f(p.x(), p.y(), p.z());
-      } else {
-        const float nan = std::numeric_limits<float>::quiet_NaN();
-        points[col] = cv::Vec3f(nan, nan, nan);
-      }
-      mask[col] = centre.shadow;
-      rock[col] = centre.hit ? centre.ray_hit.rock_index : -1;
-      if (centre_in_image) centre_reflectance[static_cast<size_t>(row) * width + col] = centre.reflectance;
-    }
-    camera_rays[static_cast<size_t>(row)] = width;
-    shadow_rays[static_cast<size_t>(row)] = row_shadow_rays;
-  };
-  ForEachRow(height, options.threads, trace_centres, [&](int rows_done) {
-    if (progress && (rows_done % 16 == 0)) progress(0.2 * rows_done / height);
-  });
-
-  // Pass 2, the image: the sub-pixel samples. Their shadow rays are cast only
-  // near shadow edges, where the 3x3 pixel centres around the pixel disagree
-  // about cast shadow (255); elsewhere every sample takes the centres' state.
-  // Pass 1 is complete, so this depends on nothing but its inputs: the output
-  // stays the same for any thread count.
-  // Shadow mode of the samples of pixels rows [row0, row1] x cols [col0, col1].
-  const auto shadow_mode_of_box = [&](int row0, int row1, int col0, int col1) {
-    bool any_cast = false;
-    bool any_not_cast = false;
-    for (int r = std::max(0, row0); r <= std::min(height - 1, row1); ++r) {
-      const auto* mask = frame.shadow_mask.ptr<unsigned char>(r);
-      for (int c = std::max(0, col0); c <= std::min(width - 1, col1); ++c) {
-        if (mask[c] == 255) {
-          any_cast = true;
-        } else {
-          any_not_cast = true;
-        }
-      }
-    }
-    if (any_cast && any_not_cast) return ShadowMode::kTrace;
-    return any_cast ? ShadowMode::kAssumeShadowed : ShadowMode::kAssumeLit;
-  };
-
-  // Quincunx corners: corner (r, c) is the pixel corner at x = c - 0.5,
-  // y = r - 0.5; its shadow mode comes from the 4 x 4 pixel centres around
-  // it (the 2 x 2 pixels that share it, grown by one, as for grid samples).
-  std::vector<double> corner_reflectance(quincunx ? static_cast<size_t>(width + 1) * (height + 1) : 0);
-  if (quincunx) {
-    const auto trace_corners = [&](int r) {
-      std::int64_t row_shadow_rays = 0;
-      const int rr = std::min(r, height - 1);
-      for (int c = 0; c <= width; ++c) {
-        const int cc = std::min(c, width - 1);
-        const double dx_px = (c - 0.5) - cc;
-        const double dy_px = (r - 0.5) - rr;
-        corner_reflectance[static_cast<size_t>(r) * (width + 1) + c] =
-            Shade(context, rays.SampleBearing(rr, cc, dx_px, dy_px), true,
-                  shadow_mode_of_box(r - 2, r + 1, c - 2, c + 1), &row_shadow_rays)
-                .reflectance;
-      }
-      camera_rays[static_cast<size_t>(std::min(r, height - 1))] += width + 1;
-      shadow_rays[static_cast<size_t>(std::min(r, height - 1))] += row_shadow_rays;
-    };
-    // Corner rows 0..height-1 in the workers (each writes its own row's
-    // counters), then the bottom corner row here, adding to the last row's.
-    ForEachRow(height, options.threads, trace_corners, [&](int rows_done) {
-      if (progress && (rows_done % 16 == 0)) progress(0.2 + 0.7 * rows_done / height);
-    });
-    trace_corners(height);
-  }
-  const auto render_row = [&](int row) {
-    std::int64_t row_shadow_rays = 0;
-    std::int64_t row_camera_rays = 0;
-    for (int col = 0; col < width; ++col) {
-      const ShadowMode shadow_mode = shadow_mode_of_box(row - 1, row + 1, col - 1, col + 1);
-      // Image: the weighted mean reflectance of the pixel's rays.
-      double reflectance_sum = 0.0;
-      if (quincunx) {
-        const size_t stride = static_cast<size_t>(width) + 1;
-        const size_t top_left = static_cast<size_t>(row) * stride + col;
-        reflectance_sum = samples_per_pixel *
-                          (0.5 * centre_reflectance[static_cast<size_t>(row) * width + col] +
-                           0.125 * (corner_reflectance[top_left] + corner_reflectance[top_left + 1] +
-                                    corner_reflectance[top_left + stride] +
-                                    corner_reflectance[top_left + stride + 1]));
-      }
-      for (int k = 0; !quincunx && k < samples_per_pixel; ++k) {
-        if (k == centre_sample) {
-          reflectance_sum += centre_reflectance[static_cast<size_t>(row) * width + col];
-          continue;
-        }
-        const double dx_px = (k % n + 0.5) / n - 0.5;
-        const double dy_px = (k / n + 0.5) / n - 0.5;
-        reflectance_sum += Shade(context, rays.SampleBearing(row, col, dx_px, dy_px), true, shadow_mode,
-                                 &row_shadow_rays)
-                               .reflectance;
-        ++row_camera_rays;
-      }
-      const double signal_dn = frame.dn_per_reflectance * reflectance_sum / samples_per_pixel;
-      // Sensor: shot noise on the electrons, full-well clip, read noise, rounding.
-      const std::uint64_t pixel_index = static_cast<std::uint64_t>(row) * static_cast<std::uint64_t>(width) +
-                                        static_cast<std::uint64_t>(col);
-      double shot = 0.0, read = 0.0;
-      if (options.shot_noise || options.read_noise_dn > 0.0) GaussianPair(noise_seed, pixel_index, &shot, &read);
-      double electrons = signal_dn * options.gain_electrons_per_dn;
-      if (options.shot_noise) electrons += std::sqrt(std::max(electrons, 0.0)) * shot;
-      electrons = std::clamp(electrons, 0.0, options.full_well_electrons);
-      const double dn = std::clamp(
-          std::round(electrons / options.gain_electrons_per_dn + options.read_noise_dn * read), 0.0, max_dn);
-      if (options.bit_depth == 8) {
-        frame.image.ptr<std::uint8_t>(row)[col] = static_cast<std::uint8_t>(dn);
-      } else {
-        frame.image.ptr<std::uint16_t>(row)[col] = static_cast<std::uint16_t>(dn);
-      }
-    }
-    camera_rays[static_cast<size_t>(row)] += row_camera_rays;
-    shadow_rays[static_cast<size_t>(row)] += row_shadow_rays;
-  };
-  // Progress: centres 0-0.2, quincunx corners 0.2-0.9, then this pass to 1.
-  const double pass2_start = quincunx ? 0.9 : 0.2;
-  ForEachRow(height, options.threads, render_row, [&](int rows_done) {
-    if (progress && (rows_done % 16 == 0)) {
-      progress(pass2_start + (1.0 - pass2_start) * rows_done / height);
-    }
-  });
+  FramePasses passes(context, rays, options);
+  AllocateFrame(passes.width, passes.height, options.bit_depth, &frame);
+  TraceCentres(passes, progress, &frame);
+  if (passes.quincunx) TraceCorners(passes, frame.shadow_mask, progress);
+  RenderImage(passes, noise_seed, progress, &frame);
   if (progress) progress(1.0);
-  for (int row = 0; row < height; ++row) {
-    frame.stats.camera_rays += camera_rays[static_cast<size_t>(row)];
-    frame.stats.shadow_rays += shadow_rays[static_cast<size_t>(row)];
+  for (int row = 0; row < passes.height; ++row) {
+    frame.stats.camera_rays += passes.camera_rays[static_cast<size_t>(row)];
+    frame.stats.shadow_rays += passes.shadow_rays[static_cast<size_t>(row)];
   }
-  frame.stats.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  frame.stats.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return frame;
 }
+
 
 }  // namespace hdabench::datasets::synth

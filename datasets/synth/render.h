@@ -125,7 +125,7 @@ class CameraRays {
 struct RenderStats {
   std::int64_t camera_rays = 0;  // rays cast from the camera (pixel centres + sub-pixel samples)
   std::int64_t shadow_rays = 0;  // rays cast toward the sun
-  double seconds = 0.0;          // wall-clock time of RenderFrame (incl. CameraRays if built there)
+  double wall_s = 0.0;          // wall-clock time of RenderFrame (incl. CameraRays if built there)
 };
 
 struct RenderedFrame {

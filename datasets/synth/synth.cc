@@ -7,17 +7,19 @@
 #include <map>
 #include <sstream>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "datasets/synth/noise.h"
 #include "datasets/synth/raycast.h"
 #include "datasets/synth/render.h"
-#include "calib/options_check.h"
+#include "tools/util/options_check.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::datasets::synth {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using util::kPi;
+
 double DegToRad(double deg) { return deg * kPi / 180.0; }
 
 // Largest DEM the generator builds (nodes); a larger footprint needs a coarser
@@ -356,32 +358,35 @@ void ApplyOverride(const std::string& key, const std::string& value, SynthOption
                    "'; known: motion terrain" + known);
 }
 
-std::string SynthSummary::Report() const {
+std::string SynthSummary::Summary() const {
   std::ostringstream s;
   s.precision(4);
   s << frames << " frames, DEM " << dem_width << " x " << dem_height << " nodes at " << dem_spacing_m
     << " m, " << craters << " craters, " << rocks << " rocks; pair " << pair_frames.first << "-"
-    << pair_frames.second << " baseline " << pair_baseline_m << " m; terrain " << terrain_seconds
-    << " s, rendering " << render_seconds << " s";
+    << pair_frames.second << " baseline " << pair_baseline_m << " m; terrain " << terrain_s
+    << " s, rendering " << render_s << " s";
   return s.str();
 }
 
-Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& terrain_options,
-                             std::uint64_t seed, const SynthProgress& progress,
-                             SynthSummary* summary) {
+namespace {
+
+// Throws InputError listing every problem of the options, one per line.
+void ThrowIfInvalid(const SynthOptions& options) {
   std::vector<std::string> errors = options.Validate();
   if (!errors.empty()) {
     std::string message = "invalid synthetic dataset options:";
     for (const std::string& e : errors) message += "\n  " + e;
     throw InputError(message);
   }
-  const auto report = [&](const std::string& stage, double fraction) {
-    if (progress) progress(stage, fraction);
-  };
+}
 
-  calib::CameraModel camera = options.camera_model_file.empty()
-                                  ? DefaultCamera(options)
-                                  : calib::CameraModel::Load(options.camera_model_file);
+// Passes a stage's progress on when the caller asked for it.
+void Report(const SynthProgress& progress, const std::string& stage, double fraction) {
+  if (progress) progress(stage, fraction);
+}
+
+// The dataset's camera, name, description and fixed geometry, with no data yet.
+Dataset EmptyDataset(const calib::CameraModel& camera, const SynthOptions& options, std::uint64_t seed) {
   Dataset dataset(camera);
   dataset.name = options.preset + "-" + options.terrain + "-seed" + std::to_string(seed);
   dataset.description = "hdabench synthetic scene: preset " + options.preset + ", terrain " +
@@ -389,27 +394,45 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
   dataset.cam_from_body = CamFromBody(DegToRad(options.off_nadir_deg));
   dataset.gravity_in_local_mps2 = Eigen::Vector3d(0.0, 0.0, -1.62);
   dataset.ils_in_local_m = Eigen::Vector3d::Zero();
+  return dataset;
+}
 
-  // Frame times and true poses.
-  const int num_frames = static_cast<int>(std::floor(options.collection_s * options.frame_rate_hz + 1e-9)) + 1;
-  const double margin_s = 0.2;  // nav and LRF extend this far beyond the frames
-  const Eigen::Quaterniond attitude = LocalFromBodyRotation();
-  const auto true_local_from_body = [&](double t) {
-    return Rigid3d(attitude, BodyPositionAt(options, t));
-  };
-  std::vector<double> frame_times;
+// True body pose at time t (seconds from the first frame).
+Rigid3d TrueLocalFromBody(const SynthOptions& options, double t) {
+  return Rigid3d(LocalFromBodyRotation(), BodyPositionAt(options, t));
+}
+
+// Frame times and the true camera poses at them.
+struct FrameTrajectory {
+  std::vector<double> times_s;
   std::vector<Rigid3d> cams_from_local;
+};
+
+// The frames of the collection window at frame_rate_hz, first at t = 0.
+FrameTrajectory TrueFrames(const SynthOptions& options, const Rigid3d& cam_from_body) {
+  const int num_frames = static_cast<int>(std::floor(options.collection_s * options.frame_rate_hz + 1e-9)) + 1;
+  FrameTrajectory frames;
   for (int i = 0; i < num_frames; ++i) {
     const double t = i / options.frame_rate_hz;
-    frame_times.push_back(t);
-    cams_from_local.push_back(dataset.cam_from_body * true_local_from_body(t).Inverse());
+    frames.times_s.push_back(t);
+    frames.cams_from_local.push_back(cam_from_body * TrueLocalFromBody(options, t).Inverse());
   }
+  return frames;
+}
 
-  // Terrain over the footprint of every frame.
+// Slant range from the start position to the ILS, metres.
+double SlantRangeM(const SynthOptions& options) { return std::hypot(options.altitude_m, options.standoff_m); }
+
+// The terrain options over the footprint of every frame, padded, at the DEM
+// spacing (given, or half the ground size of a centre pixel). Throws
+// InputError when the DEM would exceed kMaxDemNodes.
+TerrainOptions TerrainOverFootprint(const SynthOptions& options, const TerrainOptions& terrain_options,
+                                    const calib::CameraModel& camera,
+                                    const std::vector<Rigid3d>& cams_from_local) {
   double min_x = 0, max_x = 0, min_y = 0, max_y = 0;
   FootprintExtent(camera, cams_from_local, &min_x, &max_x, &min_y, &max_y);
   TerrainOptions terrain = terrain_options;
-  const double slant_m = std::hypot(options.altitude_m, options.standoff_m);
+  const double slant_m = SlantRangeM(options);
   const double focal_px = camera.HasCore() ? camera.Intrinsics()[0] : camera.WidthPx();
   const double spacing = options.dem_spacing_m > 0 ? options.dem_spacing_m : 0.5 * slant_m / focal_px;
   const double pad = 0.05 * std::max(max_x - min_x, max_y - min_y) + 10.0 * spacing;
@@ -428,71 +451,97 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
       << " M; set a larger dem_spacing_m";
     throw InputError(m.str());
   }
-  report("terrain", 0.0);
-  const auto t_terrain = std::chrono::steady_clock::now();
-  const Scene scene = GenerateScene(terrain, Mix64(seed ^ kTerrainStream), options.threads);
-  const double terrain_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_terrain).count();
-  report("terrain", 1.0);
-  const SceneRaycaster raycaster(scene);
+  return terrain;
+}
 
-  // One exposure for the whole sequence: the auto-exposure of a flat patch
-  // of the mean albedo at the ILS seen from the middle of the window.
+// Generates the scene between the "terrain" progress reports; *seconds gets its wall time.
+Scene TimedScene(const TerrainOptions& terrain, std::uint64_t seed, int threads, const SynthProgress& progress,
+                 double* seconds) {
+  Report(progress, "terrain", 0.0);
+  const auto t_terrain = std::chrono::steady_clock::now();
+  Scene scene = GenerateScene(terrain, Mix64(seed ^ kTerrainStream), threads);
+  *seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_terrain).count();
+  Report(progress, "terrain", 1.0);
+  return scene;
+}
+
+// The render options of the sequence. One exposure for the whole sequence:
+// the auto-exposure of a flat patch of the mean albedo at the ILS seen from
+// the middle of the window.
+RenderOptions SequenceRenderOptions(const SynthOptions& options, double albedo_mean,
+                                    const Eigen::Vector3d& ils_in_local_m) {
   RenderOptions render = options.render;
   render.threads = options.threads;
   if (render.dn_per_reflectance <= 0.0) {
     const Eigen::Vector3d to_camera =
-        (BodyPositionAt(options, 0.5 * options.collection_s) - dataset.ils_in_local_m).normalized();
-    render.dn_per_reflectance = ExposureFor(render, terrain.albedo_mean, to_camera);
+        (BodyPositionAt(options, 0.5 * options.collection_s) - ils_in_local_m).normalized();
+    render.dn_per_reflectance = ExposureFor(render, albedo_mean, to_camera);
   }
-  report("render", 0.0);
+  return render;
+}
+
+// Appends frame i (its image and truth points, with their file names) to the dataset.
+void AddFrame(int i, double time_s, const RenderedFrame& rendered, Dataset* dataset) {
+  FrameRecord frame;
+  frame.index = i;
+  frame.time_s = time_s;
+  char name[64];
+  std::snprintf(name, sizeof(name), "images/frame_%06d.png", i);
+  frame.image_path = name;
+  frame.image = rendered.image;
+  dataset->frames.push_back(frame);
+  TruthPoints points;
+  points.frame = i;
+  std::snprintf(name, sizeof(name), "truth/points_%06d.npy", i);
+  points.file = name;
+  points.points_in_local_m = rendered.points_in_local_m;
+  dataset->truth.points.push_back(points);
+}
+
+// Renders every frame into the dataset between the "render" progress reports;
+// returns the wall time, seconds.
+double RenderFrames(const SceneRaycaster& raycaster, const Scene& scene, const calib::CameraModel& camera,
+                    const FrameTrajectory& frames, const RenderOptions& render, int threads,
+                    std::uint64_t seed, const SynthProgress& progress, Dataset* dataset) {
+  const int num_frames = static_cast<int>(frames.times_s.size());
+  Report(progress, "render", 0.0);
   const auto t_render = std::chrono::steady_clock::now();
-  const CameraRays rays(camera, options.threads);
+  const CameraRays rays(camera, threads);
   for (int i = 0; i < num_frames; ++i) {
     const RenderedFrame rendered = RenderFrame(
-        raycaster, scene, rays, cams_from_local[i], render,
+        raycaster, scene, rays, frames.cams_from_local[i], render,
         Mix64(seed ^ kRenderStream) + static_cast<std::uint64_t>(i),
-        [&](double fraction) { report("render", (i + fraction) / num_frames); });
-    FrameRecord frame;
-    frame.index = i;
-    frame.time_s = frame_times[i];
-    char name[64];
-    std::snprintf(name, sizeof(name), "images/frame_%06d.png", i);
-    frame.image_path = name;
-    frame.image = rendered.image;
-    dataset.frames.push_back(frame);
-    TruthPoints points;
-    points.frame = i;
-    std::snprintf(name, sizeof(name), "truth/points_%06d.npy", i);
-    points.file = name;
-    points.points_in_local_m = rendered.points_in_local_m;
-    dataset.truth.points.push_back(points);
+        [&](double fraction) { Report(progress, "render", (i + fraction) / num_frames); });
+    AddFrame(i, frames.times_s[i], rendered, dataset);
   }
-  report("render", 1.0);
-  const double render_seconds =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t_render).count();
+  Report(progress, "render", 1.0);
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_render).count();
+}
 
-  // Navigation: truth at nav_rate_hz, measured = truth with IMU-like errors
-  // relative to the first frame (bias drift plus white noise).
+// Nav and LRF sample times: the frames' span, extended this far at each end, seconds.
+constexpr double kSensorMarginS = 0.2;
+
+// Navigation over [t0, t1]: truth at nav_rate_hz, measured = truth with
+// IMU-like errors relative to the first frame (bias drift plus white noise).
+void AddNavigation(const SynthOptions& options, std::uint64_t seed, double first_frame_s, double t0, double t1,
+                   Dataset* dataset) {
   const std::uint64_t nav_seed = Mix64(seed ^ kNavStream);
   const Eigen::Vector3d velocity_bias = HashUnitVector(nav_seed, 1) * options.nav_velocity_bias_mps;
   const Eigen::Vector3d drift_axis = HashUnitVector(nav_seed, 2);
-  const double t0 = frame_times.front() - margin_s;
-  const double t1 = frame_times.back() + margin_s;
   const int num_nav = static_cast<int>(std::ceil((t1 - t0) * options.nav_rate_hz)) + 1;
   const double sigma_att_rad = DegToRad(options.nav_attitude_noise_deg);
   for (int k = 0; k < num_nav; ++k) {
     const double t = std::min(t0 + k / options.nav_rate_hz, t1);
     NavSample truth;
     truth.time_s = t;
-    truth.local_from_body = true_local_from_body(t);
+    truth.local_from_body = TrueLocalFromBody(options, t);
     const Eigen::Vector3d velocity =
         (BodyPositionAt(options, t + 1e-3) - BodyPositionAt(options, t - 1e-3)) / 2e-3;
     truth.velocity_in_local_mps = velocity;
-    dataset.truth.navigation.push_back(truth);
+    dataset->truth.navigation.push_back(truth);
 
     NavSample measured = truth;
-    const double dt = t - frame_times.front();
+    const double dt = t - first_frame_s;
     const Eigen::Vector3d position_noise(HashNormal(nav_seed, 10, static_cast<std::uint64_t>(k) * 3),
                                          HashNormal(nav_seed, 10, static_cast<std::uint64_t>(k) * 3 + 1),
                                          HashNormal(nav_seed, 10, static_cast<std::uint64_t>(k) * 3 + 2));
@@ -510,22 +559,26 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
                                              options.nav_velocity_bias_mps * std::abs(dt)));
     measured.sigma_attitude_in_body_rad = Eigen::Vector3d::Constant(
         std::hypot(sigma_att_rad, DegToRad(options.nav_attitude_drift_deg_per_s) * std::abs(dt)));
-    dataset.nav.push_back(measured);
+    dataset->nav.push_back(measured);
   }
-  dataset.nav_has_velocity = true;
-  dataset.nav_has_sigmas = true;
-  dataset.truth.navigation_file = "truth/nav_truth.csv";
+  dataset->nav_has_velocity = true;
+  dataset->nav_has_sigmas = true;
+  dataset->truth.navigation_file = "truth/nav_truth.csv";
+}
 
-  // LRF: co-boresighted with the camera, from the body origin; the true range
-  // is cast against the scene, then noise and bias are added.
+// LRF over [t0, t1] at lrf_rate_hz: co-boresighted with the camera, from the
+// body origin; the true range is cast against the scene, then noise and bias
+// are added. Throws InputError when the beam misses the terrain.
+void AddLrf(const SynthOptions& options, std::uint64_t seed, const SceneRaycaster& raycaster, double t0,
+            double t1, Dataset* dataset) {
   const Eigen::Vector3d boresight_in_body =
-      dataset.cam_from_body.rotation.conjugate() * Eigen::Vector3d::UnitZ();
+      dataset->cam_from_body.rotation.conjugate() * Eigen::Vector3d::UnitZ();
   const std::uint64_t lrf_seed = Mix64(seed ^ kLrfStream);
   const int num_lrf = static_cast<int>(std::ceil((t1 - t0) * options.lrf_rate_hz)) + 1;
   for (int k = 0; k < num_lrf; ++k) {
     const double t = std::min(t0 + k / options.lrf_rate_hz, t1);
-    const Rigid3d local_from_body = true_local_from_body(t);
-    const Eigen::Vector3d origin = local_from_body * dataset.lrf_origin_in_body_m;
+    const Rigid3d local_from_body = TrueLocalFromBody(options, t);
+    const Eigen::Vector3d origin = local_from_body * dataset->lrf_origin_in_body_m;
     const Eigen::Vector3d direction = local_from_body.rotation * boresight_in_body;
     RayHit hit;
     if (!raycaster.Intersect(origin, direction, 1e7, &hit)) {
@@ -537,10 +590,12 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
     sample.range_m = std::max(1e-3, hit.distance_m + options.lrf_bias_m +
                                         options.lrf_noise_m * HashNormal(lrf_seed, 1, static_cast<std::uint64_t>(k)));
     sample.boresight_in_body = boresight_in_body;
-    dataset.lrf.push_back(sample);
+    dataset->lrf.push_back(sample);
   }
+}
 
-  // Truth DEM and rocks.
+// Truth DEM and rocks of the scene.
+void AddTruthDemAndRocks(const Scene& scene, Dataset* dataset) {
   TruthDem dem;
   dem.file = "truth/dem.npy";
   dem.origin_in_local_m = Eigen::Vector2d(scene.dem.origin_x_m, scene.dem.origin_y_m);
@@ -550,37 +605,72 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
   dem.height_in_local_m = cv::Mat(scene.dem.height, scene.dem.width, CV_32FC1,
                                   const_cast<float*>(scene.dem.height_m.data()))
                               .clone();
-  dataset.truth.dem = std::move(dem);
-  dataset.truth.rocks_file = "truth/rocks.csv";
+  dataset->truth.dem = std::move(dem);
+  dataset->truth.rocks_file = "truth/rocks.csv";
   for (const Rock& rock : scene.rocks) {
     TruthRock r;
     r.center_in_local_m = rock.center_in_local_m;
     r.diameter_m = 2.0 * rock.radius_m;
     r.height_above_ground_m = rock.height_above_ground_m;
-    dataset.truth.rocks.push_back(r);
+    dataset->truth.rocks.push_back(r);
   }
+}
+
+// The frame pair whose true baseline-to-range ratio is closest to NOVA-C's
+// 30 m at 566 m, into the summary.
+void ChooseSummaryPair(const SynthOptions& options, const std::vector<double>& frame_times,
+                       SynthSummary* summary) {
+  const int num_frames = static_cast<int>(frame_times.size());
+  const double target = 30.0 / 566.0 * SlantRangeM(options);
+  double best = HUGE_VAL;
+  for (int j = 1; j < num_frames; ++j) {
+    const double baseline =
+        (BodyPositionAt(options, frame_times[j]) - BodyPositionAt(options, frame_times[0])).norm();
+    if (std::abs(baseline - target) < best) {
+      best = std::abs(baseline - target);
+      summary->pair_frames = {0, j};
+      summary->pair_baseline_m = baseline;
+    }
+  }
+}
+
+}  // namespace
+
+Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& terrain_options,
+                             std::uint64_t seed, const SynthProgress& progress,
+                             SynthSummary* summary) {
+  ThrowIfInvalid(options);
+  calib::CameraModel camera = options.camera_model_file.empty()
+                                  ? DefaultCamera(options)
+                                  : calib::CameraModel::Load(options.camera_model_file);
+  Dataset dataset = EmptyDataset(camera, options, seed);
+  const FrameTrajectory frames = TrueFrames(options, dataset.cam_from_body);
+
+  const TerrainOptions terrain = TerrainOverFootprint(options, terrain_options, camera, frames.cams_from_local);
+  double terrain_s = 0.0;
+  const Scene scene = TimedScene(terrain, seed, options.threads, progress, &terrain_s);
+  const SceneRaycaster raycaster(scene);
+
+  const RenderOptions render = SequenceRenderOptions(options, terrain.albedo_mean, dataset.ils_in_local_m);
+  const double render_s =
+      RenderFrames(raycaster, scene, camera, frames, render, options.threads, seed, progress, &dataset);
+
+  const double t0 = frames.times_s.front() - kSensorMarginS;
+  const double t1 = frames.times_s.back() + kSensorMarginS;
+  AddNavigation(options, seed, frames.times_s.front(), t0, t1, &dataset);
+  AddLrf(options, seed, raycaster, t0, t1, &dataset);
+  AddTruthDemAndRocks(scene, &dataset);
 
   if (summary != nullptr) {
-    summary->frames = num_frames;
+    summary->frames = static_cast<int>(frames.times_s.size());
     summary->rocks = static_cast<int>(scene.rocks.size());
     summary->craters = static_cast<int>(scene.craters.size());
-    summary->dem_spacing_m = spacing;
+    summary->dem_spacing_m = terrain.spacing_m;
     summary->dem_width = scene.dem.width;
     summary->dem_height = scene.dem.height;
-    summary->terrain_seconds = terrain_seconds;
-    summary->render_seconds = render_seconds;
-    // The pair whose baseline-to-range ratio is closest to NOVA-C's 30 m at 566 m.
-    const double target = 30.0 / 566.0 * slant_m;
-    double best = HUGE_VAL;
-    for (int j = 1; j < num_frames; ++j) {
-      const double baseline =
-          (BodyPositionAt(options, frame_times[j]) - BodyPositionAt(options, frame_times[0])).norm();
-      if (std::abs(baseline - target) < best) {
-        best = std::abs(baseline - target);
-        summary->pair_frames = {0, j};
-        summary->pair_baseline_m = baseline;
-      }
-    }
+    summary->terrain_s = terrain_s;
+    summary->render_s = render_s;
+    ChooseSummaryPair(options, frames.times_s, summary);
   }
   return dataset;
 }

@@ -88,11 +88,11 @@ struct SynthSummary {
   double dem_spacing_m = 0.0;
   int dem_width = 0;
   int dem_height = 0;
-  double terrain_seconds = 0.0;
-  double render_seconds = 0.0;           // all frames
+  double terrain_s = 0.0;
+  double render_s = 0.0;           // all frames
   double pair_baseline_m = 0.0;          // true baseline between frames pair_frames
   std::pair<int, int> pair_frames{0, 0}; // the pair whose true baseline is closest to 30 m (scaled for truck/aircraft by range)
-  std::string Report() const;            // one line
+  std::string Summary() const;           // one line
 };
 
 // Generates the dataset in memory: the scene, every frame rendered, truth

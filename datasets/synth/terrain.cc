@@ -8,15 +8,17 @@
 #include <sstream>
 #include <thread>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "datasets/synth/noise.h"
+#include "tools/util/angles.h"
+#include "tools/util/parallel_for.h"
 
 namespace hdabench::datasets::synth {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
+using util::kDegToRad;
+
 
 // Sub-seeds of the scene seed, one per independent random stream.
 constexpr std::uint64_t kReliefStream = 0x52454c4945460001ULL;
@@ -192,84 +194,92 @@ double UnitReliefRms(std::uint64_t relief_seed, double finest_m, double coarsest
   return std::sqrt(sum2 / (kReliefRmsSamplesPerSide * kReliefRmsSamplesPerSide));
 }
 
-}  // namespace
+// Which of the extent and grid options are usable, for the checks that use them.
+struct ExtentChecks {
+  bool extent_ok = false;
+  bool spacing_ok = false;
+};
 
-// ---------------------------------------------------------------------------
-
-std::vector<std::string> TerrainOptions::Validate() const {
-  std::vector<std::string> errors;
-  Checker check(&errors);
-
-  // Extent and grid.
-  bool extent_ok = check.Finite("min_x_m", min_x_m) & check.Finite("max_x_m", max_x_m) &
-                   check.Finite("min_y_m", min_y_m) & check.Finite("max_y_m", max_y_m);
+// Extent and grid: finite, ordered bounds, a positive spacing, at most max_nodes nodes.
+ExtentChecks ValidateExtent(const TerrainOptions& o, Checker& check) {
+  bool extent_ok = check.Finite("min_x_m", o.min_x_m) & check.Finite("max_x_m", o.max_x_m) &
+                   check.Finite("min_y_m", o.min_y_m) & check.Finite("max_y_m", o.max_y_m);
   if (extent_ok) {
-    extent_ok = check.Less("min_x_m", min_x_m, "max_x_m", max_x_m) &
-                check.Less("min_y_m", min_y_m, "max_y_m", max_y_m);
+    extent_ok = check.Less("min_x_m", o.min_x_m, "max_x_m", o.max_x_m) &
+                check.Less("min_y_m", o.min_y_m, "max_y_m", o.max_y_m);
   }
-  const bool spacing_ok = check.Positive("spacing_m", spacing_m);
-  const bool max_nodes_ok = check.Check(max_nodes > 0, "max_nodes", static_cast<double>(max_nodes),
+  const bool spacing_ok = check.Positive("spacing_m", o.spacing_m);
+  const bool max_nodes_ok = check.Check(o.max_nodes > 0, "max_nodes", static_cast<double>(o.max_nodes),
                                         "a value > 0");
   const bool grid_ok = extent_ok && spacing_ok;
   if (grid_ok && max_nodes_ok) {
-    const double nx = NodesToCover(max_x_m - min_x_m, spacing_m);
-    const double ny = NodesToCover(max_y_m - min_y_m, spacing_m);
-    if (nx * ny > static_cast<double>(max_nodes) || nx > INT_MAX || ny > INT_MAX) {
+    const double nx = NodesToCover(o.max_x_m - o.min_x_m, o.spacing_m);
+    const double ny = NodesToCover(o.max_y_m - o.min_y_m, o.spacing_m);
+    if (nx * ny > static_cast<double>(o.max_nodes) || nx > INT_MAX || ny > INT_MAX) {
       check.Fail("grid of " + Num(nx) + " x " + Num(ny) + " nodes (spacing_m = " +
-                 Num(spacing_m) + "): expected at most max_nodes = " +
-                 std::to_string(max_nodes) + " nodes; enlarge spacing_m or shrink the extent");
+                 Num(o.spacing_m) + "): expected at most max_nodes = " +
+                 std::to_string(o.max_nodes) + " nodes; enlarge spacing_m or shrink the extent");
     }
   }
+  return {extent_ok, spacing_ok};
+}
 
-  // Relief and regional slope.
-  if (check.NonNegative("relief_rms_m", relief_rms_m) && relief_rms_m > 0.0 && spacing_ok &&
-      check.Finite("relief_largest_wavelength_m", relief_largest_wavelength_m)) {
-    check.Check(relief_largest_wavelength_m >= 2.0 * spacing_m, "relief_largest_wavelength_m",
-                relief_largest_wavelength_m,
-                ">= 2 * spacing_m = " + Num(2.0 * spacing_m) + " (the finest relief wavelength)");
+// Relief and regional slope.
+void ValidateRelief(const TerrainOptions& o, bool spacing_ok, Checker& check) {
+  if (check.NonNegative("relief_rms_m", o.relief_rms_m) && o.relief_rms_m > 0.0 && spacing_ok &&
+      check.Finite("relief_largest_wavelength_m", o.relief_largest_wavelength_m)) {
+    check.Check(o.relief_largest_wavelength_m >= 2.0 * o.spacing_m, "relief_largest_wavelength_m",
+                o.relief_largest_wavelength_m,
+                ">= 2 * spacing_m = " + Num(2.0 * o.spacing_m) + " (the finest relief wavelength)");
   }
-  check.InClosed("relief_hurst", relief_hurst, 0.0, 1.0);
-  check.InClosed("regional_slope_deg", regional_slope_deg, 0.0, 80.0);
-  check.Finite("regional_slope_downhill_azimuth_deg", regional_slope_downhill_azimuth_deg);
+  check.InClosed("relief_hurst", o.relief_hurst, 0.0, 1.0);
+  check.InClosed("regional_slope_deg", o.regional_slope_deg, 0.0, 80.0);
+  check.Finite("regional_slope_downhill_azimuth_deg", o.regional_slope_downhill_azimuth_deg);
+}
 
-  // Craters.
-  bool crater_law_ok = check.NonNegative("crater_k", crater_k) &
-                       check.Negative("crater_exponent", crater_exponent);
+// Craters: the law, the shape ratios, the count cap over the placement area.
+void ValidateCraterLaw(const TerrainOptions& o, bool extent_ok, Checker& check) {
+  bool crater_law_ok = check.NonNegative("crater_k", o.crater_k) &
+                       check.Negative("crater_exponent", o.crater_exponent);
   const bool crater_d_ok =
-      check.Positive("crater_d_min_m", crater_d_min_m) &
-      check.Positive("crater_d_max_m", crater_d_max_m);
+      check.Positive("crater_d_min_m", o.crater_d_min_m) &
+      check.Positive("crater_d_max_m", o.crater_d_max_m);
   crater_law_ok = crater_law_ok && crater_d_ok &&
-                  check.Less("crater_d_min_m", crater_d_min_m, "crater_d_max_m", crater_d_max_m);
-  if (check.Positive("crater_depth_to_diameter", crater_depth_to_diameter) &
-      check.NonNegative("crater_depth_to_diameter_spread", crater_depth_to_diameter_spread)) {
-    if (crater_depth_to_diameter_spread >= crater_depth_to_diameter ||
-        crater_depth_to_diameter + crater_depth_to_diameter_spread > 0.5) {
-      check.Fail("crater_depth_to_diameter = " + Num(crater_depth_to_diameter) +
+                  check.Less("crater_d_min_m", o.crater_d_min_m, "crater_d_max_m", o.crater_d_max_m);
+  if (check.Positive("crater_depth_to_diameter", o.crater_depth_to_diameter) &
+      check.NonNegative("crater_depth_to_diameter_spread", o.crater_depth_to_diameter_spread)) {
+    if (o.crater_depth_to_diameter_spread >= o.crater_depth_to_diameter ||
+        o.crater_depth_to_diameter + o.crater_depth_to_diameter_spread > 0.5) {
+      check.Fail("crater_depth_to_diameter = " + Num(o.crater_depth_to_diameter) +
                  " and crater_depth_to_diameter_spread = " +
-                 Num(crater_depth_to_diameter_spread) +
+                 Num(o.crater_depth_to_diameter_spread) +
                  ": expected the drawn range [value - spread, value + spread] inside (0, 0.5]");
     }
   }
-  check.InClosed("crater_rim_height_to_diameter", crater_rim_height_to_diameter, 0.0, 0.5);
+  check.InClosed("crater_rim_height_to_diameter", o.crater_rim_height_to_diameter, 0.0, 0.5);
   const bool ejecta_ok = check.Check(
-      std::isfinite(crater_ejecta_extent_radii) && crater_ejecta_extent_radii > 1.0,
-      "crater_ejecta_extent_radii", crater_ejecta_extent_radii, "a finite value > 1");
-  const bool max_craters_ok = check.Check(max_craters >= 0, "max_craters",
-                                          static_cast<double>(max_craters), "a value >= 0");
+      std::isfinite(o.crater_ejecta_extent_radii) && o.crater_ejecta_extent_radii > 1.0,
+      "crater_ejecta_extent_radii", o.crater_ejecta_extent_radii, "a finite value > 1");
+  const bool max_craters_ok = check.Check(o.max_craters >= 0, "max_craters",
+                                          static_cast<double>(o.max_craters), "a value >= 0");
   if (crater_law_ok && ejecta_ok && extent_ok && max_craters_ok) {
-    const double expected = ExpectedCount(crater_k, crater_exponent, crater_d_min_m,
-                                          crater_d_max_m, CraterAreaM2(*this));
-    if (std::ceil(expected) > static_cast<double>(max_craters)) {
+    const double expected = ExpectedCount(o.crater_k, o.crater_exponent, o.crater_d_min_m,
+                                          o.crater_d_max_m, CraterAreaM2(o));
+    if (std::ceil(expected) > static_cast<double>(o.max_craters)) {
       check.Fail("crater law gives " + Num(expected) + " craters over " +
-                 Num(CraterAreaM2(*this)) + " m^2 (crater_k = " + Num(crater_k) +
-                 ", crater_exponent = " + Num(crater_exponent) + ", crater_d_min_m = " +
-                 Num(crater_d_min_m) + ", crater_d_max_m = " + Num(crater_d_max_m) +
-                 "): expected at most max_craters = " + std::to_string(max_craters) +
+                 Num(CraterAreaM2(o)) + " m^2 (crater_k = " + Num(o.crater_k) +
+                 ", crater_exponent = " + Num(o.crater_exponent) + ", crater_d_min_m = " +
+                 Num(o.crater_d_min_m) + ", crater_d_max_m = " + Num(o.crater_d_max_m) +
+                 "): expected at most max_craters = " + std::to_string(o.max_craters) +
                  "; raise crater_d_min_m or max_craters, or lower crater_k");
     }
   }
-  for (size_t i = 0; i < extra_craters.size(); ++i) {
-    const Crater& crater = extra_craters[i];
+}
+
+// Each of extra_craters: a finite centre, a positive diameter, a depth up to half of it.
+void ValidateExtraCraters(const TerrainOptions& o, Checker& check) {
+  for (size_t i = 0; i < o.extra_craters.size(); ++i) {
+    const Crater& crater = o.extra_craters[i];
     const std::string name = "extra_craters[" + std::to_string(i) + "].";
     check.Finite(name + "center_in_local_m.x", crater.center_in_local_m.x());
     check.Finite(name + "center_in_local_m.y", crater.center_in_local_m.y());
@@ -277,54 +287,61 @@ std::vector<std::string> TerrainOptions::Validate() const {
       check.InClosed(name + "depth_m", crater.depth_m, 0.0, 0.5 * crater.diameter_m);
     }
   }
+}
 
-  // Rocks.
+// Rocks: the law, protrusion and albedo ranges, the count cap over the extent.
+void ValidateRockLaw(const TerrainOptions& o, bool extent_ok, Checker& check) {
   bool rock_law_ok =
-      check.NonNegative("rock_k", rock_k) & check.Negative("rock_exponent", rock_exponent);
+      check.NonNegative("rock_k", o.rock_k) & check.Negative("rock_exponent", o.rock_exponent);
   const bool rock_d_ok =
-      check.Positive("rock_d_min_m", rock_d_min_m) & check.Positive("rock_d_max_m", rock_d_max_m);
+      check.Positive("rock_d_min_m", o.rock_d_min_m) & check.Positive("rock_d_max_m", o.rock_d_max_m);
   rock_law_ok = rock_law_ok && rock_d_ok &&
-                check.Less("rock_d_min_m", rock_d_min_m, "rock_d_max_m", rock_d_max_m);
-  if (check.InHalfOpen("rock_protrusion_min", rock_protrusion_min, 0.0, 1.0) &
-      check.InHalfOpen("rock_protrusion_max", rock_protrusion_max, 0.0, 1.0)) {
-    if (rock_protrusion_min > rock_protrusion_max) {
-      check.Fail("rock_protrusion_min = " + Num(rock_protrusion_min) +
-                 " and rock_protrusion_max = " + Num(rock_protrusion_max) +
+                check.Less("rock_d_min_m", o.rock_d_min_m, "rock_d_max_m", o.rock_d_max_m);
+  if (check.InHalfOpen("rock_protrusion_min", o.rock_protrusion_min, 0.0, 1.0) &
+      check.InHalfOpen("rock_protrusion_max", o.rock_protrusion_max, 0.0, 1.0)) {
+    if (o.rock_protrusion_min > o.rock_protrusion_max) {
+      check.Fail("rock_protrusion_min = " + Num(o.rock_protrusion_min) +
+                 " and rock_protrusion_max = " + Num(o.rock_protrusion_max) +
                  ": expected rock_protrusion_min <= rock_protrusion_max");
     }
   }
-  if (check.InHalfOpen("rock_albedo", rock_albedo, 0.0, 1.0) &
-      check.NonNegative("rock_albedo_spread", rock_albedo_spread)) {
-    if (rock_albedo - rock_albedo_spread <= 0.0 || rock_albedo + rock_albedo_spread > 1.0) {
-      check.Fail("rock_albedo = " + Num(rock_albedo) + " and rock_albedo_spread = " +
-                 Num(rock_albedo_spread) +
+  if (check.InHalfOpen("rock_albedo", o.rock_albedo, 0.0, 1.0) &
+      check.NonNegative("rock_albedo_spread", o.rock_albedo_spread)) {
+    if (o.rock_albedo - o.rock_albedo_spread <= 0.0 || o.rock_albedo + o.rock_albedo_spread > 1.0) {
+      check.Fail("rock_albedo = " + Num(o.rock_albedo) + " and rock_albedo_spread = " +
+                 Num(o.rock_albedo_spread) +
                  ": expected the drawn range [albedo - spread, albedo + spread] inside (0, 1]");
     }
   }
   const bool max_rocks_ok =
-      check.Check(max_rocks >= 0, "max_rocks", static_cast<double>(max_rocks), "a value >= 0");
+      check.Check(o.max_rocks >= 0, "max_rocks", static_cast<double>(o.max_rocks), "a value >= 0");
   if (rock_law_ok && extent_ok && max_rocks_ok) {
     const double expected =
-        ExpectedCount(rock_k, rock_exponent, rock_d_min_m, rock_d_max_m, ExtentAreaM2(*this));
-    if (std::ceil(expected) > static_cast<double>(max_rocks)) {
-      check.Fail("rock law gives " + Num(expected) + " rocks over " + Num(ExtentAreaM2(*this)) +
-                 " m^2 (rock_k = " + Num(rock_k) + ", rock_exponent = " + Num(rock_exponent) +
-                 ", rock_d_min_m = " + Num(rock_d_min_m) + ", rock_d_max_m = " +
-                 Num(rock_d_max_m) + "): expected at most max_rocks = " +
-                 std::to_string(max_rocks) + "; raise rock_d_min_m or max_rocks, or lower rock_k");
+        ExpectedCount(o.rock_k, o.rock_exponent, o.rock_d_min_m, o.rock_d_max_m, ExtentAreaM2(o));
+    if (std::ceil(expected) > static_cast<double>(o.max_rocks)) {
+      check.Fail("rock law gives " + Num(expected) + " rocks over " + Num(ExtentAreaM2(o)) +
+                 " m^2 (rock_k = " + Num(o.rock_k) + ", rock_exponent = " + Num(o.rock_exponent) +
+                 ", rock_d_min_m = " + Num(o.rock_d_min_m) + ", rock_d_max_m = " +
+                 Num(o.rock_d_max_m) + "): expected at most max_rocks = " +
+                 std::to_string(o.max_rocks) + "; raise rock_d_min_m or max_rocks, or lower rock_k");
     }
   }
-  for (size_t i = 0; i < extra_rocks.size(); ++i) {
-    const Rock& rock = extra_rocks[i];
+}
+
+// Each of extra_rocks: a finite centre inside the extent (when the extent is
+// usable), a positive radius, a protrusion up to the diameter, an albedo in (0, 1].
+void ValidateExtraRocks(const TerrainOptions& o, bool extent_ok, Checker& check) {
+  for (size_t i = 0; i < o.extra_rocks.size(); ++i) {
+    const Rock& rock = o.extra_rocks[i];
     const std::string name = "extra_rocks[" + std::to_string(i) + "].";
     const double x = rock.center_in_local_m.x();
     const double y = rock.center_in_local_m.y();
     if (check.Finite(name + "center_in_local_m.x", x) &
         check.Finite(name + "center_in_local_m.y", y)) {
-      if (extent_ok && (x < min_x_m || x > max_x_m || y < min_y_m || y > max_y_m)) {
+      if (extent_ok && (x < o.min_x_m || x > o.max_x_m || y < o.min_y_m || y > o.max_y_m)) {
         check.Fail(name + "center_in_local_m = (" + Num(x) + ", " + Num(y) +
-                   "): expected inside the extent [" + Num(min_x_m) + ", " + Num(max_x_m) +
-                   "] x [" + Num(min_y_m) + ", " + Num(max_y_m) + "]");
+                   "): expected inside the extent [" + Num(o.min_x_m) + ", " + Num(o.max_x_m) +
+                   "] x [" + Num(o.min_y_m) + ", " + Num(o.max_y_m) + "]");
       }
     }
     if (check.Positive(name + "radius_m", rock.radius_m)) {
@@ -333,20 +350,225 @@ std::vector<std::string> TerrainOptions::Validate() const {
     }
     check.InHalfOpen(name + "albedo", static_cast<double>(rock.albedo), 0.0, 1.0);
   }
+}
 
-  // Albedo.
-  check.InHalfOpen("albedo_mean", albedo_mean, 0.0, 1.0);
-  check.Check(std::isfinite(albedo_relative_variation) && albedo_relative_variation >= 0.0 &&
-                  albedo_relative_variation < 1.0,
-              "albedo_relative_variation", albedo_relative_variation, "a finite value in [0, 1)");
-  if (check.Positive("albedo_finest_wavelength_m", albedo_finest_wavelength_m) &
-      check.Positive("albedo_coarsest_wavelength_m", albedo_coarsest_wavelength_m)) {
-    if (albedo_finest_wavelength_m > albedo_coarsest_wavelength_m) {
-      check.Fail("albedo_finest_wavelength_m = " + Num(albedo_finest_wavelength_m) +
-                 " and albedo_coarsest_wavelength_m = " + Num(albedo_coarsest_wavelength_m) +
+// Regolith albedo: mean, variation and an ordered pair of wavelengths.
+void ValidateAlbedo(const TerrainOptions& o, Checker& check) {
+  check.InHalfOpen("albedo_mean", o.albedo_mean, 0.0, 1.0);
+  check.Check(std::isfinite(o.albedo_relative_variation) && o.albedo_relative_variation >= 0.0 &&
+                  o.albedo_relative_variation < 1.0,
+              "albedo_relative_variation", o.albedo_relative_variation, "a finite value in [0, 1)");
+  if (check.Positive("albedo_finest_wavelength_m", o.albedo_finest_wavelength_m) &
+      check.Positive("albedo_coarsest_wavelength_m", o.albedo_coarsest_wavelength_m)) {
+    if (o.albedo_finest_wavelength_m > o.albedo_coarsest_wavelength_m) {
+      check.Fail("albedo_finest_wavelength_m = " + Num(o.albedo_finest_wavelength_m) +
+                 " and albedo_coarsest_wavelength_m = " + Num(o.albedo_coarsest_wavelength_m) +
                  ": expected albedo_finest_wavelength_m <= albedo_coarsest_wavelength_m");
     }
   }
+}
+
+// Throws InputError joining every problem of the options and the thread count.
+void ThrowIfInvalid(const TerrainOptions& options, int threads) {
+  std::vector<std::string> errors = options.Validate();
+  if (threads < 1) errors.push_back("threads = " + std::to_string(threads) + ": expected >= 1");
+  if (!errors.empty()) {
+    std::string message = "invalid terrain options: ";
+    for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
+    throw InputError(message);
+  }
+}
+
+// Sizes the DEM to cover the extent, all heights zero, and returns its grid.
+Grid LayOutDem(const TerrainOptions& o, Heightfield* dem, TerrainSummary* stats) {
+  dem->spacing_m = o.spacing_m;
+  dem->origin_x_m = o.min_x_m;
+  dem->origin_y_m = o.max_y_m;
+  dem->width = static_cast<int>(NodesToCover(o.max_x_m - o.min_x_m, o.spacing_m));
+  dem->height = static_cast<int>(NodesToCover(o.max_y_m - o.min_y_m, o.spacing_m));
+  dem->height_m.assign(static_cast<size_t>(dem->width) * dem->height, 0.0f);
+  stats->grid_width = dem->width;
+  stats->grid_height = dem->height;
+  return Grid{dem->width, dem->height, dem->origin_x_m, dem->origin_y_m, dem->spacing_m};
+}
+
+// Craters from the law, over the extent grown by the largest reach, then the
+// extra ones; keeps those whose reach touches the grid, in that order, in
+// scene->craters, and returns their shapes for carving.
+std::vector<CraterShape> DrawCraters(const TerrainOptions& o, std::uint64_t seed, Scene* scene,
+                                     TerrainSummary* stats) {
+  const Heightfield& dem = scene->dem;
+  std::vector<CraterShape> shapes;
+  const std::uint64_t crater_seed = Stream(seed, kCraterStream);
+  const double margin_m = CraterMarginM(o);
+  const double x0 = o.min_x_m - margin_m;
+  const double y0 = o.min_y_m - margin_m;
+  const double span_x = o.max_x_m - o.min_x_m + 2.0 * margin_m;
+  const double span_y = o.max_y_m - o.min_y_m + 2.0 * margin_m;
+  stats->crater_placement_area_m2 = span_x * span_y;
+  stats->expected_crater_count = ExpectedCount(o.crater_k, o.crater_exponent, o.crater_d_min_m,
+                                               o.crater_d_max_m, stats->crater_placement_area_m2);
+  stats->craters_drawn = StochasticCount(stats->expected_crater_count, crater_seed);
+  const auto add = [&](const Crater& crater) {
+    const double radius_m = 0.5 * crater.diameter_m;
+    const double reach_m = o.crater_ejecta_extent_radii * radius_m;
+    if (DistanceToRect(crater.center_in_local_m.x(), crater.center_in_local_m.y(), dem.MinXM(),
+                       dem.MaxXM(), dem.MinYM(), dem.MaxYM()) >= reach_m) {
+      return;
+    }
+    scene->craters.push_back(crater);
+    shapes.push_back({crater.center_in_local_m.x(), crater.center_in_local_m.y(), radius_m,
+                      crater.depth_m, o.crater_rim_height_to_diameter * crater.diameter_m,
+                      reach_m});
+  };
+  for (std::int64_t i = 0; i < stats->craters_drawn; ++i) {
+    const auto index = static_cast<std::uint64_t>(i);
+    Crater crater;
+    crater.diameter_m = SampleDiameter(HashUniform(crater_seed, index, 0), o.crater_exponent,
+                                       o.crater_d_min_m, o.crater_d_max_m);
+    crater.center_in_local_m = Eigen::Vector2d(x0 + span_x * HashUniform(crater_seed, index, 1),
+                                               y0 + span_y * HashUniform(crater_seed, index, 2));
+    const double ratio = o.crater_depth_to_diameter +
+                         o.crater_depth_to_diameter_spread *
+                             (2.0 * HashUniform(crater_seed, index, 3) - 1.0);
+    crater.depth_m = ratio * crater.diameter_m;
+    add(crater);
+  }
+  for (const Crater& crater : o.extra_craters) add(crater);
+  stats->craters_in_scene = static_cast<std::int64_t>(scene->craters.size());
+  return shapes;
+}
+
+// The smooth part of the surface: regional plane plus (when on) scaled fractal relief.
+struct SurfaceModel {
+  std::uint64_t relief_seed = 0;
+  double finest_m = 0.0;
+  double largest_wavelength_m = 0.0;
+  double hurst = 0.0;
+  bool relief_on = false;
+  double relief_scale = 0.0;
+  double gradient_x = 0.0;  // dz/dx
+  double gradient_y = 0.0;  // dz/dy
+};
+
+// The plane and relief of the options, measuring the relief's unit RMS into stats.
+SurfaceModel MakeSurfaceModel(const TerrainOptions& o, std::uint64_t seed, TerrainSummary* stats) {
+  SurfaceModel surface;
+  surface.relief_seed = Stream(seed, kReliefStream);
+  surface.finest_m = 2.0 * o.spacing_m;
+  surface.largest_wavelength_m = o.relief_largest_wavelength_m;
+  surface.hurst = o.relief_hurst;
+  surface.relief_on = o.relief_rms_m > 0.0;
+  stats->relief_unit_rms =
+      surface.relief_on ? UnitReliefRms(surface.relief_seed, surface.finest_m, o.relief_largest_wavelength_m,
+                                        o.relief_hurst)
+                        : 0.0;
+  surface.relief_scale = surface.relief_on ? o.relief_rms_m / stats->relief_unit_rms : 0.0;
+  const double tan_slope = std::tan(o.regional_slope_deg * kDegToRad);
+  const double azimuth_rad = o.regional_slope_downhill_azimuth_deg * kDegToRad;
+  surface.gradient_x = -tan_slope * std::sin(azimuth_rad);
+  surface.gradient_y = -tan_slope * std::cos(azimuth_rad);
+  return surface;
+}
+
+// Rows [row_begin, row_end) of plane + relief into `block` (row-major, full width).
+void FillSurfaceBlock(const Grid& grid, const SurfaceModel& surface, int row_begin, int row_end,
+                      std::vector<double>* block) {
+  block->assign(static_cast<size_t>(row_end - row_begin) * grid.width, 0.0);
+  for (int r = row_begin; r < row_end; ++r) {
+    const double y = grid.origin_y_m - r * grid.spacing_m;
+    double* row = block->data() + static_cast<size_t>(r - row_begin) * grid.width;
+    for (int c = 0; c < grid.width; ++c) {
+      const double x = grid.origin_x_m + c * grid.spacing_m;
+      double z = surface.gradient_x * x + surface.gradient_y * y;
+      if (surface.relief_on) {
+        z += surface.relief_scale * FractalNoise(surface.relief_seed, x, y, surface.finest_m,
+                                                 surface.largest_wavelength_m, surface.hurst);
+      }
+      row[c] = z;
+    }
+  }
+}
+
+// Heights, in blocks of rows on `threads` workers: plane + relief + craters,
+// then rounded to float into dem->height_m.
+void ComputeHeights(const TerrainOptions& o, const Grid& grid, const SurfaceModel& surface,
+                    const std::vector<CraterShape>& shapes, int threads, Heightfield* dem) {
+  const int block_count = (dem->height + kBlockRows - 1) / kBlockRows;
+  util::ParallelFor("terrain blocks", block_count, threads, [&](int b) {
+    std::vector<double> block;
+    const int row_begin = b * kBlockRows;
+    const int row_end = std::min(dem->height, row_begin + kBlockRows);
+    FillSurfaceBlock(grid, surface, row_begin, row_end, &block);
+    CarveBlock(grid, shapes, o.crater_ejecta_extent_radii, row_begin, row_end, &block);
+    std::transform(block.begin(), block.end(),
+                   dem->height_m.begin() + static_cast<std::ptrdiff_t>(row_begin) * dem->width,
+                   [](double z) { return static_cast<float>(z); });
+  });
+}
+
+// Rocks from the law over the extent, then the extra ones, each set on the
+// finished terrain, into scene->rocks.
+void PlaceRocks(const TerrainOptions& o, std::uint64_t seed, Scene* scene, TerrainSummary* stats) {
+  const Heightfield& dem = scene->dem;
+  const std::uint64_t rock_seed = Stream(seed, kRockStream);
+  stats->expected_rock_count = ExpectedCount(o.rock_k, o.rock_exponent, o.rock_d_min_m,
+                                             o.rock_d_max_m, ExtentAreaM2(o));
+  stats->rocks_drawn = StochasticCount(stats->expected_rock_count, rock_seed);
+  scene->rocks.reserve(static_cast<size_t>(stats->rocks_drawn) + o.extra_rocks.size());
+  const auto place = [&](Rock rock) {
+    double ground_m = 0.0;
+    dem.HeightAt(rock.center_in_local_m.x(), rock.center_in_local_m.y(), &ground_m);
+    rock.center_in_local_m.z() = ground_m + rock.height_above_ground_m - rock.radius_m;
+    scene->rocks.push_back(rock);
+  };
+  for (std::int64_t i = 0; i < stats->rocks_drawn; ++i) {
+    const auto index = static_cast<std::uint64_t>(i);
+    Rock rock;
+    const double diameter_m = SampleDiameter(HashUniform(rock_seed, index, 0), o.rock_exponent,
+                                             o.rock_d_min_m, o.rock_d_max_m);
+    rock.radius_m = 0.5 * diameter_m;
+    rock.center_in_local_m.x() =
+        o.min_x_m + (o.max_x_m - o.min_x_m) * HashUniform(rock_seed, index, 1);
+    rock.center_in_local_m.y() =
+        o.min_y_m + (o.max_y_m - o.min_y_m) * HashUniform(rock_seed, index, 2);
+    const double protrusion =
+        o.rock_protrusion_min +
+        (o.rock_protrusion_max - o.rock_protrusion_min) * HashUniform(rock_seed, index, 3);
+    rock.height_above_ground_m = protrusion * diameter_m;
+    rock.albedo = static_cast<float>(
+        o.rock_albedo + o.rock_albedo_spread * (2.0 * HashUniform(rock_seed, index, 4) - 1.0));
+    place(rock);
+  }
+  for (const Rock& rock : o.extra_rocks) place(rock);
+  stats->rocks_in_scene = static_cast<std::int64_t>(scene->rocks.size());
+}
+
+// The regolith albedo field of the options, seeded from the scene seed.
+AlbedoField MakeAlbedoField(const TerrainOptions& o, std::uint64_t seed) {
+  AlbedoField albedo;
+  albedo.mean = o.albedo_mean;
+  albedo.relative_variation = o.albedo_relative_variation;
+  albedo.finest_wavelength_m = o.albedo_finest_wavelength_m;
+  albedo.coarsest_wavelength_m = o.albedo_coarsest_wavelength_m;
+  albedo.seed = Stream(seed, kAlbedoStream);
+  return albedo;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+
+std::vector<std::string> TerrainOptions::Validate() const {
+  std::vector<std::string> errors;
+  Checker check(&errors);
+  const ExtentChecks extent = ValidateExtent(*this, check);
+  ValidateRelief(*this, extent.spacing_ok, check);
+  ValidateCraterLaw(*this, extent.extent_ok, check);
+  ValidateExtraCraters(*this, check);
+  ValidateRockLaw(*this, extent.extent_ok, check);
+  ValidateExtraRocks(*this, extent.extent_ok, check);
+  ValidateAlbedo(*this, check);
   return errors;
 }
 
@@ -383,14 +605,14 @@ TerrainOptions TerrainPreset(const std::string& name) {
   return options;
 }
 
-std::string TerrainSummary::Report() const {
+std::string TerrainSummary::Summary() const {
   std::ostringstream out;
   out.precision(6);
   out << "terrain " << grid_width << " x " << grid_height << " nodes, " << craters_drawn
       << " craters drawn (expected " << expected_crater_count << "), " << craters_in_scene
       << " in the scene, " << rocks_drawn << " rocks drawn (expected " << expected_rock_count
       << "), " << rocks_in_scene << " in the scene, " << threads << " thread"
-      << (threads == 1 ? "" : "s") << ", " << seconds << " s";
+      << (threads == 1 ? "" : "s") << ", " << wall_s << " s";
   return out.str();
 }
 
@@ -406,164 +628,19 @@ double CraterHeightChange(double r_m, double radius_m, double depth_m, double ri
 Scene GenerateScene(const TerrainOptions& options, std::uint64_t seed, int threads,
                     TerrainSummary* summary) {
   const auto start = std::chrono::steady_clock::now();
-  std::vector<std::string> errors = options.Validate();
-  if (threads < 1) errors.push_back("threads = " + std::to_string(threads) + ": expected >= 1");
-  if (!errors.empty()) {
-    std::string message = "invalid terrain options: ";
-    for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
-    throw InputError(message);
-  }
-  const TerrainOptions& o = options;
+  ThrowIfInvalid(options, threads);
   TerrainSummary stats;
   stats.threads = threads;
 
   Scene scene;
-  Heightfield& dem = scene.dem;
-  dem.spacing_m = o.spacing_m;
-  dem.origin_x_m = o.min_x_m;
-  dem.origin_y_m = o.max_y_m;
-  dem.width = static_cast<int>(NodesToCover(o.max_x_m - o.min_x_m, o.spacing_m));
-  dem.height = static_cast<int>(NodesToCover(o.max_y_m - o.min_y_m, o.spacing_m));
-  dem.height_m.assign(static_cast<size_t>(dem.width) * dem.height, 0.0f);
-  stats.grid_width = dem.width;
-  stats.grid_height = dem.height;
-  const Grid grid{dem.width, dem.height, dem.origin_x_m, dem.origin_y_m, dem.spacing_m};
+  const Grid grid = LayOutDem(options, &scene.dem, &stats);
+  const std::vector<CraterShape> shapes = DrawCraters(options, seed, &scene, &stats);
+  const SurfaceModel surface = MakeSurfaceModel(options, seed, &stats);
+  ComputeHeights(options, grid, surface, shapes, threads, &scene.dem);
+  PlaceRocks(options, seed, &scene, &stats);
+  scene.albedo = MakeAlbedoField(options, seed);
 
-  // Craters from the law, over the extent grown by the largest reach, then the
-  // extra ones; keep those whose reach touches the grid, in that order.
-  std::vector<CraterShape> shapes;
-  {
-    const std::uint64_t crater_seed = Stream(seed, kCraterStream);
-    const double margin_m = CraterMarginM(o);
-    const double x0 = o.min_x_m - margin_m;
-    const double y0 = o.min_y_m - margin_m;
-    const double span_x = o.max_x_m - o.min_x_m + 2.0 * margin_m;
-    const double span_y = o.max_y_m - o.min_y_m + 2.0 * margin_m;
-    stats.crater_placement_area_m2 = span_x * span_y;
-    stats.expected_crater_count = ExpectedCount(o.crater_k, o.crater_exponent, o.crater_d_min_m,
-                                                o.crater_d_max_m, stats.crater_placement_area_m2);
-    stats.craters_drawn = StochasticCount(stats.expected_crater_count, crater_seed);
-    const auto add = [&](const Crater& crater) {
-      const double radius_m = 0.5 * crater.diameter_m;
-      const double reach_m = o.crater_ejecta_extent_radii * radius_m;
-      if (DistanceToRect(crater.center_in_local_m.x(), crater.center_in_local_m.y(), dem.MinXM(),
-                         dem.MaxXM(), dem.MinYM(), dem.MaxYM()) >= reach_m) {
-        return;
-      }
-      scene.craters.push_back(crater);
-      shapes.push_back({crater.center_in_local_m.x(), crater.center_in_local_m.y(), radius_m,
-                        crater.depth_m, o.crater_rim_height_to_diameter * crater.diameter_m,
-                        reach_m});
-    };
-    for (std::int64_t i = 0; i < stats.craters_drawn; ++i) {
-      const auto index = static_cast<std::uint64_t>(i);
-      Crater crater;
-      crater.diameter_m = SampleDiameter(HashUniform(crater_seed, index, 0), o.crater_exponent,
-                                         o.crater_d_min_m, o.crater_d_max_m);
-      crater.center_in_local_m = Eigen::Vector2d(x0 + span_x * HashUniform(crater_seed, index, 1),
-                                                 y0 + span_y * HashUniform(crater_seed, index, 2));
-      const double ratio = o.crater_depth_to_diameter +
-                           o.crater_depth_to_diameter_spread *
-                               (2.0 * HashUniform(crater_seed, index, 3) - 1.0);
-      crater.depth_m = ratio * crater.diameter_m;
-      add(crater);
-    }
-    for (const Crater& crater : o.extra_craters) add(crater);
-    stats.craters_in_scene = static_cast<std::int64_t>(scene.craters.size());
-  }
-
-  // Heights, in blocks of rows: plane + relief + craters, then rounded to float.
-  const std::uint64_t relief_seed = Stream(seed, kReliefStream);
-  const double finest_m = 2.0 * o.spacing_m;
-  const bool relief_on = o.relief_rms_m > 0.0;
-  stats.relief_unit_rms =
-      relief_on ? UnitReliefRms(relief_seed, finest_m, o.relief_largest_wavelength_m,
-                                o.relief_hurst)
-                : 0.0;
-  const double relief_scale = relief_on ? o.relief_rms_m / stats.relief_unit_rms : 0.0;
-  const double tan_slope = std::tan(o.regional_slope_deg * kDegToRad);
-  const double azimuth_rad = o.regional_slope_downhill_azimuth_deg * kDegToRad;
-  const double gradient_x = -tan_slope * std::sin(azimuth_rad);  // dz/dx
-  const double gradient_y = -tan_slope * std::cos(azimuth_rad);  // dz/dy
-
-  const int block_count = (dem.height + kBlockRows - 1) / kBlockRows;
-  std::atomic<int> next_block{0};
-  const auto worker = [&]() {
-    std::vector<double> block;
-    for (int b = next_block++; b < block_count; b = next_block++) {
-      const int row_begin = b * kBlockRows;
-      const int row_end = std::min(dem.height, row_begin + kBlockRows);
-      block.assign(static_cast<size_t>(row_end - row_begin) * dem.width, 0.0);
-      for (int r = row_begin; r < row_end; ++r) {
-        const double y = grid.origin_y_m - r * grid.spacing_m;
-        double* row = block.data() + static_cast<size_t>(r - row_begin) * dem.width;
-        for (int c = 0; c < dem.width; ++c) {
-          const double x = grid.origin_x_m + c * grid.spacing_m;
-          double z = gradient_x * x + gradient_y * y;
-          if (relief_on) {
-            z += relief_scale * FractalNoise(relief_seed, x, y, finest_m,
-                                             o.relief_largest_wavelength_m, o.relief_hurst);
-          }
-          row[c] = z;
-        }
-      }
-      CarveBlock(grid, shapes, o.crater_ejecta_extent_radii, row_begin, row_end, &block);
-      std::transform(block.begin(), block.end(),
-                     dem.height_m.begin() + static_cast<std::ptrdiff_t>(row_begin) * dem.width,
-                     [](double z) { return static_cast<float>(z); });
-    }
-  };
-  if (threads == 1) {
-    worker();
-  } else {
-    std::vector<std::thread> pool;
-    pool.reserve(static_cast<size_t>(threads));
-    for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
-    for (std::thread& thread : pool) thread.join();
-  }
-
-  // Rocks on the finished terrain.
-  {
-    const std::uint64_t rock_seed = Stream(seed, kRockStream);
-    stats.expected_rock_count = ExpectedCount(o.rock_k, o.rock_exponent, o.rock_d_min_m,
-                                              o.rock_d_max_m, ExtentAreaM2(o));
-    stats.rocks_drawn = StochasticCount(stats.expected_rock_count, rock_seed);
-    scene.rocks.reserve(static_cast<size_t>(stats.rocks_drawn) + o.extra_rocks.size());
-    const auto place = [&](Rock rock) {
-      double ground_m = 0.0;
-      dem.HeightAt(rock.center_in_local_m.x(), rock.center_in_local_m.y(), &ground_m);
-      rock.center_in_local_m.z() = ground_m + rock.height_above_ground_m - rock.radius_m;
-      scene.rocks.push_back(rock);
-    };
-    for (std::int64_t i = 0; i < stats.rocks_drawn; ++i) {
-      const auto index = static_cast<std::uint64_t>(i);
-      Rock rock;
-      const double diameter_m = SampleDiameter(HashUniform(rock_seed, index, 0), o.rock_exponent,
-                                               o.rock_d_min_m, o.rock_d_max_m);
-      rock.radius_m = 0.5 * diameter_m;
-      rock.center_in_local_m.x() =
-          o.min_x_m + (o.max_x_m - o.min_x_m) * HashUniform(rock_seed, index, 1);
-      rock.center_in_local_m.y() =
-          o.min_y_m + (o.max_y_m - o.min_y_m) * HashUniform(rock_seed, index, 2);
-      const double protrusion =
-          o.rock_protrusion_min +
-          (o.rock_protrusion_max - o.rock_protrusion_min) * HashUniform(rock_seed, index, 3);
-      rock.height_above_ground_m = protrusion * diameter_m;
-      rock.albedo = static_cast<float>(
-          o.rock_albedo + o.rock_albedo_spread * (2.0 * HashUniform(rock_seed, index, 4) - 1.0));
-      place(rock);
-    }
-    for (const Rock& rock : o.extra_rocks) place(rock);
-    stats.rocks_in_scene = static_cast<std::int64_t>(scene.rocks.size());
-  }
-
-  scene.albedo.mean = o.albedo_mean;
-  scene.albedo.relative_variation = o.albedo_relative_variation;
-  scene.albedo.finest_wavelength_m = o.albedo_finest_wavelength_m;
-  scene.albedo.coarsest_wavelength_m = o.albedo_coarsest_wavelength_m;
-  scene.albedo.seed = Stream(seed, kAlbedoStream);
-
-  stats.seconds =
+  stats.wall_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (summary != nullptr) *summary = stats;
   return scene;

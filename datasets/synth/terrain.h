@@ -145,8 +145,8 @@ struct TerrainSummary {
   std::int64_t rocks_in_scene = 0;        // drawn + extra rocks
   double relief_unit_rms = 0.0;  // RMS of the unit FractalNoise the relief is scaled by (0 if off)
   int threads = 1;
-  double seconds = 0.0;          // wall time of GenerateScene
-  std::string Report() const;    // one line
+  double wall_s = 0.0;          // wall time of GenerateScene
+  std::string Summary() const;   // one line
 };
 
 // Generates the scene: heights = regional plane + fractal relief + craters

@@ -9,7 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 
 namespace hdabench::datasets::synth {
 

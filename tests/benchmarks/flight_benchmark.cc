@@ -30,7 +30,7 @@
 
 #include "datasets/dataset.h"
 #include "hda/pipeline.h"
-#include "reference/flight_run.h"
+#include "reference/flight/flight_run.h"
 
 namespace hdabench {
 namespace {

@@ -16,11 +16,13 @@
 #include "datasets/synth/raycast.h"
 #include "datasets/synth/render.h"
 #include "datasets/synth/scene.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::datasets::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using util::kPi;
+
 constexpr int kImageSizePx = 1024;
 
 struct BenchScene {

@@ -19,8 +19,8 @@
 #include <vector>
 
 #include "calib/camera_model.h"
-#include "calib/error.h"
-#include "calib/process.h"
+#include "tools/util/error.h"
+#include "tools/util/process.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::calib {
@@ -98,11 +98,11 @@ fs::path Calibration(const std::vector<std::string>& sides) {
             "--object-height-n", std::to_string(kBoardHeight), "--outdir", "."};
         // clang-format on
         for (const std::string& side : sides) argv.push_back(side + "*.jpg");
-        ProcessOptions process;
+        util::ProcessOptions process;
         process.working_dir = staging.string();
         process.log_file = (staging / "mrcal.log").string();
         process.timeout_s = 120;
-        const ProcessResult result = RunProcess(argv, process);
+        const util::ProcessResult result = util::RunProcess(argv, process);
         if (!result.Ok()) {
           throw std::runtime_error("mrcal-calibrate-cameras failed: " + result.error + "\n" +
                                    ReadText(staging / "mrcal.log"));

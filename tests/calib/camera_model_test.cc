@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::calib {

@@ -12,7 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/calibrate.h"
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::calib {

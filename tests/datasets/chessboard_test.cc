@@ -20,7 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/camera_model.h"
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "datasets/synth/chessboard.h"
 #include "tests/support/test_support.h"
 
@@ -223,7 +223,7 @@ TEST(ChessboardViews, OpenCvFindsTheTrueCornersThroughOpenCv8) {
   const auto start = std::chrono::steady_clock::now();
   const std::vector<ChessboardView> views = RenderChessboardViews(camera, board, options);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  RecordProperty("render_seconds", std::to_string(seconds));
+  RecordProperty("render_s", std::to_string(seconds));
   std::printf("20 views 640x480, 4x4 samples: %.2f s\n", seconds);
   ASSERT_EQ(views.size(), 20u);
   ExpectTruthIsProjection(camera, views, board);

@@ -11,7 +11,7 @@
 
 #include <gtest/gtest.h>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "datasets/dataset.h"
 #include "datasets/example.h"
 #include "datasets/navigation.h"

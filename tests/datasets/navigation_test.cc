@@ -12,13 +12,15 @@
 #include "datasets/example.h"
 #include "datasets/navigation.h"
 #include "tests/support/test_support.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::datasets {
 namespace {
 
+using util::kPi;
+
 using testing_support::CurrentTestSeed;
 
-constexpr double kPi = 3.14159265358979323846;
 
 NavSample Sample(double time_s, const Eigen::Quaterniond& rotation,
                  const Eigen::Vector3d& position) {

@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "datasets/dataset.h"
 #include "datasets/stereolunar.h"
 #include "datasets/synth/truth.h"

@@ -11,17 +11,19 @@
 #include <gtest/gtest.h>
 
 #include "tests/support/test_support.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::hda {
 namespace {
+
+using util::kPi;
+using util::kDegToRad;
+using util::kRadToDeg;
 
 using testing_support::CurrentTestSeed;
 using testing_support::RandomRotation;
 using testing_support::RandomVector;
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
-constexpr double kRadToDeg = 180.0 / kPi;
 
 // cam_from_local of an OpenCV camera at `center_in_local` looking at `target`
 // with local z (ENU) up: x right, y down in the image.

@@ -10,15 +10,17 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/test_support.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::hda {
 namespace {
 
+using util::kPi;
+
 using testing_support::CurrentTestSeed;
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kSizePx = 256;
 // Sub-pixel shift of image 2 against image 1 in the translation scene, pixels.
 constexpr double kShiftXPx = 3.37;

@@ -8,16 +8,18 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/test_support.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::hda {
 namespace {
 
+using util::kPi;
+using util::kDegToRad;
+
 using testing_support::CurrentTestSeed;
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
 constexpr int kSizePx = 512;
 constexpr double kFocalPx = 1000.0;
 constexpr double kHeightM = 200.0;  // camera 1 above the local origin, looking straight down

@@ -7,7 +7,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::hda {

@@ -4,14 +4,16 @@
 
 #include <gtest/gtest.h>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::hda {
 namespace {
 
+using util::kPi;
+
 constexpr double kFocalPx = 1000.0;
 constexpr double kRangeM = 566.0;
-constexpr double kPi = 3.14159265358979323846;
 
 calib::CameraModel Pinhole1000() {
   return calib::CameraModel("LENSMODEL_PINHOLE", {kFocalPx, kFocalPx, 511.5, 511.5}, 1024, 1024);

@@ -4,8 +4,8 @@
 #include <opengv/relative_pose/CentralRelativeAdapter.hpp>
 #include <opengv/triangulation/methods.hpp>
 
-#include "reference/colmap_adapter.h"
-#include "reference/opengv_adapter.h"
+#include "reference/colmap/colmap_adapter.h"
+#include "reference/opengv/opengv_adapter.h"
 
 namespace hdabench::reference {
 namespace {

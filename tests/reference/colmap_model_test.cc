@@ -1,4 +1,4 @@
-#include "reference/colmap_model.h"
+#include "reference/colmap/colmap_model.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -11,16 +11,12 @@
 
 #include <gtest/gtest.h>
 
-#include "calib/error.h"
-#include "calib/process.h"
+#include "tools/util/error.h"
+#include "tools/util/process.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::reference {
 
-using calib::FindExecutable;
-using calib::ProcessOptions;
-using calib::ProcessResult;
-using calib::RunProcess;
 namespace {
 
 namespace fs = std::filesystem;
@@ -373,7 +369,7 @@ TEST(ColmapModel, TruncatedOrGarbledBinaryNamesFileAndByteOffset) {
 // Writes a text model, converts it to binary with the real colmap and reads
 // that back: the reader follows the layout colmap writes.
 TEST(ColmapModel, ReadsABinaryModelWrittenByColmap) {
-  const std::string colmap = FindExecutable("colmap");
+  const std::string colmap = util::FindExecutable("colmap");
   if (colmap.empty()) GTEST_SKIP() << "colmap is not installed";
   const fs::path dir = FreshTestDir();
   fs::create_directories(dir / "text");
@@ -381,11 +377,11 @@ TEST(ColmapModel, ReadsABinaryModelWrittenByColmap) {
   ColmapModel model = SmallModel();
   model.cameras[1].params[8] = 0.0;  // keep FULL_OPENCV's values simple for COLMAP's checks
   WriteColmapTextModel(model, (dir / "text").string());
-  ProcessOptions options;
+  util::ProcessOptions options;
   options.log_file = (dir / "model_converter.log").string();
   options.timeout_s = 60.0;
-  const ProcessResult run =
-      RunProcess({colmap, "model_converter", "--input_path", (dir / "text").string(),
+  const util::ProcessResult run =
+      util::RunProcess({colmap, "model_converter", "--input_path", (dir / "text").string(),
                   "--output_path", (dir / "bin").string(), "--output_type", "BIN"},
                  options);
   ASSERT_TRUE(run.Ok()) << run.error << "\n" << ReadText(dir / "model_converter.log");

@@ -1,4 +1,4 @@
-#include "reference/colmap_runner.h"
+#include "reference/colmap/colmap_runner.h"
 
 #include <unistd.h>
 
@@ -14,25 +14,26 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "datasets/synth/synth.h"
 #include "datasets/synth/terrain.h"
 #include "hda/geometry.h"
-#include "calib/process.h"
+#include "tools/util/process.h"
 #include "tests/support/synth_scene.h"
 #include "tests/support/test_support.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::reference {
 
-using calib::FindExecutable;
 namespace {
+
+using util::kPi;
 
 namespace fs = std::filesystem;
 using testing_support::FreshTestDir;
 using testing_support::ReadText;
 using testing_support::WriteText;
 
-constexpr double kPi = 3.14159265358979323846;
 double Deg(double rad) { return rad * 180.0 / kPi; }
 
 // The NOVA-C lateral pair, small: 512 x 512 px (focal about 955 px), two
@@ -193,13 +194,13 @@ double DirectionErrorDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 }
 
 TEST_F(ColmapRunner, NavAndFreeReconstructTheSyntheticPair) {
-  ASSERT_TRUE(FindExecutable("colmap").size() > 0) << "colmap is not installed";
+  ASSERT_TRUE(util::FindExecutable("colmap").size() > 0) << "colmap is not installed";
   const fs::path dir = FreshTestDir();
   ColmapOptions options;
   options.timeout_s = 120.0;
   const ColmapResults results = RunColmap(PairInput(dir / "ws"), options);
   for (const ColmapStep& step : results.steps) {
-    std::printf("[ colmap   ] %-20s %6.2f s %s\n", step.name.c_str(), step.seconds,
+    std::printf("[ colmap   ] %-20s %6.2f s %s\n", step.name.c_str(), step.wall_s,
                 step.ok ? "ok" : step.error.c_str());
   }
   std::printf("[ colmap   ] camera: %s\n", results.camera_note.c_str());
@@ -210,8 +211,8 @@ TEST_F(ColmapRunner, NavAndFreeReconstructTheSyntheticPair) {
   ASSERT_TRUE(results.nav.ok) << results.nav.failure;
   ASSERT_TRUE(results.free.ok) << results.free.failure;
   EXPECT_NE(results.camera_note.find("FULL_OPENCV"), std::string::npos) << results.camera_note;
-  EXPECT_GE(results.nav.seconds, results.shared_seconds);
-  EXPECT_GE(results.free.seconds, results.shared_seconds);
+  EXPECT_GE(results.nav.wall_s, results.shared_s);
+  EXPECT_GE(results.free.wall_s, results.shared_s);
   EXPECT_TRUE(fs::is_regular_file(dir / "ws" / "database.db"));
   EXPECT_TRUE(fs::is_regular_file(dir / "ws" / "matches.txt"));
   EXPECT_EQ(StepNames(results),
@@ -240,7 +241,7 @@ TEST_F(ColmapRunner, NavAndFreeReconstructTheSyntheticPair) {
       "[ colmap   ] nav: %zu points, %zu with truth, median distance to truth %.2f m "
       "(bound %.2f m), %.2f s\n",
       results.nav.points.size(), nav_distances.size(), nav_median, depth_bound_m,
-      results.nav.seconds);
+      results.nav.wall_s);
   EXPECT_GE(results.nav.points.size(), 300u);
   EXPECT_GE(nav_distances.size(), results.nav.points.size() * 9 / 10);
   EXPECT_LT(nav_median, depth_bound_m);
@@ -288,7 +289,7 @@ TEST_F(ColmapRunner, NavAndFreeReconstructTheSyntheticPair) {
       "[ colmap   ] free: %zu points, median distance to truth %.2f m, rotation error "
       "%.4f deg, translation direction error %.3f deg, baseline %.3f m, %.2f s\n",
       results.free.points.size(), free_median, rotation_error, direction_error,
-      results.free.cam2_from_cam1.translation.norm(), results.free.seconds);
+      results.free.cam2_from_cam1.translation.norm(), results.free.wall_s);
   EXPECT_GE(results.free.points.size(), 300u);
   // A relative rotation error of e rad moves image 2 by e * focal pixels:
   // 0.02 deg is 0.3 px at 955 px. The direction of a 31 m baseline seen from
@@ -331,7 +332,7 @@ TEST_F(ColmapRunner, TwoRunsGiveTheSameBytes) {
 // altered after extraction) fails the exact matcher, which names the image
 // and its log; nothing after it runs.
 TEST_F(ColmapRunner, UnusableDescriptorsFailTheExactMatcher) {
-  const std::string colmap = FindExecutable("colmap");
+  const std::string colmap = util::FindExecutable("colmap");
   ASSERT_FALSE(colmap.empty()) << "colmap is not installed";
   const fs::path dir = FreshTestDir();
   const fs::path fake = dir / "colmap";
@@ -444,7 +445,7 @@ TEST_F(ColmapRunner, ATimeoutIsAFailureNotAHang) {
   EXPECT_NE(results.nav.failure.find("colmap feature_extractor failed"), std::string::npos);
   EXPECT_NE(results.nav.failure.find("timed out after 0.5 s"), std::string::npos)
       << results.nav.failure;
-  EXPECT_LT(results.nav.seconds, 5.0);
+  EXPECT_LT(results.nav.wall_s, 5.0);
 }
 
 // Two uniform grey images: no features, no matches, no points. Both methods

@@ -1,4 +1,4 @@
-#include "reference/compare.h"
+#include "reference/compare/compare.h"
 
 #include <algorithm>
 #include <cmath>
@@ -14,9 +14,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "hda/geometry.h"
-#include "reference/compare_outputs.h"
+#include "reference/compare/compare_outputs.h"
 #include "tests/support/synth_scene.h"
 #include "tests/support/test_support.h"
 

@@ -12,8 +12,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "calib/error.h"
-#include "reference/flight_outputs.h"
+#include "tools/util/error.h"
+#include "reference/flight/flight_outputs.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::reference {
@@ -76,7 +76,7 @@ hda::RoiResult EvaluatedRoi() {
   roi.centroid_in_local_m = Eigen::Vector3d(1.0, 2.0, 3.0);
   roi.score = 0.75;
   roi.rank = 1;
-  roi.seconds = 0.0123;
+  roi.wall_s = 0.0123;
   return roi;
 }
 
@@ -238,7 +238,7 @@ TEST(FlightOutputs, ResultJsonHoldsEveryFieldWithNullsWhereNothingApplies) {
   EXPECT_EQ(FlightResultJson(run), FlightResultJson(MakeRun()));
   FlightRun slower = MakeRun();
   slower.result.times.total_s = 9.0;
-  slower.result.rois[0].seconds = 3.0;
+  slower.result.rois[0].wall_s = 3.0;
   EXPECT_EQ(FlightResultJson(run), FlightResultJson(slower));
 }
 

@@ -1,4 +1,4 @@
-#include "reference/gate.h"
+#include "reference/gate/gate.h"
 
 #include <fcntl.h>
 #include <signal.h>
@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/synth_scene.h"
 #include "tests/support/test_support.h"
 
@@ -167,9 +167,9 @@ TEST(CheckGate, ThresholdsMarginsAndRegressions) {
   EXPECT_FALSE(checks[1].passed);
   EXPECT_NEAR(checks[1].margin, -0.1, 1e-12);
   EXPECT_FALSE(checks[1].regressed);  // 0.02 worse, tolerance 0.05
-  EXPECT_EQ(checks[1].Describe(), "flight within_two_sigma_share = 0.700 < 0.800 (threshold)");
+  EXPECT_EQ(checks[1].Summary(), "flight within_two_sigma_share = 0.700 < 0.800 (threshold)");
   EXPECT_FALSE(checks[2].has_value);  // no data is a failure, named as such
-  EXPECT_NE(checks[2].Describe().find("no value"), std::string::npos);
+  EXPECT_NE(checks[2].Summary().find("no value"), std::string::npos);
   EXPECT_NE(GateTable(checks).find("| flight | slope_error_p90_deg | 4.000 | <= 5.000 | 1.000 | 3.400 | pass but REGRESSED |"),
             std::string::npos)
       << GateTable(checks);

@@ -1,4 +1,4 @@
-#include "reference/opengv_solvers.h"
+#include "reference/opengv/opengv_solvers.h"
 
 #include <algorithm>
 #include <cmath>
@@ -12,16 +12,17 @@
 
 #include <gtest/gtest.h>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/test_support.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::reference {
 namespace {
 
+using util::kDegToRad;
+
 using testing_support::CurrentTestSeed;
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kRadPerDeg = kPi / 180.0;
 
 // Two views of a set of points through an ideal pinhole camera (principal
 // point at the origin of the pixel plane), with pixel noise and outliers.
@@ -70,9 +71,9 @@ void Observe(TwoViews* scene, double noise_px, int num_outliers, double half_wid
 // filter over a few seconds).
 Rigid3d WithNavErrors(const Rigid3d& truth) {
   const Eigen::Quaterniond attitude_error(
-      Eigen::AngleAxisd(0.02 * kRadPerDeg, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()));
+      Eigen::AngleAxisd(0.02 * kDegToRad, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()));
   const Eigen::Quaterniond direction_error(
-      Eigen::AngleAxisd(0.2 * kRadPerDeg, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()));
+      Eigen::AngleAxisd(0.2 * kDegToRad, Eigen::Vector3d(0.3, 1.0, 0.2).normalized()));
   return Rigid3d(attitude_error * truth.rotation, 1.005 * (direction_error * truth.translation));
 }
 
@@ -84,7 +85,7 @@ TwoViews GeneralScene(std::uint64_t seed) {
   std::mt19937_64 rng(seed);
   TwoViews scene;
   scene.truth = Rigid3d(
-      Eigen::Quaterniond(Eigen::AngleAxisd(6.0 * kRadPerDeg,
+      Eigen::Quaterniond(Eigen::AngleAxisd(6.0 * kDegToRad,
                                            Eigen::Vector3d(0.3, -1.0, 0.2).normalized())),
       Eigen::Vector3d(-10.0, 1.5, -2.0));
   scene.nav = WithNavErrors(scene.truth);
@@ -116,7 +117,7 @@ TwoViews PlanarHdaScene(std::uint64_t seed, double noise_px) {
   scene.truth = Rigid3d(cam2_from_cam1_rotation, -(cam2_from_cam1_rotation * centre2_in_cam1));
   scene.nav = WithNavErrors(scene.truth);
   const Eigen::Vector3d normal =
-      Eigen::AngleAxisd(5.0 * kRadPerDeg, Eigen::Vector3d::UnitX()) * Eigen::Vector3d::UnitZ();
+      Eigen::AngleAxisd(5.0 * kDegToRad, Eigen::Vector3d::UnitX()) * Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d in_plane_x = normal.unitOrthogonal();
   const Eigen::Vector3d in_plane_y = normal.cross(in_plane_x);
   std::uniform_real_distribution<double> half_patch(-5.0, 5.0);
@@ -130,7 +131,7 @@ TwoViews PlanarHdaScene(std::uint64_t seed, double noise_px) {
 
 bool AllFinite(const RelativePoseResult& r) {
   bool finite = r.cam2_from_cam1.rotation.coeffs().allFinite() &&
-                r.cam2_from_cam1.translation.allFinite() && std::isfinite(r.seconds) &&
+                r.cam2_from_cam1.translation.allFinite() && std::isfinite(r.wall_s) &&
                 std::isfinite(r.rotation_error_deg) &&
                 std::isfinite(r.translation_direction_error_deg) &&
                 std::isfinite(r.rotation_error_vs_nav_deg) &&
@@ -221,7 +222,7 @@ TEST(OpenGvSolvers, EverySolverRecoversAGeneralPose) {
     std::printf("  %-12s rotation %.4f deg, translation direction %.4f deg, inliers %d, "
                 "points %d, %.1f ms\n",
                 ToString(solver), r.rotation_error_deg, r.translation_direction_error_deg,
-                r.num_inliers, static_cast<int>(r.points.size()), 1e3 * r.seconds);
+                r.num_inliers, static_cast<int>(r.points.size()), 1e3 * r.wall_s);
     EXPECT_TRUE(AllFinite(r));
     EXPECT_EQ(r.configuration.type, ConfigurationType::kWellConditioned) << r.configuration.reason;
     EXPECT_TRUE(r.has_truth_errors);
@@ -317,7 +318,7 @@ TEST(OpenGvSolvers, FlatPatchFromFarIsClassifiedPlanar) {
               report.type == ConfigurationType::kLowParallax)
       << report.reason;
   EXPECT_EQ(report.type, ConfigurationType::kPlanar) << report.reason;
-  EXPECT_NEAR(report.median_parallax_deg, std::atan(31.0 / 565.0) / kRadPerDeg, 0.2);
+  EXPECT_NEAR(report.median_parallax_deg, std::atan(31.0 / 565.0) / kDegToRad, 0.2);
   EXPECT_LT(report.homography_residual_px, options.planar_residual_px);
   EXPECT_NE(report.reason.find("homography residual"), std::string::npos);
 

@@ -1,4 +1,4 @@
-#include "reference/sift_matching.h"
+#include "reference/colmap/sift_matching.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::reference {

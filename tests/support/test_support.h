@@ -167,8 +167,15 @@ inline std::string ShellQuote(const std::string& text) {
 }
 
 // Runs the hdabench binary with `args`; stdout and stderr go to files in `dir`.
-inline CommandResult RunHdabench(const std::vector<std::string>& args, const fs::path& dir) {
-  std::string command = ShellQuote(HDABENCH_EXE);
+// `environment`: variables set for that run only, as NAME=value.
+inline CommandResult RunHdabench(const std::vector<std::string>& args, const fs::path& dir,
+                                 const std::vector<std::string>& environment = {}) {
+  std::string command;
+  for (const std::string& assignment : environment) {
+    const size_t equals = assignment.find('=');
+    command += assignment.substr(0, equals) + "=" + ShellQuote(assignment.substr(equals + 1)) + " ";
+  }
+  command += ShellQuote(HDABENCH_EXE);
   for (const std::string& arg : args) command += " " + ShellQuote(arg);
   const fs::path out_file = dir / "cli.stdout";
   const fs::path err_file = dir / "cli.stderr";

@@ -101,4 +101,53 @@ TEST(Cli, DemoCreatesTheDefaultDatasetDeterministicallyAndComparesOnIt) {
   EXPECT_GT(files, 3u);
 }
 
+// A worker that throws, in the terrain generator, the renderer or the gate,
+// gives the internal-error exit code and one line naming the fault, not a
+// crash (an exception escaping a std::thread aborts, exit 134), and no output
+// that looks complete. HDABENCH_FAULT_IN_WORKER (util::ParallelFor) makes the
+// named loop's first item on a thread other than the caller throw (on the
+// caller when the loop runs on one thread).
+CommandResult RunWithWorkerFault(const std::string& loop, const std::vector<std::string>& args,
+                                 const fs::path& dir) {
+  return hdabench::testing_support::RunHdabench(args, dir, {"HDABENCH_FAULT_IN_WORKER=" + loop});
+}
+
+std::string FaultLine(const std::string& loop) {
+  return "hdabench: internal error: a fault injected into a worker of " + loop +
+         " (HDABENCH_FAULT_IN_WORKER)\n";
+}
+
+TEST(Cli, AWorkerThatThrowsInTheTerrainGeneratorIsAnErrorNotACrash) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult r = RunWithWorkerFault(
+      "terrain blocks", {"synth", "--out", (dir / "ds").string(), "--threads", "2", "--quiet"}, dir);
+  EXPECT_EQ(r.exit_code, 70) << r.err;
+  EXPECT_EQ(r.err, FaultLine("terrain blocks"));
+  EXPECT_FALSE(fs::exists(dir / "ds" / "manifest.json"));
+}
+
+TEST(Cli, AWorkerThatThrowsInTheRendererIsAnErrorNotACrash) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult r = RunWithWorkerFault(
+      "render rows", {"synth", "--out", (dir / "ds").string(), "--threads", "2", "--quiet"}, dir);
+  EXPECT_EQ(r.exit_code, 70) << r.err;
+  EXPECT_EQ(r.err, FaultLine("render rows"));
+  EXPECT_FALSE(fs::exists(dir / "ds" / "manifest.json"));
+}
+
+// One job, so the fault comes before any entry's work (with two, the caller
+// would first finish its own entry).
+TEST(Cli, AWorkerThatThrowsInTheGateIsAnErrorNotACrash) {
+  const fs::path dir = FreshTestDir();
+  const fs::path gate = fs::path(HDABENCH_SOURCE_DIR) / "gate";
+  const CommandResult r = RunWithWorkerFault(
+      "gate entries",
+      {"gate", "--suite", (gate / "suite-ci.json").string(), "--thresholds",
+       (gate / "thresholds-ci.json").string(), "--out", (dir / "gate").string(), "--jobs", "1"},
+      dir);
+  EXPECT_EQ(r.exit_code, 70) << r.err;
+  EXPECT_NE(r.err.find(FaultLine("gate entries")), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir / "gate" / "gate.json"));
+}
+
 }  // namespace

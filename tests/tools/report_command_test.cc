@@ -16,7 +16,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "calib/process.h"
+#include "tools/util/process.h"
 #include "tests/support/test_support.h"
 
 namespace {
@@ -52,7 +52,7 @@ CommandResult Hdabench(const std::vector<std::string>& args) {
   return hdabench::testing_support::RunHdabench(args, scratch);
 }
 
-std::string Chromium() { return hdabench::calib::FindExecutable("chromium"); }
+std::string Chromium() { return hdabench::util::FindExecutable("chromium"); }
 
 #define SKIP_WITHOUT_CHROMIUM()                                                                \
   if (Chromium().empty()) {                                                                    \
@@ -74,11 +74,11 @@ std::string RunChromium(const fs::path& page, const std::string& flag, const fs:
     command += " " + hdabench::testing_support::ShellQuote(arg);
   }
   command += " 2>/dev/null";
-  hdabench::calib::ProcessOptions options;
+  hdabench::util::ProcessOptions options;
   options.log_file = out.string();
   options.timeout_s = 60.0;
-  const hdabench::calib::ProcessResult result =
-      hdabench::calib::RunProcess({"/bin/sh", "-c", command}, options);
+  const hdabench::util::ProcessResult result =
+      hdabench::util::RunProcess({"/bin/sh", "-c", command}, options);
   EXPECT_TRUE(result.Ok()) << "chromium " << flag << ": " << result.error;
   return ReadText(out);
 }

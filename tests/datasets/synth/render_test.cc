@@ -13,18 +13,20 @@
 #include <opencv2/core.hpp>
 
 #include "calib/camera_model.h"
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "calib/rigid3.h"
 #include "datasets/synth/noise.h"
 #include "datasets/synth/raycast.h"
 #include "datasets/synth/render.h"
 #include "datasets/synth/scene.h"
 #include "tests/support/test_support.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::datasets::synth {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using util::kPi;
+
 
 // A heightfield of width x height nodes with node (0, 0) at (origin_x, origin_y)
 // and heights from `z(x, y)`; uniform albedo unless changed.

@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "datasets/example.h"
 #include "datasets/synth/truth.h"
 #include "tests/support/test_support.h"

@@ -14,15 +14,17 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
-#include "calib/error.h"
+#include "tools/util/error.h"
 #include "tests/support/test_support.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::datasets::synth {
 namespace {
 
+using util::kPi;
+
 using testing_support::CurrentTestSeed;
 
-constexpr double kPi = 3.14159265358979323846;
 
 // Options with every feature off: a flat, level, empty terrain.
 TerrainOptions FlatOptions(double half_width_m, double spacing_m) {
@@ -246,7 +248,7 @@ TEST(GenerateScene, LawCratersHaveDepthToDiameterInRange) {
   options.crater_d_max_m = 12.0;
   TerrainSummary summary;
   const Scene scene = GenerateScene(options, CurrentTestSeed(), 2, &summary);
-  ASSERT_GT(scene.craters.size(), 20u) << summary.Report();
+  ASSERT_GT(scene.craters.size(), 20u) << summary.Summary();
   int isolated = 0;
   for (size_t i = 0; i < scene.craters.size(); ++i) {
     const Crater& crater = scene.craters[i];

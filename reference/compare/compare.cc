@@ -1,0 +1,696 @@
+#include "reference/compare/compare.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <set>
+#include <utility>
+
+#include "tools/util/error.h"
+#include "hda/geometry.h"
+#include "hda/matching.h"
+#include "tools/util/text.h"
+#include "tools/util/angles.h"
+#include "tools/util/statistics.h"
+
+namespace hdabench::reference {
+
+namespace {
+
+using util::kRadToDeg;
+constexpr int kDenseOrbFeaturesPerRoi = 2000;
+constexpr int kDenseOrbFastThreshold = 5;
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+bool IsOpenGvMethod(const std::string& method) {
+  return method.rfind(kOpenGvMethodPrefix, 0) == 0;
+}
+
+std::string JoinNames(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
+  return text;
+}
+
+// Angle of a rotation, degrees in [0, 180].
+double RotationAngleDeg(const Eigen::Quaterniond& q) {
+  const Eigen::Quaterniond n = q.normalized();
+  return 2.0 * std::atan2(n.vec().norm(), std::abs(n.w())) * kRadToDeg;
+}
+
+// Angle between two directions, degrees; 0 when either is zero.
+double DirectionAngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  if (a.norm() == 0.0 || b.norm() == 0.0) return 0.0;
+  return std::atan2(a.cross(b).norm(), a.dot(b)) * kRadToDeg;
+}
+
+// Everything the methods share for the run.
+struct Context {
+  const datasets::Dataset* dataset = nullptr;
+  hda::HdaInput input;             // navigation inputs of the pair (and the images)
+  Rigid3d local_from_cam1;         // navigation
+  Rigid3d local_from_cam2;         // navigation
+  bool has_true_pose = false;
+  Rigid3d true_cam2_from_cam1;
+  double focal_px = 0.0;           // pixels per radian at the image centre
+};
+
+bool InBox(const Eigen::Vector2d& pixel, const cv::Rect& box) {
+  // A pixel belongs to the box when its nearest pixel centre does.
+  return pixel.x() >= box.x - 0.5 && pixel.x() < box.x + box.width - 0.5 &&
+         pixel.y() >= box.y - 0.5 && pixel.y() < box.y + box.height - 0.5;
+}
+
+// Fills a method's ROI from its points in the ROI.
+void FillFromPoints(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre1,
+                    const Eigen::Vector3d& centre2, const datasets::Dataset& dataset,
+                    int min_points, MethodRoi* roi) {
+  roi->num_points = static_cast<int>(points.size());
+  roi->points_in_local_m = points;
+  const RoiFit fit = FitRoiPoints(points, centre1, centre2, dataset.gravity_in_local_mps2, min_points);
+  roi->status = fit.status;
+  if (fit.status == "ok") {
+    roi->has_fit = true;
+    roi->slope_deg = fit.slope_deg;
+    roi->roughness_rms_m = fit.roughness_rms_m;
+    roi->roughness_max_m = fit.roughness_max_m;
+    roi->reason = std::to_string(points.size()) + " points";
+  } else if (fit.status == "too few points") {
+    roi->reason = std::to_string(points.size()) + " points, fewer than " + std::to_string(min_points);
+  } else {
+    roi->reason = std::to_string(points.size()) + " points, collinear";
+  }
+  if (dataset.truth.dem.has_value()) roi->accuracy = ComputePointAccuracy(points, *dataset.truth.dem);
+}
+
+// ---------------------------------------------------------------------------
+// The methods
+
+std::vector<MethodRoi> FlightRois(const FlightRun& flight, const Context& ctx) {
+  std::vector<MethodRoi> rois(flight.result.rois.size());
+  for (size_t i = 0; i < rois.size(); ++i) {
+    const hda::RoiResult& r = flight.result.rois[i];
+    MethodRoi& roi = rois[i];
+    roi.status = hda::ToString(r.status);
+    roi.reason = r.reason;
+    roi.num_points = static_cast<int>(r.points_in_local_m.size());
+    roi.points_in_local_m = r.points_in_local_m;
+    roi.has_fit = r.has_fit;
+    roi.slope_deg = r.slope_deg;
+    roi.roughness_rms_m = r.roughness_rms_m;
+    roi.roughness_max_m = r.roughness_max_m;
+    roi.has_sigma = r.has_fit && std::isfinite(r.slope_sigma_deg);
+    roi.slope_sigma_deg = r.slope_sigma_deg;
+    roi.wall_s = r.wall_s;
+    if (ctx.dataset->truth.dem.has_value() && !r.points_in_local_m.empty()) {
+      roi.accuracy = ComputePointAccuracy(r.points_in_local_m, *ctx.dataset->truth.dem);
+    }
+  }
+  return rois;
+}
+
+// Bearings of pixels through the camera model; valid[i] == 0 where not.
+std::vector<Eigen::Vector3d> Bearings(const calib::CameraModel& camera,
+                                      const std::vector<cv::Point2d>& pixels,
+                                      std::vector<unsigned char>* valid) {
+  std::vector<Eigen::Vector2d> q;
+  q.reserve(pixels.size());
+  for (const cv::Point2d& p : pixels) q.emplace_back(p.x, p.y);
+  std::vector<Eigen::Vector3d> bearings;
+  camera.Unproject(q, &bearings, valid);
+  return bearings;
+}
+
+// flight-refined: every flight point of every ROI with a fit and the nav pose
+// refined together; the ROIs refitted with the refined points.
+PairReconstruction FlightRefined(const FlightRun& flight, const CompareOptions& options,
+                                 const Context& ctx, std::string* note) {
+  const auto start = std::chrono::steady_clock::now();
+  PairReconstruction recon;
+  recon.method = kMethodFlightRefined;
+  CeresRefineInput input;
+  input.nav_cam2_from_cam1 = ctx.input.cam2_from_cam1;
+  input.focal_px = ctx.focal_px;
+  std::vector<Eigen::Vector2d> pixels1;
+  const Rigid3d cam1_from_local = ctx.local_from_cam1.Inverse();
+  for (const hda::RoiResult& r : flight.result.rois) {
+    if (!r.has_fit) continue;
+    std::vector<unsigned char> valid1, valid2;
+    const std::vector<Eigen::Vector3d> b1 = Bearings(ctx.dataset->camera, r.points1_px, &valid1);
+    const std::vector<Eigen::Vector3d> b2 = Bearings(ctx.dataset->camera, r.points2_px, &valid2);
+    for (size_t k = 0; k < r.points1_px.size(); ++k) {
+      if (valid1[k] == 0 || valid2[k] == 0) continue;
+      input.bearings1_in_cam1.push_back(b1[k]);
+      input.bearings2_in_cam2.push_back(b2[k]);
+      input.points_in_cam1_m.push_back(cam1_from_local * r.points_in_local_m[k]);
+      pixels1.emplace_back(r.points1_px[k].x, r.points1_px[k].y);
+    }
+  }
+  const CeresRefineResult refined = RefineTwoView(input, options.refine);
+  recon.wall_s = SecondsSince(start);
+  // Any status but invalid input or too few points leaves a usable state
+  // (the initial one when Ceres made it worse or failed).
+  if (refined.status == CeresRefineStatus::kInvalidInput) {
+    recon.failure = "ceres refinement: " + refined.failure;
+    return recon;
+  }
+  if (refined.status == CeresRefineStatus::kTooFewPoints) {
+    // Nothing to refine is not a failure: every ROI gets too few points.
+    recon.ok = true;
+    *note = "nothing to refine: " + refined.failure;
+    return recon;
+  }
+  recon.ok = true;
+  *note = std::string("ceres: ") + ToString(refined.status) + ", " +
+          std::to_string(refined.iterations) + " iterations, cost " +
+          std::to_string(refined.initial_cost.total) + " -> " +
+          std::to_string(refined.final_cost.total) +
+          (refined.failure.empty() ? "" : " (" + refined.failure + ")");
+  recon.has_pose = true;
+  recon.cam2_from_cam1 = refined.cam2_from_cam1;
+  for (size_t k = 0; k < refined.points_in_cam1_m.size(); ++k) {
+    ReconstructedPoint p;
+    p.point_in_local_m = ctx.local_from_cam1 * refined.points_in_cam1_m[k];
+    p.pixel1 = pixels1[k];
+    recon.points.push_back(p);
+  }
+  return recon;
+}
+
+// The ROI's matches before any use of navigation: the flight matcher on the
+// flight's boxes (RANSAC inliers).
+struct RoiBearings {
+  bool has_box = false;
+  std::vector<cv::Point2d> pixels1;
+  std::vector<Eigen::Vector3d> bearings1;
+  std::vector<Eigen::Vector3d> bearings2;
+};
+
+std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOptions& options,
+                                      const Context& ctx) {
+  std::vector<RoiBearings> all(flight.result.rois.size());
+  hda::MatchingOptions matching = options.hda.matching;
+  // The nav-aided refinement maps each window through the motion the nav pose
+  // predicts: off, so that the relative-pose solvers see matches that owe
+  // nothing to navigation beyond the search boxes (Lucas-Kanade only).
+  matching.warp_refine = false;
+  if (options.opengv_dense_features) {
+    matching.orb_features_per_roi = kDenseOrbFeaturesPerRoi;
+    matching.orb_fast_threshold = kDenseOrbFastThreshold;
+  }
+  // 16-bit images are converted once, not once per ROI.
+  const cv::Mat image1 = hda::ToEightBit(ctx.input.image1, "image 1");
+  const cv::Mat image2 = hda::ToEightBit(ctx.input.image2, "image 2");
+  for (size_t i = 0; i < all.size(); ++i) {
+    const hda::RoiResult& r = flight.result.rois[i];
+    if (r.box2_px.area() <= 0) continue;
+    all[i].has_box = true;
+    const hda::RoiMatches matches =
+        hda::MatchRoiPair(image1, image2, r.box1_px, r.box2_px,
+                          ctx.dataset->camera, matching);
+    std::vector<unsigned char> valid1, valid2;
+    const std::vector<Eigen::Vector3d> b1 = Bearings(ctx.dataset->camera, matches.points1_px, &valid1);
+    const std::vector<Eigen::Vector3d> b2 = Bearings(ctx.dataset->camera, matches.points2_px, &valid2);
+    for (size_t k = 0; k < b1.size(); ++k) {
+      if (valid1[k] == 0 || valid2[k] == 0) continue;
+      all[i].pixels1.push_back(matches.points1_px[k]);
+      all[i].bearings1.push_back(b1[k]);
+      all[i].bearings2.push_back(b2[k]);
+    }
+  }
+  return all;
+}
+
+std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBearings>& matches,
+                                  const CompareOptions& options, const Context& ctx,
+                                  MethodSummary* summary) {
+  std::vector<MethodRoi> rois(matches.size());
+  const Rigid3d* truth = ctx.has_true_pose ? &ctx.true_cam2_from_cam1 : nullptr;
+  const Eigen::Vector3d centre1 = ctx.local_from_cam1.translation;
+  for (size_t i = 0; i < matches.size(); ++i) {
+    MethodRoi& roi = rois[i];
+    if (!matches[i].has_box) {
+      roi.status = "no search box";
+      roi.reason = "the ROI was not predicted in image 2";
+      continue;
+    }
+    const RelativePoseResult pose =
+        SolveRelativePose(matches[i].bearings1, matches[i].bearings2, solver,
+                          ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv, truth);
+    roi.wall_s = pose.wall_s;
+    summary->wall_s += pose.wall_s;
+    roi.configuration = ToString(pose.configuration.type);
+    if (pose.has_truth_errors) {
+      roi.has_pose_error = true;
+      roi.rotation_error_deg = pose.rotation_error_deg;
+      roi.translation_direction_error_deg = pose.translation_direction_error_deg;
+    }
+    if (pose.configuration.type != ConfigurationType::kWellConditioned) {
+      // No confident slope from a configuration that cannot give one.
+      roi.status = ToString(pose.configuration.type);
+      roi.reason = pose.configuration.reason;
+      roi.num_points = pose.configuration.num_matches;
+      continue;
+    }
+    if (!pose.ok) {
+      roi.status = "pose failed";
+      roi.reason = pose.message;
+      continue;
+    }
+    std::vector<Eigen::Vector3d> points;
+    for (const TriangulatedMatch& m : pose.points) {
+      points.push_back(ctx.local_from_cam1 * m.point_in_cam1_m);
+    }
+    const Eigen::Vector3d centre2 = (ctx.local_from_cam1 * pose.cam2_from_cam1.Inverse()).translation;
+    FillFromPoints(points, centre1, centre2, *ctx.dataset, options.min_points, &roi);
+  }
+  // The whole pair: every ROI's matches pooled.
+  std::vector<Eigen::Vector3d> b1, b2;
+  for (const RoiBearings& m : matches) {
+    b1.insert(b1.end(), m.bearings1.begin(), m.bearings1.end());
+    b2.insert(b2.end(), m.bearings2.begin(), m.bearings2.end());
+  }
+  const RelativePoseResult pair =
+      SolveRelativePose(b1, b2, solver, ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv, truth);
+  summary->wall_s += pair.wall_s;
+  if (pair.ok && pair.has_truth_errors) {
+    summary->has_pose_error = true;
+    summary->rotation_error_deg = pair.rotation_error_deg;
+    summary->translation_direction_error_deg = pair.translation_direction_error_deg;
+  }
+  return rois;
+}
+
+// A free reconstruction's ROIs when the pair's configuration cannot give a
+// confident relative pose: the configuration as status, no slope.
+void WithholdIllConditioned(const ConfigurationReport& configuration, std::vector<MethodRoi>* rois) {
+  for (MethodRoi& roi : *rois) {
+    roi.configuration = ToString(configuration.type);
+    if (configuration.type == ConfigurationType::kWellConditioned || roi.status == "failed") continue;
+    if (roi.has_fit) {
+      roi.reason = "pair " + std::string(ToString(configuration.type)) + "; the fit would give " +
+                   std::to_string(roi.slope_deg) + " deg from " + std::to_string(roi.num_points) +
+                   " points";
+    }
+    roi.status = ToString(configuration.type);
+    roi.has_fit = false;
+  }
+}
+
+void PoseErrorAgainstTruth(const PairReconstruction& recon, const Context& ctx,
+                           MethodSummary* summary) {
+  if (!recon.ok || !recon.has_pose || !ctx.has_true_pose) return;
+  summary->has_pose_error = true;
+  summary->rotation_error_deg =
+      RotationAngleDeg(recon.cam2_from_cam1.rotation * ctx.true_cam2_from_cam1.rotation.inverse());
+  // Camera 2's centre in camera 1: the direction of the baseline.
+  const Eigen::Vector3d estimated = recon.cam2_from_cam1.Inverse().translation;
+  const Eigen::Vector3d truth = ctx.true_cam2_from_cam1.Inverse().translation;
+  summary->translation_direction_error_deg = DirectionAngleDeg(estimated, truth);
+}
+
+// ---------------------------------------------------------------------------
+// Summaries
+
+void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double flight_seconds,
+               MethodSummary* s) {
+  const std::vector<MethodRoi>& rois = run.rois[m];
+  std::vector<double> vs_truth, rough_vs_truth, vs_colmap;
+  PointAccuracy accuracy;
+  int accuracy_points = 0;
+  double median_sum = 0.0, within01 = 0.0, within03 = 0.0, within1 = 0.0;
+  for (size_t i = 0; i < rois.size(); ++i) {
+    const MethodRoi& roi = rois[i];
+    if (roi.has_fit) ++s->rois_with_fit;
+    if (roi.accuracy.available) {
+      // Point-weighted means of the per-ROI shares; the median is the
+      // point-weighted mean of the ROI medians (documented as such).
+      const double n = roi.accuracy.num_points;
+      accuracy_points += roi.accuracy.num_points;
+      median_sum += n * roi.accuracy.median_m;
+      within01 += n * roi.accuracy.within_0_1_m;
+      within03 += n * roi.accuracy.within_0_3_m;
+      within1 += n * roi.accuracy.within_1_m;
+    }
+    if (!roi.has_fit || roi.num_points < kMinPointsForSlopeStats) continue;
+    const RoiTruthValue* truth =
+        i < run.flight.truths.size() && run.flight.truths[i].available ? &run.flight.truths[i] : nullptr;
+    if (truth != nullptr) {
+      vs_truth.push_back(std::abs(roi.slope_deg - truth->slope_deg));
+      rough_vs_truth.push_back(std::abs(roi.roughness_rms_m - truth->roughness_rms_m));
+    }
+    if (colmap_nav_index < run.rois.size() && colmap_nav_index != m) {
+      const MethodRoi& ref = run.rois[colmap_nav_index][i];
+      if (ref.has_fit && ref.num_points >= kMinPointsForSlopeStats) {
+        vs_colmap.push_back(std::abs(roi.slope_deg - ref.slope_deg));
+      }
+    }
+  }
+  if (accuracy_points > 0) {
+    accuracy.available = true;
+    accuracy.num_points = accuracy_points;
+    accuracy.median_m = median_sum / accuracy_points;
+    accuracy.within_0_1_m = within01 / accuracy_points;
+    accuracy.within_0_3_m = within03 / accuracy_points;
+    accuracy.within_1_m = within1 / accuracy_points;
+  }
+  s->accuracy = accuracy;
+  s->slope_vs_truth_deg = ComputeErrorStats(vs_truth);
+  s->roughness_vs_truth_m = ComputeErrorStats(rough_vs_truth);
+  s->slope_vs_colmap_nav_deg = ComputeErrorStats(vs_colmap);
+  s->time_ratio_to_flight = flight_seconds > 0.0 ? s->wall_s / flight_seconds : 0.0;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+
+std::vector<std::string> AllMethodNames() {
+  std::vector<std::string> names = {kMethodFlight, kMethodFlightRefined, kMethodColmapNav,
+                                    kMethodColmapFree};
+  for (const OpenGvSolver solver : AllOpenGvSolvers()) {
+    names.push_back(std::string(kOpenGvMethodPrefix) + ToString(solver));
+  }
+  return names;
+}
+
+std::vector<std::string> ParseMethodList(const std::string& comma_separated) {
+  const std::vector<std::string> all = AllMethodNames();
+  if (comma_separated == "all") return all;
+  std::vector<std::string> methods;
+  std::set<std::string> seen;
+  size_t start = 0;
+  while (start <= comma_separated.size()) {
+    const size_t end = std::min(comma_separated.find(',', start), comma_separated.size());
+    const std::string name = comma_separated.substr(start, end - start);
+    if (std::find(all.begin(), all.end(), name) == all.end()) {
+      throw InputError("unknown method '" + name + "'; the methods are: " + JoinNames(all) +
+                       " (or all)");
+    }
+    if (!seen.insert(name).second) throw InputError("method '" + name + "' is listed twice");
+    methods.push_back(name);
+    start = end + 1;
+  }
+  if (seen.count(kMethodFlight) == 0) methods.insert(methods.begin(), kMethodFlight);
+  // Table order: as AllMethodNames.
+  std::vector<std::string> ordered;
+  for (const std::string& name : all) {
+    if (std::find(methods.begin(), methods.end(), name) != methods.end()) ordered.push_back(name);
+  }
+  return ordered;
+}
+
+CeresRefineOptions DefaultRefineOptions() {
+  const hda::HdaOptions flight;
+  CeresRefineOptions refine;
+  refine.nav_position_sigma_m = flight.prediction.nav_position_sigma_m;
+  refine.nav_attitude_sigma_deg = flight.prediction.nav_attitude_sigma_deg;
+  refine.pixel_sigma_px = flight.pixel_sigma_floor_px;
+  return refine;
+}
+
+std::vector<std::string> CompareOptions::Validate() const {
+  std::vector<std::string> errors;
+  const std::vector<std::string> all = AllMethodNames();
+  for (const std::string& m : methods) {
+    if (std::find(all.begin(), all.end(), m) == all.end()) {
+      errors.push_back("methods: unknown method '" + m + "'");
+    }
+  }
+  if (methods.empty() || methods.front() != kMethodFlight) {
+    errors.push_back("methods: must start with flight (it finds the ROIs)");
+  }
+  for (const std::string& e : hda.Validate()) errors.push_back("hda." + e);
+  for (const std::string& e : colmap.Validate()) errors.push_back("colmap." + e);
+  for (const std::string& e : opengv.Validate()) errors.push_back("opengv." + e);
+  for (const std::string& e : refine.Validate()) errors.push_back("refine." + e);
+  if (!(fit_pixel_sigma_px > 0.0 && std::isfinite(fit_pixel_sigma_px))) {
+    errors.push_back("fit_pixel_sigma_px = " + std::to_string(fit_pixel_sigma_px) +
+                     ": expected > 0");
+  }
+  if (min_points < 3) {
+    errors.push_back("min_points = " + std::to_string(min_points) + ": expected >= 3");
+  }
+  return errors;
+}
+
+RoiFit FitRoiPoints(const std::vector<Eigen::Vector3d>& points_in_local,
+                    const Eigen::Vector3d& camera1_centre_in_local,
+                    const Eigen::Vector3d& camera2_centre_in_local,
+                    const Eigen::Vector3d& gravity_in_local, int min_points) {
+  RoiFit fit;
+  fit.num_points = static_cast<int>(points_in_local.size());
+  // Each point's covariance from its two rays, in a frame aligned with the
+  // local frame at camera 1 (only the shapes of the covariances matter).
+  const Rigid3d cam2_from_cam1(Eigen::Quaterniond::Identity(),
+                               -(camera2_centre_in_local - camera1_centre_in_local));
+  constexpr double kSigmaRad = 1e-3;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<Eigen::Matrix3d> covariances;
+  for (const Eigen::Vector3d& p : points_in_local) {
+    Eigen::Matrix3d covariance;
+    const Eigen::Vector3d b1 = p - camera1_centre_in_local;
+    const Eigen::Vector3d b2 = p - camera2_centre_in_local;
+    if (!hda::TriangulationCovariance(b1, b2, cam2_from_cam1, kSigmaRad, &covariance)) continue;
+    points.push_back(p);
+    covariances.push_back(covariance);
+  }
+  const hda::PlaneFitResult plane =
+      points.size() == points_in_local.size()
+          ? hda::FitPlaneWithCovariance(points, covariances, gravity_in_local, min_points)
+          : hda::FitPlane(points_in_local, gravity_in_local, min_points);
+  switch (plane.status) {
+    case hda::PlaneFitStatus::kOk:
+      fit.status = "ok";
+      fit.slope_deg = plane.slope_deg;
+      fit.roughness_rms_m = plane.roughness_rms_m;
+      fit.roughness_max_m = plane.roughness_max_m;
+      break;
+    case hda::PlaneFitStatus::kTooFewPoints:
+      fit.status = "too few points";
+      break;
+    default:
+      fit.status = "degenerate";
+      break;
+  }
+  return fit;
+}
+
+PointAccuracy ComputePointAccuracy(const std::vector<Eigen::Vector3d>& points_in_local,
+                                   const datasets::TruthDem& dem) {
+  PointAccuracy accuracy;
+  const cv::Mat& h = dem.height_in_local_m;
+  if (h.empty() || h.type() != CV_32FC1 || !(dem.spacing_m > 0.0)) return accuracy;
+  std::vector<double> distances;
+  for (const Eigen::Vector3d& p : points_in_local) {
+    if (!p.allFinite()) continue;
+    // Continuous cell coordinates: x along columns, rows southward.
+    const double c = (p.x() - dem.origin_in_local_m.x()) / dem.spacing_m;
+    const double r = (dem.origin_in_local_m.y() - p.y()) / dem.spacing_m;
+    const int c0 = static_cast<int>(std::floor(c));
+    const int r0 = static_cast<int>(std::floor(r));
+    if (c0 < 0 || r0 < 0 || c0 + 1 >= h.cols || r0 + 1 >= h.rows) continue;
+    const double fc = c - c0, fr = r - r0;
+    const double h00 = h.at<float>(r0, c0), h01 = h.at<float>(r0, c0 + 1);
+    const double h10 = h.at<float>(r0 + 1, c0), h11 = h.at<float>(r0 + 1, c0 + 1);
+    const double height = (1 - fr) * ((1 - fc) * h00 + fc * h01) + fr * ((1 - fc) * h10 + fc * h11);
+    // Gradient of the bilinear patch (dh/dx, dh/dy; y grows northward = -rows).
+    const double dhdx = ((1 - fr) * (h01 - h00) + fr * (h11 - h10)) / dem.spacing_m;
+    const double dhdy = -((1 - fc) * (h10 - h00) + fc * (h11 - h01)) / dem.spacing_m;
+    distances.push_back(std::abs(p.z() - height) / std::sqrt(1.0 + dhdx * dhdx + dhdy * dhdy));
+  }
+  if (distances.empty()) return accuracy;
+  accuracy.available = true;
+  accuracy.num_points = static_cast<int>(distances.size());
+  const auto share = [&](double limit) {
+    return static_cast<double>(std::count_if(distances.begin(), distances.end(),
+                                             [&](double d) { return d <= limit; })) /
+           static_cast<double>(distances.size());
+  };
+  accuracy.within_0_1_m = share(0.1);
+  accuracy.within_0_3_m = share(0.3);
+  accuracy.within_1_m = share(1.0);
+  std::sort(distances.begin(), distances.end());
+  accuracy.median_m = util::Quantile(distances, 0.5);
+  return accuracy;
+}
+
+ErrorStats ComputeErrorStats(std::vector<double> values) {
+  ErrorStats stats;
+  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return !std::isfinite(v); }),
+               values.end());
+  if (values.empty()) return stats;
+  std::sort(values.begin(), values.end());
+  stats.count = static_cast<int>(values.size());
+  stats.median = util::Quantile(values, 0.5);
+  stats.p90 = util::Quantile(values, 0.9);
+  stats.max = values.back();
+  return stats;
+}
+
+std::vector<MethodRoi> RoisOfReconstruction(const PairReconstruction& recon,
+                                            const hda::HdaResult& flight,
+                                            const datasets::Dataset& dataset,
+                                            const Rigid3d& local_from_cam1,
+                                            const Rigid3d& nav_local_from_cam2, int min_points) {
+  std::vector<MethodRoi> rois(flight.rois.size());
+  if (!recon.ok) {
+    for (MethodRoi& roi : rois) {
+      roi.status = "failed";
+      roi.reason = recon.failure;
+    }
+    return rois;
+  }
+  const Eigen::Vector3d centre1 = local_from_cam1.translation;
+  const Eigen::Vector3d centre2 =
+      recon.has_pose ? (local_from_cam1 * recon.cam2_from_cam1.Inverse()).translation
+                     : nav_local_from_cam2.translation;
+  for (size_t i = 0; i < flight.rois.size(); ++i) {
+    std::vector<Eigen::Vector3d> points;
+    for (const ReconstructedPoint& p : recon.points) {
+      if (InBox(p.pixel1, flight.rois[i].box1_px)) points.push_back(p.point_in_local_m);
+    }
+    FillFromPoints(points, centre1, centre2, dataset, min_points, &rois[i]);
+  }
+  return rois;
+}
+
+CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
+                      const CompareOptions& options, const std::string& colmap_workspace,
+                      const CompareProgress& progress) {
+  const std::vector<std::string> errors = options.Validate();
+  if (!errors.empty()) {
+    std::string text = "invalid comparison options:";
+    for (const std::string& e : errors) text += " " + e + ";";
+    text.pop_back();
+    throw InputError(text);
+  }
+  const auto say = [&](const std::string& message) {
+    if (progress) progress(message);
+  };
+  CompareRun run;
+  run.methods = options.methods;
+  Context ctx;
+  ctx.dataset = &dataset;
+  ctx.input = MakeHdaInput(dataset, frame1, frame2);
+  ctx.local_from_cam1 = ctx.input.local_from_cam1;
+  ctx.local_from_cam2 = ctx.local_from_cam1 * ctx.input.cam2_from_cam1.Inverse();
+  try {
+    ctx.true_cam2_from_cam1 = dataset.TrueCam2FromCam1(frame1, frame2);
+    ctx.has_true_pose = !dataset.truth.navigation.empty();
+  } catch (const std::exception&) {
+    ctx.has_true_pose = false;
+  }
+  ctx.focal_px = hda::PixelsPerRadian(
+      dataset.camera,
+      Eigen::Vector2d(0.5 * (dataset.camera.WidthPx() - 1), 0.5 * (dataset.camera.HeightPx() - 1)));
+  if (!(ctx.focal_px > 0.0)) throw InputError("the camera cannot project around its image centre");
+
+  say("flight method on frames " + std::to_string(frame1) + "," + std::to_string(frame2));
+  run.flight = RunFlight(dataset, frame1, frame2, options.hda);
+  run.any_truth = run.flight.AnyTruth();
+  const double flight_seconds = run.flight.result.times.total_s;
+
+  const auto wants = [&](const std::string& m) {
+    return std::find(run.methods.begin(), run.methods.end(), m) != run.methods.end();
+  };
+  std::vector<std::pair<std::string, PairReconstruction>> whole_run;
+  std::string refine_note;
+  if (wants(kMethodFlightRefined)) {
+    say("flight-refined: two-view bundle adjustment of the flight points");
+    whole_run.emplace_back(kMethodFlightRefined, FlightRefined(run.flight, options, ctx, &refine_note));
+  }
+  if (wants(kMethodColmapNav) || wants(kMethodColmapFree)) {
+    say("colmap: SIFT, matching, reconstruction in " + colmap_workspace);
+    ColmapInput input;
+    if (dataset.dir.empty()) {
+      throw InputError("colmap needs the dataset's image files: the dataset has no folder");
+    }
+    // The pair first; with use_all_frames every other frame after it.
+    std::vector<int> frames = {frame1, frame2};
+    if (options.colmap.use_all_frames) {
+      for (int f = 0; f < static_cast<int>(dataset.frames.size()); ++f) {
+        if (f != frame1 && f != frame2) frames.push_back(f);
+      }
+    }
+    for (const int f : frames) {
+      input.image_paths.push_back(dataset.dir + "/" + dataset.frames[static_cast<size_t>(f)].image_path);
+      input.local_from_cam.push_back(dataset.CamFromLocal(f).Inverse());
+    }
+    input.camera = dataset.camera;
+    input.workspace = colmap_workspace;
+    ColmapOptions colmap = options.colmap;
+    colmap.run_nav = wants(kMethodColmapNav);
+    colmap.run_free = wants(kMethodColmapFree);
+    ColmapResults results = RunColmap(input, colmap);
+    run.colmap_workspace = colmap_workspace;
+    if (colmap.run_nav) whole_run.emplace_back(kMethodColmapNav, std::move(results.nav));
+    if (colmap.run_free) whole_run.emplace_back(kMethodColmapFree, std::move(results.free));
+  }
+  std::vector<RoiBearings> roi_matches;
+  const bool any_opengv = std::any_of(run.methods.begin(), run.methods.end(), IsOpenGvMethod);
+  if (any_opengv || wants(kMethodColmapFree)) {
+    say("matching the ROIs without navigation (OpenGV, the pair's configuration)");
+    roi_matches = MatchAllRois(run.flight, options, ctx);
+  }
+  // The configuration of the whole pair, from every ROI's matches: a free
+  // reconstruction of a near-planar pair (colmap-free) has an ill-conditioned
+  // relative pose, and its ROIs say so instead of giving a confident slope.
+  ConfigurationReport pair_configuration;
+  if (!roi_matches.empty()) {
+    std::vector<Eigen::Vector3d> b1, b2;
+    for (const RoiBearings& m : roi_matches) {
+      b1.insert(b1.end(), m.bearings1.begin(), m.bearings1.end());
+      b2.insert(b2.end(), m.bearings2.begin(), m.bearings2.end());
+    }
+    pair_configuration =
+        ClassifyConfiguration(b1, b2, ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv);
+  }
+
+  run.rois.resize(run.methods.size());
+  run.summaries.resize(run.methods.size());
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    const std::string& method = run.methods[m];
+    MethodSummary& summary = run.summaries[m];
+    summary.method = method;
+    if (method == kMethodFlight) {
+      run.rois[m] = FlightRois(run.flight, ctx);
+      summary.wall_s = flight_seconds;
+    } else if (IsOpenGvMethod(method)) {
+      say(method);
+      const OpenGvSolver solver =
+          ParseOpenGvSolver(method.substr(std::string(kOpenGvMethodPrefix).size()));
+      run.rois[m] = OpenGvRois(solver, roi_matches, options, ctx, &summary);
+    } else {
+      for (const auto& [name, recon] : whole_run) {
+        if (name != method) continue;
+        run.rois[m] = RoisOfReconstruction(recon, run.flight.result, dataset, ctx.local_from_cam1,
+                                            ctx.local_from_cam2, options.min_points);
+        summary.ok = recon.ok;
+        summary.failure = recon.failure;
+        summary.wall_s = recon.wall_s;
+        if (method == kMethodFlightRefined) summary.note = refine_note;
+        if (!recon.log_dir.empty()) summary.note = "logs: " + recon.log_dir;
+        if (method == kMethodColmapFree && !roi_matches.empty()) {
+          summary.note += std::string(summary.note.empty() ? "" : "; ") + "pair configuration: " +
+                          pair_configuration.reason;
+          // With every frame of the window the views are no longer two:
+          // a plane's two-fold ambiguity is resolved, and the ROIs keep their fits.
+          if (!options.colmap.use_all_frames) WithholdIllConditioned(pair_configuration, &run.rois[m]);
+        }
+        PoseErrorAgainstTruth(recon, ctx, &summary);
+      }
+    }
+  }
+  const auto colmap_nav = std::find(run.methods.begin(), run.methods.end(), kMethodColmapNav);
+  const size_t colmap_nav_index = static_cast<size_t>(colmap_nav - run.methods.begin());
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    Summarise(run, m, colmap_nav_index, flight_seconds, &run.summaries[m]);
+  }
+  return run;
+}
+
+}  // namespace hdabench::reference

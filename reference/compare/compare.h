@@ -1,0 +1,203 @@
+// The per-ROI comparison (`hdabench compare`): for one frame pair of a
+// dataset, the flight method (hda/) finds the ROIs of image 1 and estimates
+// their slopes; the reference methods reconstruct the same pair
+// independently and the comparison fits each ROI's plane to each method's
+// points, next to the truth where the dataset has it.
+//
+// Methods (names as on the command line):
+//   flight              the flight method as it would fly (RunHda)
+//   flight-refined      the flight's points and the nav relative pose refined
+//                       together by a two-view bundle adjustment with the
+//                       nav pose as a prior (Ceres, reference/ceres_refine.h)
+//   colmap-nav          COLMAP SIFT + point_triangulator, nav poses held fixed
+//   colmap-free         COLMAP SIFT + mapper, aligned to the local frame with
+//                       the nav poses (reference/colmap_runner.h)
+//   opengv-<solver>     per ROI, the ROI's ORB matches (the flight matcher's
+//                       RANSAC inliers, before any use of navigation), relative
+//                       pose by OpenGV with that solver, scaled by the nav
+//                       baseline, triangulated (reference/opengv_solvers.h)
+//
+// A reference method's points belong to an ROI through their observation in
+// image 1 (inside the ROI's image-1 box). Every method's ROI plane is fitted
+// the same way: the errors-in-variables fit of hda::FitPlaneWithCovariance
+// with each point's two-view covariance from the method's own camera centres
+// (TLS would tilt every two-view cloud toward the line of sight), slope against
+// the dataset's gravity. Frames and units follow docs/conventions.md; the
+// output formats are in docs/compare-results.md.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "datasets/dataset.h"
+#include "hda/hda_options.h"
+#include "hda/pipeline.h"
+#include "reference/ceres/ceres_refine.h"
+#include "reference/colmap/colmap_runner.h"
+#include "reference/flight/flight_outputs.h"
+#include "reference/flight/flight_run.h"
+#include "reference/opengv/opengv_solvers.h"
+#include "reference/reconstruction/reconstruction.h"
+
+namespace hdabench::reference {
+
+inline constexpr char kMethodFlight[] = "flight";
+inline constexpr char kMethodFlightRefined[] = "flight-refined";
+inline constexpr char kMethodColmapNav[] = "colmap-nav";
+inline constexpr char kMethodColmapFree[] = "colmap-free";
+inline constexpr char kOpenGvMethodPrefix[] = "opengv-";
+
+// Every method name, in the order of the tables.
+std::vector<std::string> AllMethodNames();
+// "flight,colmap-nav" -> {"flight", "colmap-nav"}; "all" -> AllMethodNames().
+// The flight method is always run (it finds the ROIs); it is added first when
+// not listed. Throws InputError naming an unknown or repeated method and
+// listing the valid names.
+std::vector<std::string> ParseMethodList(const std::string& comma_separated);
+
+// The refinement's defaults for the comparison: the nav prior with the flight
+// method's own nav sigmas (hda::PredictionOptions) and the pixel noise its
+// matches are measured to have (HdaOptions::pixel_sigma_floor_px).
+CeresRefineOptions DefaultRefineOptions();
+
+struct CompareOptions {
+  std::vector<std::string> methods = AllMethodNames();
+  hda::HdaOptions hda;            // the flight method (and the matcher the OpenGV methods use)
+  ColmapOptions colmap;           // workspace: <out>/colmap
+  OpenGvOptions opengv;
+  CeresRefineOptions refine = DefaultRefineOptions();
+  // The matches the OpenGV methods use: the flight matcher's ORB matches with
+  // the flight's options (false), or denser ones over the same boxes (true:
+  // 2000 ORB keypoints per box at a FAST threshold of 5, the rest as the
+  // flight's).
+  bool opengv_dense_features = false;
+  // Angular noise assumed for every method's points when weighting the plane
+  // fit (only the shape of the covariances matters to the fit's normal).
+  double fit_pixel_sigma_px = 0.5;
+  // A method's ROI needs this many points for a plane (as the flight's min_points).
+  int min_points = 10;
+  // Every violated constraint, one message each.
+  std::vector<std::string> Validate() const;
+};
+
+// Distances of a method's points to the true terrain surface (the truth DEM,
+// rocks not included): |z - h(x, y)| / sqrt(1 + |grad h|^2), the distance to
+// the local tangent plane of the surface. Shares within 0.1, 0.3 and 1 m, as
+// ETH3D reports accuracy.
+struct PointAccuracy {
+  bool available = false;  // false: no truth DEM, or no point over it
+  int num_points = 0;
+  double median_m = 0.0;
+  double within_0_1_m = 0.0;  // fractions in [0, 1]
+  double within_0_3_m = 0.0;
+  double within_1_m = 0.0;
+};
+
+// One method on one ROI.
+struct MethodRoi {
+  // "ok", "too few points", "degenerate" (collinear points), "failed" (the
+  // method failed for the run), "no search box" (the ROI was not predicted in
+  // image 2), "planar" / "low parallax" (OpenGV for the ROI, colmap-free for
+  // the whole pair: the configuration cannot give a confident free relative
+  // pose, so no slope is given), "pose failed" (OpenGV), or the
+  // flight's own status name for the flight method.
+  std::string status;
+  std::string reason;             // one line with numbers
+  int num_points = 0;
+  bool has_fit = false;           // slope and roughness are meaningful
+  double slope_deg = 0.0;
+  double roughness_rms_m = 0.0;
+  double roughness_max_m = 0.0;
+  bool has_sigma = false;         // the method predicts its slope uncertainty (flight only)
+  double slope_sigma_deg = 0.0;
+  std::string configuration;      // OpenGV (the ROI's), colmap-free (the pair's): well-conditioned, planar, low parallax, too few points
+  bool has_pose_error = false;    // OpenGV with truth: the ROI's relative pose against the true one
+  double rotation_error_deg = 0.0;
+  double translation_direction_error_deg = 0.0;
+  PointAccuracy accuracy;
+  std::vector<Eigen::Vector3d> points_in_local_m;  // the method's points in the ROI
+  double wall_s = 0.0;           // wall time spent on this ROI (per-ROI methods only)
+};
+
+// Statistics of absolute errors (degrees for slopes, metres for roughness).
+struct ErrorStats {
+  int count = 0;
+  double median = 0.0;
+  double p90 = 0.0;
+  double max = 0.0;
+};
+
+struct MethodSummary {
+  std::string method;
+  bool ok = true;               // false: the method failed for the run
+  std::string failure;          // why, when not ok
+  std::string note;             // one line about the run of the method (solver status, logs)
+  int rois_with_fit = 0;
+  ErrorStats slope_vs_truth_deg;    // |slope - truth| over ROIs with a fit, truth and >= kMinPointsForSlopeStats points
+  ErrorStats slope_vs_colmap_nav_deg;  // |slope - colmap-nav's| where both have a fit with enough points
+  ErrorStats roughness_vs_truth_m; // |roughness rms - truth rms|, metres, same ROIs as slope_vs_truth
+  PointAccuracy accuracy;       // over all the method's points inside ROIs
+  // Whole-pair relative pose against the truth (the method's own estimate;
+  // for OpenGV solvers, the solve on all ROIs' matches pooled).
+  bool has_pose_error = false;
+  double rotation_error_deg = 0.0;
+  double translation_direction_error_deg = 0.0;
+  double wall_s = 0.0;         // wall time of the method for the run
+  double time_ratio_to_flight = 0.0;
+};
+
+struct CompareRun {
+  FlightRun flight;                         // dataset, frames, options, HdaResult, truths
+  std::vector<std::string> methods;         // in table order, flight first
+  std::vector<std::vector<MethodRoi>> rois; // [method][roi], parallel to flight.result.rois
+  std::vector<MethodSummary> summaries;     // parallel to methods
+  bool any_truth = false;
+  std::string colmap_workspace;             // where COLMAP's files and logs are, when it ran
+};
+
+using CompareProgress = std::function<void(const std::string& message)>;
+
+// Runs every method of options.methods on frames (frame1, frame2) of a dataset
+// loaded with images (and truth, for the truth columns). image_paths are the
+// frames' image files (COLMAP reads files). A method that fails marks its
+// column failed with the reason; the others are still computed. Throws
+// InputError for invalid options or frames.
+CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
+                      const CompareOptions& options, const std::string& colmap_workspace,
+                      const CompareProgress& progress = nullptr);
+
+// A whole-run reconstruction split by ROI (points whose image-1 observation
+// is inside the ROI's image-1 box), each ROI fitted with FitRoiPoints and
+// scored against the truth DEM where there is one. Camera 2's centre comes
+// from the reconstruction's pose when it has one, else from the navigation.
+// A failed reconstruction gives every ROI the status "failed" with its reason;
+// an ROI without points gets "too few points".
+std::vector<MethodRoi> RoisOfReconstruction(const PairReconstruction& recon,
+                                            const hda::HdaResult& flight,
+                                            const datasets::Dataset& dataset,
+                                            const Rigid3d& local_from_cam1,
+                                            const Rigid3d& nav_local_from_cam2, int min_points);
+
+// The fit every reference method's ROI gets (see the file comment). camera
+// centres in the local frame; points in the local frame.
+struct RoiFit {
+  std::string status;  // "ok", "too few points", "degenerate"
+  int num_points = 0;
+  double slope_deg = 0.0;
+  double roughness_rms_m = 0.0;
+  double roughness_max_m = 0.0;
+};
+RoiFit FitRoiPoints(const std::vector<Eigen::Vector3d>& points_in_local,
+                    const Eigen::Vector3d& camera1_centre_in_local,
+                    const Eigen::Vector3d& camera2_centre_in_local,
+                    const Eigen::Vector3d& gravity_in_local, int min_points);
+
+// Point accuracy against the truth DEM (see PointAccuracy).
+PointAccuracy ComputePointAccuracy(const std::vector<Eigen::Vector3d>& points_in_local,
+                                   const datasets::TruthDem& dem);
+
+// Median, 90th percentile (linear between order statistics) and max of values.
+ErrorStats ComputeErrorStats(std::vector<double> values);
+
+}  // namespace hdabench::reference

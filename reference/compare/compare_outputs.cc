@@ -1,0 +1,263 @@
+#include "reference/compare/compare_outputs.h"
+
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "tools/util/files.h"
+#include "reference/flight/flight_outputs.h"
+#include "tools/util/text.h"
+
+namespace hdabench::reference {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+
+// A double as JSON, null when it is not finite (JSON has no NaN or infinity).
+Json Number(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
+
+const RoiTruthValue* TruthOf(const CompareRun& run, size_t i) {
+  if (i >= run.flight.truths.size() || !run.flight.truths[i].available) return nullptr;
+  return &run.flight.truths[i];
+}
+
+Json StatsJson(const ErrorStats& s) {
+  if (s.count == 0) return {{"count", 0}, {"median", nullptr}, {"p90", nullptr}, {"max", nullptr}};
+  return {{"count", s.count}, {"median", Number(s.median)}, {"p90", Number(s.p90)}, {"max", Number(s.max)}};
+}
+
+Json AccuracyJson(const PointAccuracy& a) {
+  if (!a.available) return nullptr;
+  return {{"num_points", a.num_points},
+          {"median_m", Number(a.median_m)},
+          {"within_0_1_m", Number(a.within_0_1_m)},
+          {"within_0_3_m", Number(a.within_0_3_m)},
+          {"within_1_m", Number(a.within_1_m)}};
+}
+
+Json MethodRoiJson(const MethodRoi& r) {
+  Json j;
+  j["status"] = r.status;
+  j["reason"] = r.reason;
+  j["num_points"] = r.num_points;
+  j["slope_deg"] = r.has_fit ? Number(r.slope_deg) : Json(nullptr);
+  j["slope_sigma_deg"] = r.has_fit && r.has_sigma ? Number(r.slope_sigma_deg) : Json(nullptr);
+  j["roughness_rms_m"] = r.has_fit ? Number(r.roughness_rms_m) : Json(nullptr);
+  j["roughness_max_m"] = r.has_fit ? Number(r.roughness_max_m) : Json(nullptr);
+  j["configuration"] = r.configuration.empty() ? Json(nullptr) : Json(r.configuration);
+  j["rotation_error_deg"] = r.has_pose_error ? Number(r.rotation_error_deg) : Json(nullptr);
+  j["translation_direction_error_deg"] =
+      r.has_pose_error ? Number(r.translation_direction_error_deg) : Json(nullptr);
+  j["point_accuracy"] = AccuracyJson(r.accuracy);
+  return j;
+}
+
+double SlopeError(const CompareRun& run, size_t m, size_t i) {
+  const MethodRoi& r = run.rois[m][i];
+  const RoiTruthValue* t = TruthOf(run, i);
+  if (!r.has_fit || t == nullptr) return std::nan("");
+  return r.slope_deg - t->slope_deg;
+}
+
+std::string StatsText(const ErrorStats& s, int digits) {
+  if (s.count == 0) return "-";
+  return util::FixedText(s.median, digits) + " / " + util::FixedText(s.p90, digits) + " / " +
+         util::FixedText(s.max, digits) + " (" + std::to_string(s.count) + ")";
+}
+
+std::string MarkdownRow(const std::vector<std::string>& cells) {
+  std::string line = "|";
+  for (const std::string& c : cells) line += " " + c + " |";
+  return line + "\n";
+}
+
+}  // namespace
+
+std::string CompareResultJson(const CompareRun& run) {
+  Json j;
+  j["format"] = kCompareResultFormatName;
+  j["format_version"] = kCompareResultFormatVersion;
+  const FlightRun& f = run.flight;
+  j["dataset"] = f.dataset_name;
+  j["frames"] = Json::array({f.frame1, f.frame2});
+  j["lens_model"] = f.lens_model;
+  j["image_size_px"] = Json::array({f.image_width_px, f.image_height_px});
+  j["baseline_m"] = Number(f.baseline_m);
+  j["lrf_range_m"] = Number(f.lrf_range_m);
+  j["truth"] = run.any_truth;
+  j["min_points_for_stats"] = kMinPointsForSlopeStats;
+  Json methods = Json::array();
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    const MethodSummary& s = run.summaries[m];
+    Json mj;
+    mj["name"] = s.method;
+    mj["ok"] = s.ok;
+    mj["failure"] = s.ok ? Json(nullptr) : Json(s.failure);
+    mj["rois_with_fit"] = s.rois_with_fit;
+    mj["slope_error_vs_truth_deg"] = StatsJson(s.slope_vs_truth_deg);
+    mj["roughness_error_vs_truth_m"] = StatsJson(s.roughness_vs_truth_m);
+    mj["slope_difference_vs_colmap_nav_deg"] = StatsJson(s.slope_vs_colmap_nav_deg);
+    mj["point_accuracy"] = AccuracyJson(s.accuracy);
+    mj["rotation_error_deg"] = s.has_pose_error ? Number(s.rotation_error_deg) : Json(nullptr);
+    mj["translation_direction_error_deg"] =
+        s.has_pose_error ? Number(s.translation_direction_error_deg) : Json(nullptr);
+    methods.push_back(mj);
+  }
+  j["methods"] = methods;
+  Json rois = Json::array();
+  for (size_t i = 0; i < f.result.rois.size(); ++i) {
+    const hda::RoiResult& roi = f.result.rois[i];
+    Json rj;
+    rj["id"] = roi.id;
+    rj["box1"] = Json::array({roi.box1_px.x, roi.box1_px.y, roi.box1_px.width, roi.box1_px.height});
+    const RoiTruthValue* t = TruthOf(run, i);
+    rj["truth"] = t == nullptr ? Json(nullptr)
+                               : Json({{"slope_deg", Number(t->slope_deg)},
+                                       {"roughness_rms_m", Number(t->roughness_rms_m)},
+                                       {"roughness_max_m", Number(t->roughness_max_m)}});
+    Json per_method = Json::object();
+    for (size_t m = 0; m < run.methods.size(); ++m) {
+      Json mr = MethodRoiJson(run.rois[m][i]);
+      mr["slope_error_deg"] = Number(SlopeError(run, m, i));
+      per_method[run.methods[m]] = mr;
+    }
+    rj["methods"] = per_method;
+    rois.push_back(rj);
+  }
+  j["rois"] = rois;
+  return j.dump(1) + "\n";
+}
+
+std::string CompareTimingsJson(const CompareRun& run) {
+  Json j;
+  j["format"] = kCompareTimingsFormatName;
+  j["format_version"] = kCompareResultFormatVersion;
+  Json methods = Json::array();
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    const MethodSummary& s = run.summaries[m];
+    Json per_roi = Json::array();
+    for (size_t i = 0; i < run.rois[m].size(); ++i) per_roi.push_back(Number(run.rois[m][i].wall_s));
+    methods.push_back({{"name", s.method},
+                       {"seconds", Number(s.wall_s)},
+                       {"ratio_to_flight", Number(s.time_ratio_to_flight)},
+                       {"roi_seconds", per_roi}});
+  }
+  j["methods"] = methods;
+  return j.dump(1) + "\n";
+}
+
+std::string CompareRoisCsv(const CompareRun& run) {
+  std::ostringstream out;
+  out << "roi,method,status,num_points,slope_deg,slope_sigma_deg,truth_slope_deg,slope_error_deg,"
+         "roughness_rms_m,truth_roughness_rms_m,configuration,rotation_error_deg,"
+         "translation_direction_error_deg,points_within_0_3_m\n";
+  const auto quoted = [](const std::string& text) {
+    std::string q = "\"";
+    for (const char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+  };
+  for (size_t i = 0; i < run.flight.result.rois.size(); ++i) {
+    const RoiTruthValue* t = TruthOf(run, i);
+    for (size_t m = 0; m < run.methods.size(); ++m) {
+      const MethodRoi& r = run.rois[m][i];
+      out << run.flight.result.rois[i].id << "," << run.methods[m] << "," << quoted(r.status) << ","
+          << r.num_points << "," << (r.has_fit ? util::CsvNumber(r.slope_deg) : "") << ","
+          << (r.has_fit && r.has_sigma ? util::CsvNumber(r.slope_sigma_deg) : "") << ","
+          << (t != nullptr ? util::CsvNumber(t->slope_deg) : "") << "," << util::CsvNumber(SlopeError(run, m, i))
+          << "," << (r.has_fit ? util::CsvNumber(r.roughness_rms_m) : "") << ","
+          << (t != nullptr ? util::CsvNumber(t->roughness_rms_m) : "") << "," << r.configuration << ","
+          << (r.has_pose_error ? util::CsvNumber(r.rotation_error_deg) : "") << ","
+          << (r.has_pose_error ? util::CsvNumber(r.translation_direction_error_deg) : "") << ","
+          << (r.accuracy.available ? util::CsvNumber(r.accuracy.within_0_3_m) : "") << "\n";
+    }
+  }
+  return out.str();
+}
+
+std::string CompareMarkdown(const CompareRun& run) {
+  std::ostringstream out;
+  const FlightRun& f = run.flight;
+  out << "# Comparison: " << f.dataset_name << ", frames " << f.frame1 << "," << f.frame2
+      << "\n\nBaseline " << util::FixedText(f.baseline_m, 2) << " m, LRF range "
+      << util::FixedText(f.lrf_range_m, 1) << " m, " << f.result.rois.size() << " ROIs. "
+      << f.result.Summary() << "\n\n";
+  out << "## Slope per ROI (degrees, number of points in brackets)\n\n";
+  std::vector<std::string> header = {"ROI"};
+  if (run.any_truth) header.push_back("truth");
+  for (const std::string& m : run.methods) header.push_back(m);
+  out << MarkdownRow(header);
+  out << MarkdownRow(std::vector<std::string>(header.size(), "---"));
+  for (size_t i = 0; i < f.result.rois.size(); ++i) {
+    std::vector<std::string> row = {std::to_string(f.result.rois[i].id)};
+    if (run.any_truth) {
+      const RoiTruthValue* t = TruthOf(run, i);
+      row.push_back(t != nullptr ? util::FixedText(t->slope_deg, 2) : "-");
+    }
+    for (size_t m = 0; m < run.methods.size(); ++m) {
+      const MethodRoi& r = run.rois[m][i];
+      std::string cell = r.has_fit ? util::FixedText(r.slope_deg, 2) + " (" + std::to_string(r.num_points) + ")"
+                                   : "- (" + r.status + ")";
+      if (r.has_fit && run.methods[m] == kMethodFlight && r.status != "evaluated") {
+        cell += " " + r.status;
+      }
+      row.push_back(cell);
+    }
+    out << MarkdownRow(row);
+  }
+  out << "\n## Per method\n\nErrors are median / 90th percentile / max (count) over ROIs with at least "
+      << kMinPointsForSlopeStats << " points.\n\n";
+  out << MarkdownRow({"method", "ROIs with a slope", "slope error vs truth (deg)",
+                      "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
+                      "points within 0.1 / 0.3 / 1 m", "rotation / baseline-direction error (deg)",
+                      "time (s)", "time / flight"});
+  out << MarkdownRow(std::vector<std::string>(9, "---"));
+  for (const MethodSummary& s : run.summaries) {
+    const std::string accuracy =
+        s.accuracy.available ? util::FixedText(100 * s.accuracy.within_0_1_m, 0) + " / " +
+                                   util::FixedText(100 * s.accuracy.within_0_3_m, 0) + " / " +
+                                   util::FixedText(100 * s.accuracy.within_1_m, 0) + " % (" +
+                                   std::to_string(s.accuracy.num_points) + ")"
+                             : "-";
+    const std::string pose = s.has_pose_error ? util::FixedText(s.rotation_error_deg, 3) + " / " +
+                                                    util::FixedText(s.translation_direction_error_deg, 2)
+                                              : "-";
+    out << MarkdownRow({s.method + (s.ok ? "" : " (failed)"), std::to_string(s.rois_with_fit),
+                        StatsText(s.slope_vs_truth_deg, 2), StatsText(s.roughness_vs_truth_m, 3),
+                        StatsText(s.slope_vs_colmap_nav_deg, 2), accuracy, pose,
+                        util::FixedText(s.wall_s, 3), util::FixedText(s.time_ratio_to_flight, 1)});
+  }
+  bool any_note = false;
+  for (const MethodSummary& s : run.summaries) {
+    if (s.ok && s.note.empty()) continue;
+    if (!any_note) out << "\n";
+    any_note = true;
+    out << "- " << s.method << ": " << (s.ok ? s.note : "FAILED: " + s.failure) << "\n";
+  }
+  return out.str();
+}
+
+std::vector<std::string> WriteCompareOutputs(const CompareRun& run, const cv::Mat& image1,
+                                             const cv::Mat& image2, const std::string& dir,
+                                             bool figures) {
+  PrepareOutputFolder(dir);
+  std::vector<std::string> written;
+  const auto write = [&](const std::string& name, const std::string& bytes) {
+    util::WriteFileAtomically(fs::path(dir) / name, bytes);
+    written.push_back(name);
+  };
+  write("compare.json", CompareResultJson(run));
+  write("compare_timings.json", CompareTimingsJson(run));
+  write("compare.csv", CompareRoisCsv(run));
+  write("compare.md", CompareMarkdown(run));
+  for (const std::string& path :
+       WriteFlightOutputs(run.flight, image1, image2, (fs::path(dir) / "flight").string(), figures)) {
+    written.push_back("flight/" + path);
+  }
+  return written;
+}
+
+}  // namespace hdabench::reference

@@ -1,0 +1,97 @@
+// The outputs of one run of the flight method on a dataset (`hdabench run`):
+// result.json (deterministic, versioned), timings.json (wall times), rois.csv,
+// one PLY cloud per ROI with points, the figures, and the text report with
+// the paper-style table of estimated against true slopes. The formats are
+// specified in docs/flight-results.md (format_version 1); frames and units
+// follow docs/conventions.md.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "hda/hda_options.h"
+#include "hda/pipeline.h"
+#include "reference/flight/flight_run.h"
+
+namespace hdabench::reference {
+
+inline constexpr char kFlightResultFormatName[] = "hdabench-flight-result";
+inline constexpr char kFlightTimingsFormatName[] = "hdabench-flight-timings";
+inline constexpr int kFlightResultFormatVersion = 1;
+
+// ROIs with fewer points than this are left out of the slope error statistics
+// (the paper's table lists ROIs down to 15 points; its two largest errors are
+// both 15-point ROIs).
+inline constexpr int kMinPointsForSlopeStats = 20;
+
+// result.json: the deterministic record of the run (no wall times), doubles
+// printed so they read back identical, null for what does not apply and for
+// non-finite values. Two runs on the same inputs give the same bytes (unless
+// the time budget ran out at different ROIs).
+std::string FlightResultJson(const FlightRun& run);
+
+// timings.json: StageTimes, budget and each ROI's seconds (not deterministic).
+std::string FlightTimingsJson(const FlightRun& run);
+
+// rois.csv: a header and one row per ROI in id order; empty cells where a
+// value does not apply.
+std::string FlightRoisCsv(const FlightRun& run);
+
+// ASCII PLY of an ROI's points: x y z in the local frame (metres) and the
+// image-1 pixel u1 v1 of each, as doubles.
+std::string RoiPly(const hda::RoiResult& roi);
+
+// "roi_007" style stem of an ROI's per-ROI files: the id zero-padded to 3 digits.
+std::string RoiFileStem(int id);
+
+// Slope error statistics over the ROIs with a fit, truth and at least
+// kMinPointsForSlopeStats points (depth inliers): |estimated - true| slope.
+struct SlopeErrorStats {
+  int count = 0;                        // ROIs used
+  double median_abs_deg = 0.0;          // median |error|, degrees (0 when count is 0)
+  double p90_abs_deg = 0.0;             // 90th percentile |error| (linear between order statistics)
+  double within_two_sigma_fraction = 0.0;  // share with |error| <= 2 * predicted slope sigma
+};
+SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run);
+
+// The report printed by `hdabench run`: the summary line (HdaResult::Summary,
+// frames, baseline), then a table with one row per ROI in id order
+//   ROI | status | truth slope (deg) | est. slope (deg) | sigma (deg) | # points |
+//   truth rough. RMS (m) | est. relief (m)
+// (without the truth columns when no ROI has truth; "-" where a value does not
+// apply), and with truth a last line with the SlopeErrorStats.
+std::string FlightReport(const FlightRun& run);
+
+// Figures (8-bit BGR images). image1 / image2 are the run's images (CV_8UC1
+// or CV_16UC1).
+// Image 1 (enlarged so that a minimum block is readable) with every ROI box
+// coloured by status and labelled with its id, the rejected quadtree blocks
+// thin and dark, and a legend strip below.
+cv::Mat QuadtreeFigure(const cv::Mat& image1, const hda::HdaResult& result);
+// One ROI: the image-1 box with some context beside the image-2 search box,
+// each scaled to 300 px high (nearest neighbour when enlarging), the
+// surviving matches as points joined by lines, a title line.
+cv::Mat RoiPairFigure(const cv::Mat& image1, const cv::Mat& image2, const hda::RoiResult& roi);
+// Both full images side by side (shrunk to at most 2048 px wide; small ones
+// enlarged by a whole factor toward 1024) with every surviving match as a
+// translucent line and the ROI boxes that have matches, coloured per ROI.
+cv::Mat MatchesFigure(const cv::Mat& image1, const cv::Mat& image2, const hda::HdaResult& result);
+
+// Creates the output folder `dir` (and its parents) if missing. Throws
+// InputError naming it when it cannot be created or is not a folder.
+void PrepareOutputFolder(const std::string& dir);
+
+// Writes every output into `dir` (created if missing): result.json,
+// timings.json, rois.csv, points/roi_NNN.ply, and unless !figures
+// figures/quadtree.png, figures/matches.png, figures/roi_pairs/roi_NNN.png.
+// Each file is written to a temporary name and renamed into place; files of
+// the same names are replaced, and per-ROI files of an earlier run that this
+// run does not write are removed. Returns the paths written, relative to dir.
+// Throws InputError naming the path when a folder or file cannot be written.
+std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat& image1,
+                                            const cv::Mat& image2, const std::string& dir,
+                                            bool figures);
+
+}  // namespace hdabench::reference

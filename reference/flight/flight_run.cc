@@ -1,0 +1,118 @@
+#include "reference/flight/flight_run.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "tools/util/error.h"
+#include "datasets/synth/truth.h"
+
+namespace hdabench::reference {
+
+std::pair<int, int> DefaultFramePair(const datasets::Dataset& dataset) {
+  const int n = static_cast<int>(dataset.frames.size());
+  if (n < 2) {
+    throw InputError("dataset " + dataset.name + " has " + std::to_string(n) +
+                     " frame(s): the flight method needs 2");
+  }
+  const double range = dataset.LrfRangeAt(dataset.frames[0].time_s);
+  int best = 1;
+  double best_error = std::numeric_limits<double>::infinity();
+  for (int j = 1; j < n; ++j) {
+    const double error = std::abs(dataset.BaselineM(0, j) / range - kPaperBaselineToRange);
+    if (error < best_error) {
+      best_error = error;
+      best = j;
+    }
+  }
+  return {0, best};
+}
+
+hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int frame2) {
+  const int n = static_cast<int>(dataset.frames.size());
+  for (const int frame : {frame1, frame2}) {
+    if (frame < 0 || frame >= n) {
+      throw InputError("frame " + std::to_string(frame) + " is not in the dataset (frames 0.." +
+                       std::to_string(n - 1) + ")");
+    }
+  }
+  if (frame1 == frame2) {
+    throw InputError("frames " + std::to_string(frame1) + "," + std::to_string(frame2) +
+                     ": the flight method needs two different frames");
+  }
+  const datasets::FrameRecord& record1 = dataset.frames[static_cast<size_t>(frame1)];
+  const datasets::FrameRecord& record2 = dataset.frames[static_cast<size_t>(frame2)];
+  if (record1.image.empty() || record2.image.empty()) {
+    throw InputError("the images of frames " + std::to_string(frame1) + " and " +
+                     std::to_string(frame2) + " are not loaded");
+  }
+  hda::HdaInput input;
+  input.image1 = record1.image;
+  input.image2 = record2.image;
+  input.local_from_cam1 = dataset.CamFromLocal(frame1).Inverse();
+  input.cam2_from_cam1 = dataset.Cam2FromCam1(frame1, frame2);
+  input.gravity_in_local_mps2 = dataset.gravity_in_local_mps2;
+  input.ils_in_local_m = dataset.ils_in_local_m;
+  input.lrf_range_m = dataset.LrfRangeAt(record1.time_s);
+  // The beam of the last sample at or before frame 1 (the first one if none).
+  auto after = std::upper_bound(
+      dataset.lrf.begin(), dataset.lrf.end(), record1.time_s,
+      [](double t, const datasets::LrfSample& sample) { return t < sample.time_s; });
+  const datasets::LrfSample& sample = after == dataset.lrf.begin() ? dataset.lrf.front() : *(after - 1);
+  input.lrf_origin_in_cam1_m = dataset.cam_from_body * dataset.lrf_origin_in_body_m;
+  input.lrf_beam_in_cam1 = dataset.cam_from_body.rotation * sample.boresight_in_body;
+  return input;
+}
+
+std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int frame1,
+                                       const hda::HdaResult& result) {
+  std::vector<RoiTruthValue> truths(result.rois.size());
+  const bool has_points =
+      std::any_of(dataset.truth.points.begin(), dataset.truth.points.end(),
+                  [&](const datasets::TruthPoints& p) { return p.frame == frame1; });
+  for (size_t i = 0; i < result.rois.size(); ++i) {
+    RoiTruthValue& truth = truths[i];
+    if (!has_points) {
+      truth.why = "the dataset has no truth points for frame " + std::to_string(frame1);
+      continue;
+    }
+    const cv::Rect& box = result.rois[i].box1_px;
+    try {
+      const datasets::synth::RoiTruth roi_truth = datasets::synth::ComputeRoiTruth(
+          dataset, frame1, datasets::synth::PixelRoi{box.x, box.y, box.width, box.height});
+      truth.available = true;
+      truth.num_points = roi_truth.num_points;
+      truth.slope_deg = roi_truth.slope_deg;
+      truth.roughness_rms_m = roi_truth.roughness_rms_m;
+      truth.roughness_max_m = roi_truth.roughness_max_m;
+      truth.hazard_height_m = roi_truth.hazard_height_m;
+    } catch (const InputError& e) {
+      truth.why = e.what();
+    }
+  }
+  return truths;
+}
+
+FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
+                    const hda::HdaOptions& options) {
+  const hda::HdaInput input = MakeHdaInput(dataset, frame1, frame2);
+  FlightRun run;
+  run.dataset_name = dataset.name;
+  run.frame1 = frame1;
+  run.frame2 = frame2;
+  run.lens_model = dataset.camera.LensModelName();
+  run.image_width_px = dataset.camera.WidthPx();
+  run.image_height_px = dataset.camera.HeightPx();
+  run.baseline_m = dataset.BaselineM(frame1, frame2);
+  run.lrf_range_m = input.lrf_range_m;
+  run.options = options;
+  run.result = hda::RunHda(input, dataset.camera, options);
+  run.truths = TruthOfRois(dataset, frame1, run.result);
+  return run;
+}
+
+bool FlightRun::AnyTruth() const {
+  return std::any_of(truths.begin(), truths.end(), [](const RoiTruthValue& t) { return t.available; });
+}
+
+}  // namespace hdabench::reference

@@ -1,0 +1,78 @@
+// The flight method (hda/) on a dataset (datasets/): which frames to pair, the
+// in-memory inputs the method takes from the dataset's navigation, LRF,
+// gravity and ILS, and the truth of the ROIs it found where the dataset has
+// truth. Poses and frames follow docs/conventions.md.
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "datasets/dataset.h"
+#include "hda/hda_options.h"
+#include "hda/pipeline.h"
+
+namespace hdabench::reference {
+
+// The NOVA-C geometry: about 30 m of lateral motion at a slant range of about
+// 566 m. Frames are paired so that baseline / range is closest to this ratio.
+inline constexpr double kPaperBaselineToRange = 30.0 / 566.0;
+
+// The default pair: frame 0 and the frame j > 0 whose measured (navigation)
+// baseline divided by the LRF range at frame 0 is closest to
+// kPaperBaselineToRange (the first such j on a tie). Throws InputError when the
+// dataset has fewer than 2 frames.
+std::pair<int, int> DefaultFramePair(const datasets::Dataset& dataset);
+
+// The method's inputs for frames (frame1, frame2) from the dataset's measured
+// navigation (never its truth): local_from_cam1, cam2_from_cam1, gravity, ILS,
+// and the LRF sample at frame 1's time (range interpolated, beam and origin
+// moved into cam1). The images must be in memory (LoadOptions::keep_images);
+// the returned input shares their pixels. Throws InputError for a frame index
+// outside the dataset, equal frames, or images not loaded.
+hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int frame2);
+
+// Truth of one ROI (datasets/synth/truth.h definitions, in image 1).
+struct RoiTruthValue {
+  bool available = false;  // false: the dataset has no truth points for frame 1, or too few
+  std::string why;         // when not available: the reason
+  int num_points = 0;
+  double slope_deg = 0.0;
+  double roughness_rms_m = 0.0;
+  double roughness_max_m = 0.0;
+  double hazard_height_m = 0.0;
+};
+
+// The truth of every ROI of `result` (same order as result.rois), from the
+// dataset's truth points of frame1 (LoadOptions::keep_truth). Every ROI gets an
+// entry; without truth points they are all unavailable, with the reason.
+std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int frame1,
+                                       const hda::HdaResult& result);
+
+// Everything one run produced and what it was run on.
+struct FlightRun {
+  std::string dataset_name;
+  int frame1 = 0;
+  int frame2 = 1;
+  std::string lens_model;         // the camera's mrcal lens model name
+  int image_width_px = 0;         // the imager
+  int image_height_px = 0;
+  double baseline_m = 0.0;        // navigation baseline between the two frames, metres
+  double lrf_range_m = 0.0;       // LRF range at frame 1, metres
+  hda::HdaOptions options;        // the options RunHda was given
+  hda::HdaResult result;
+  // Truth per ROI, parallel to result.rois (TruthOfRois). Empty, or all
+  // unavailable, when the dataset has no truth.
+  std::vector<RoiTruthValue> truths;
+
+  bool AnyTruth() const;
+};
+
+// Runs the flight method on frames (frame1, frame2) of a dataset loaded with
+// its images (and its truth, for the truth of the ROIs): MakeHdaInput, RunHda,
+// TruthOfRois, and what the run was made on. Throws InputError as
+// MakeHdaInput and RunHda do.
+FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
+                    const hda::HdaOptions& options);
+
+}  // namespace hdabench::reference

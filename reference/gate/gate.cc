@@ -1,0 +1,702 @@
+#include "reference/gate/gate.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <set>
+#include <sstream>
+#include <thread>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core/utility.hpp>
+
+#include "tools/util/error.h"
+#include "datasets/dataset.h"
+#include "tools/util/files.h"
+#include "tools/util/options_check.h"
+#include "datasets/stereolunar.h"
+#include "datasets/synth/terrain.h"
+#include "reference/compare/compare.h"
+#include "reference/compare/compare_outputs.h"
+#include "reference/flight/flight_outputs.h"
+#include "tools/util/text.h"
+#include "tools/util/parallel_for.h"
+#include "tools/util/statistics.h"
+#include "reference/report/report.h"
+
+namespace hdabench::reference {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+
+// ---------------------------------------------------------------------------
+// Reading the JSON files
+
+Json ReadJsonFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  try {
+    return Json::parse(text.str());
+  } catch (const Json::parse_error& e) {
+    throw InputError(path + ": not valid JSON: " + e.what());
+  }
+}
+
+// Checks that `object` has only `allowed` keys; throws naming the first other.
+void OnlyKeys(const Json& object, const std::set<std::string>& allowed, const std::string& where) {
+  for (const auto& item : object.items()) {
+    if (allowed.count(item.key()) == 0) throw InputError(where + ": unknown field '" + item.key() + "'");
+  }
+}
+
+void CheckFormat(const Json& j, const std::string& name, const std::string& path) {
+  if (!j.is_object()) throw InputError(path + ": expected a JSON object");
+  if (!j.contains("format") || j["format"] != name) {
+    throw InputError(path + ": field 'format' must be \"" + name + "\"");
+  }
+  if (!j.contains("format_version") || j["format_version"] != kGateFormatVersion) {
+    throw InputError(path + ": field 'format_version' must be " + std::to_string(kGateFormatVersion));
+  }
+}
+
+std::string StringField(const Json& j, const std::string& key, const std::string& where) {
+  if (!j.contains(key) || !j[key].is_string()) {
+    throw InputError(where + ": field '" + key + "' must be a string");
+  }
+  return j[key].get<std::string>();
+}
+
+double NumberField(const Json& j, const std::string& key, const std::string& where) {
+  if (!j[key].is_number() || !std::isfinite(j[key].get<double>())) {
+    throw InputError(where + ": field '" + key + "' must be a finite number");
+  }
+  return j[key].get<double>();
+}
+
+bool ValidName(const std::string& name) {
+  return !name.empty() && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '.' || c == '_' || c == '-';
+  }) && name != "." && name != "..";
+}
+
+// ---------------------------------------------------------------------------
+// Metrics
+
+const std::vector<std::string>& MetricNames() {
+  static const std::vector<std::string> names = {
+      "slope_error_median_deg", "slope_error_p90_deg",   "slope_error_max_deg",
+      "roughness_error_median_m", "rois_with_slope_share", "within_two_sigma_share",
+      "flight_seconds_per_pair", "failed_entries",        "slope_error_rois"};
+  return names;
+}
+
+// Higher is better for these metrics; lower for the others.
+bool HigherIsBetter(const std::string& metric) {
+  return metric == "rois_with_slope_share" || metric == "within_two_sigma_share" ||
+         metric == "slope_error_rois";
+}
+
+bool FlightHasSlope(const std::string& status) {
+  return status == "evaluated" || status == "unsafe slope" || status == "unsafe roughness";
+}
+
+std::string FormatValue(double value) { return util::FixedText(value, 3); }
+
+// ---------------------------------------------------------------------------
+// Running entries
+
+std::string Hex(std::uint64_t value) {
+  static const char* digits = "0123456789abcdef";
+  std::string text(16, '0');
+  for (int i = 15; i >= 0; --i, value >>= 4) text[static_cast<size_t>(i)] = digits[value & 15];
+  return text;
+}
+
+// FNV-1a of the text: names a dataset by what it was made from.
+std::uint64_t Fnv1a(const std::string& text) {
+  std::uint64_t hash = 1469598103934665603ULL;
+  for (const char c : text) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 1099511628211ULL;
+  }
+  return hash;
+}
+
+// The gate measures accuracy without time-budget kick-outs: which ROIs a
+// wall-time budget reaches depends on the machine's load (entries run in
+// parallel), so the flight method gets an ample budget here and its time is a
+// metric of its own (flight_seconds_per_pair). The kick-outs have their own
+// tests, with a fake clock.
+constexpr double kGateComputeBudgetS = 1.0e6;
+
+Json EntrySpecJson(const GateEntry& e) {
+  Json j;
+  j["name"] = e.name;
+  if (e.synth_preset) {
+    Json overrides = Json::array();
+    for (const auto& [key, value] : e.synth_overrides) overrides.push_back(key + "=" + value);
+    j["synth"] = {{"preset", *e.synth_preset}, {"terrain", e.synth_terrain},
+                  {"seed", e.synth_seed},      {"image_size", e.synth_image_size_px},
+                  {"set", overrides}};
+  }
+  if (e.dataset_dir) j["dataset"] = *e.dataset_dir;
+  if (e.stereolunar_pair_dir) j["stereolunar"] = {{"pair", *e.stereolunar_pair_dir}, {"sun", e.stereolunar_sun}};
+  j["site_size_m"] = e.site_size_m ? Json(*e.site_size_m) : Json(nullptr);
+  return j;
+}
+
+// The settings an entry's results depend on: a complete folder with other
+// settings is redone.
+std::string EntrySettings(const GateEntry& e, const GateSuite& suite, const GateRunOptions& o) {
+  Json j;
+  j["format"] = "hdabench-gate-entry";
+  j["format_version"] = kGateFormatVersion;
+  j["entry"] = EntrySpecJson(e);
+  j["methods"] = suite.methods;
+  j["fault_match_noise_px"] = o.fault_match_noise_px;
+  j["flight_compute_budget_s"] = kGateComputeBudgetS;
+  j["colmap"] = o.colmap_executable;
+  // The program itself: results of another build are not reused.
+  std::error_code ec;
+  const fs::path program = fs::read_symlink("/proc/self/exe", ec);
+  const auto stamp = ec ? 0 : fs::last_write_time(program, ec).time_since_epoch().count();
+  j["program"] = {{"path", ec ? "" : program.string()},
+                  {"modified", static_cast<std::int64_t>(ec ? 0 : stamp)},
+                  {"size", ec ? 0 : static_cast<std::uint64_t>(fs::file_size(program, ec))}};
+  return j.dump(1) + "\n";
+}
+
+constexpr char kEntryRecord[] = "gate_entry.json";
+
+
+// The dataset folder of an entry: made if it is synthetic (under a temporary
+// name, renamed into place), found otherwise.
+std::string EntryDataset(const GateEntry& e, const GateSuite& suite, const GateRunOptions& o) {
+  const fs::path suite_dir = fs::path(suite.file).parent_path();
+  if (e.dataset_dir) return (suite_dir / *e.dataset_dir).lexically_normal().string();
+  const fs::path made = fs::path(o.out_dir) / "datasets" /
+                        (e.name + "-" + Hex(Fnv1a(EntrySpecJson(e).dump())).substr(0, 8));
+  if (fs::exists(made / "manifest.json")) return made.string();
+  const fs::path staging = made.string() + ".partial-" + std::to_string(::getpid());
+  fs::remove_all(staging);
+  fs::create_directories(made.parent_path());
+  if (e.synth_preset) {
+    datasets::synth::SynthOptions options = datasets::synth::SynthPreset(*e.synth_preset);
+    if (!e.synth_terrain.empty()) options.terrain = e.synth_terrain;
+    if (e.synth_image_size_px > 0) options.image_size_px = e.synth_image_size_px;
+    datasets::synth::TerrainOptions terrain = datasets::synth::TerrainPreset(options.terrain);
+    for (const auto& [key, value] : e.synth_overrides) {
+      datasets::synth::ApplyOverride(key, value, &options, &terrain);
+    }
+    datasets::synth::ScaleTerrain(options.terrain_scale, &terrain);
+    options.threads = o.synth_threads;
+    datasets::WriteDataset(datasets::synth::GenerateSynthDataset(options, terrain, e.synth_seed),
+                           staging.string());
+  } else {
+    const std::string pair_dir = (suite_dir / *e.stereolunar_pair_dir).lexically_normal().string();
+    datasets::WriteDataset(datasets::ConvertStereoLunarPair(
+                               pair_dir, datasets::DefaultStereoLunarCamerasFile(pair_dir),
+                               e.stereolunar_sun),
+                           staging.string());
+  }
+  std::error_code ec;
+  fs::rename(staging, made, ec);
+  if (ec) {
+    fs::remove_all(staging);
+    if (!fs::exists(made / "manifest.json")) {
+      throw InputError(made.string() + ": cannot move the new dataset into place: " + ec.message());
+    }
+  }
+  return made.string();
+}
+
+// Loading a dataset reads its camera model through libmrcal, whose parser
+// messages are captured from stderr: one load at a time.
+std::mutex g_load_mutex;
+
+GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const GateRunOptions& o) {
+  const auto start = std::chrono::steady_clock::now();
+  GateEntryOutcome outcome;
+  outcome.name = e.name;
+  const fs::path final_dir = fs::path(o.out_dir) / "entries" / e.name;
+  const std::string settings = EntrySettings(e, suite, o);
+  // Complete from an earlier run with the same settings: reuse.
+  if (fs::exists(final_dir / "compare.json") && fs::exists(final_dir / kEntryRecord)) {
+    std::ifstream in(final_dir / kEntryRecord, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    if (text.str() == settings) {
+      outcome.dir = final_dir.string();
+      outcome.reused = true;
+      outcome.ok = true;
+      return outcome;
+    }
+  }
+  try {
+    const std::string dataset_dir = EntryDataset(e, suite, o);
+    datasets::LoadOptions load;
+    load.keep_images = true;
+    load.keep_truth = true;
+    std::optional<datasets::Dataset> dataset;
+    {
+      std::lock_guard<std::mutex> lock(g_load_mutex);
+      datasets::DatasetLoadResult loaded = datasets::LoadDataset(dataset_dir, load);
+      if (!loaded.Ok()) throw InputError(loaded.Summary());
+      dataset = std::move(loaded.dataset);
+    }
+    const std::pair<int, int> pair = DefaultFramePair(*dataset);
+    CompareOptions compare;
+    compare.methods = suite.methods;
+    if (e.site_size_m) compare.hda.quadtree.site_size_m = *e.site_size_m;
+    compare.hda.fault_match_noise_px = o.fault_match_noise_px;
+    compare.hda.processor_scale = o.processor_scale;
+    compare.hda.compute_budget_s = kGateComputeBudgetS;
+    compare.colmap.executable = o.colmap_executable;
+    const fs::path staging = final_dir.string() + ".partial-" + std::to_string(::getpid());
+    fs::remove_all(staging);
+    fs::create_directories(staging);
+    const CompareRun run =
+        RunCompare(*dataset, pair.first, pair.second, compare, (staging / "colmap").string());
+    WriteCompareOutputs(run, dataset->frames[static_cast<size_t>(pair.first)].image,
+                        dataset->frames[static_cast<size_t>(pair.second)].image, staging.string(),
+                        true);
+    // The report a person reads; without Python's plots it is still written
+    // (and says why), so it never fails the entry.
+    ReportOptions report;
+    report.dataset_dir = dataset_dir;
+    WriteReport(staging.string(), report);
+    util::WriteFileAtomically(staging / kEntryRecord, settings);
+    fs::remove_all(final_dir);
+    fs::rename(staging, final_dir);
+    outcome.dir = final_dir.string();
+    outcome.ok = true;
+  } catch (const std::exception& ex) {
+    outcome.error = ex.what();
+  }
+  outcome.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return outcome;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+
+GateSuite ReadGateSuite(const std::string& path) {
+  const Json j = ReadJsonFile(path);
+  CheckFormat(j, kGateSuiteFormatName, path);
+  OnlyKeys(j, {"format", "format_version", "description", "methods", "entries"}, path);
+  GateSuite suite;
+  suite.file = path;
+  if (j.contains("description")) suite.description = StringField(j, "description", path);
+  if (!j.contains("methods") || !j["methods"].is_array()) {
+    throw InputError(path + ": field 'methods' must be a list of method names");
+  }
+  std::string list;
+  for (const auto& m : j["methods"]) {
+    if (!m.is_string()) throw InputError(path + ": field 'methods' must hold strings");
+    list += (list.empty() ? "" : ",") + m.get<std::string>();
+  }
+  try {
+    suite.methods = ParseMethodList(list);
+  } catch (const InputError& e) {
+    throw InputError(path + ": methods: " + e.what());
+  }
+  if (!j.contains("entries") || !j["entries"].is_array() || j["entries"].empty()) {
+    throw InputError(path + ": field 'entries' must be a non-empty list");
+  }
+  std::set<std::string> names;
+  for (size_t i = 0; i < j["entries"].size(); ++i) {
+    const Json& ej = j["entries"][i];
+    const std::string where = path + ": entries[" + std::to_string(i) + "]";
+    if (!ej.is_object()) throw InputError(where + ": expected an object");
+    OnlyKeys(ej, {"name", "synth", "dataset", "stereolunar", "site_size_m"}, where);
+    GateEntry e;
+    e.name = StringField(ej, "name", where);
+    if (!ValidName(e.name)) {
+      throw InputError(where + ": name '" + e.name + "' must be letters, digits, '.', '_' or '-'");
+    }
+    if (!names.insert(e.name).second) throw InputError(where + ": name '" + e.name + "' is repeated");
+    const int sources = static_cast<int>(ej.contains("synth")) + static_cast<int>(ej.contains("dataset")) +
+                        static_cast<int>(ej.contains("stereolunar"));
+    if (sources != 1) {
+      throw InputError(where + ": give exactly one of 'synth', 'dataset', 'stereolunar'");
+    }
+    if (ej.contains("synth")) {
+      const Json& s = ej["synth"];
+      const std::string swhere = where + ".synth";
+      if (!s.is_object()) throw InputError(swhere + ": expected an object");
+      OnlyKeys(s, {"preset", "terrain", "seed", "image_size", "set"}, swhere);
+      e.synth_preset = StringField(s, "preset", swhere);
+      if (s.contains("terrain")) e.synth_terrain = StringField(s, "terrain", swhere);
+      if (s.contains("seed")) {
+        if (!s["seed"].is_number_unsigned()) throw InputError(swhere + ": field 'seed' must be an integer >= 0");
+        e.synth_seed = s["seed"].get<std::uint64_t>();
+      }
+      if (s.contains("image_size")) {
+        if (!s["image_size"].is_number_integer()) throw InputError(swhere + ": field 'image_size' must be an integer");
+        e.synth_image_size_px = s["image_size"].get<int>();
+      }
+      if (s.contains("set")) {
+        if (!s["set"].is_object()) throw InputError(swhere + ": field 'set' must be an object of key: value");
+        for (const auto& item : s["set"].items()) {
+          const Json& v = item.value();
+          std::string value = v.is_string() ? v.get<std::string>() : v.dump();
+          e.synth_overrides.emplace_back(item.key(), value);
+        }
+      }
+      // The preset, terrain and overrides must be usable now, not halfway.
+      try {
+        datasets::synth::SynthOptions options = datasets::synth::SynthPreset(*e.synth_preset);
+        datasets::synth::TerrainOptions terrain = datasets::synth::TerrainPreset(
+            e.synth_terrain.empty() ? options.terrain : e.synth_terrain);
+        for (const auto& [key, value] : e.synth_overrides) {
+          datasets::synth::ApplyOverride(key, value, &options, &terrain);
+        }
+      } catch (const InputError& ex) {
+        throw InputError(swhere + ": " + ex.what());
+      }
+    }
+    if (ej.contains("dataset")) e.dataset_dir = StringField(ej, "dataset", where);
+    if (ej.contains("stereolunar")) {
+      const Json& s = ej["stereolunar"];
+      if (!s.is_object()) throw InputError(where + ".stereolunar: expected an object");
+      OnlyKeys(s, {"pair", "sun"}, where + ".stereolunar");
+      e.stereolunar_pair_dir = StringField(s, "pair", where + ".stereolunar");
+      if (s.contains("sun")) e.stereolunar_sun = static_cast<int>(NumberField(s, "sun", where + ".stereolunar"));
+    }
+    if (ej.contains("site_size_m")) {
+      e.site_size_m = NumberField(ej, "site_size_m", where);
+      if (!(*e.site_size_m > 0)) throw InputError(where + ": field 'site_size_m' must be > 0");
+    }
+    suite.entries.push_back(e);
+  }
+  return suite;
+}
+
+GateThresholds ReadGateThresholds(const std::string& path) {
+  const Json j = ReadJsonFile(path);
+  CheckFormat(j, kGateThresholdsFormatName, path);
+  OnlyKeys(j, {"format", "format_version", "description", "thresholds"}, path);
+  if (!j.contains("thresholds") || !j["thresholds"].is_array()) {
+    throw InputError(path + ": field 'thresholds' must be a list");
+  }
+  GateThresholds result;
+  result.file = path;
+  const std::vector<std::string> all_methods = AllMethodNames();
+  const std::vector<std::string>& metrics = MetricNames();
+  std::set<std::string> seen;
+  for (size_t i = 0; i < j["thresholds"].size(); ++i) {
+    const Json& t = j["thresholds"][i];
+    const std::string where = path + ": thresholds[" + std::to_string(i) + "]";
+    if (!t.is_object()) throw InputError(where + ": expected an object");
+    OnlyKeys(t, {"method", "metric", "max", "min", "tolerance", "why"}, where);
+    GateThreshold th;
+    th.method = StringField(t, "method", where);
+    th.metric = StringField(t, "metric", where);
+    if (std::find(all_methods.begin(), all_methods.end(), th.method) == all_methods.end()) {
+      throw InputError(where + ": unknown method '" + th.method + "'");
+    }
+    if (std::find(metrics.begin(), metrics.end(), th.metric) == metrics.end()) {
+      throw InputError(where + ": unknown metric '" + th.metric + "'");
+    }
+    if (t.contains("max")) th.max = NumberField(t, "max", where);
+    if (t.contains("min")) th.min = NumberField(t, "min", where);
+    if (th.max.has_value() == th.min.has_value()) {
+      throw InputError(where + ": give exactly one of 'max' and 'min'");
+    }
+    if (t.contains("tolerance")) {
+      th.tolerance = NumberField(t, "tolerance", where);
+      if (th.tolerance < 0) throw InputError(where + ": field 'tolerance' must be >= 0");
+    }
+    if (t.contains("why")) th.why = StringField(t, "why", where);
+    if (!seen.insert(th.method + " " + th.metric).second) {
+      throw InputError(where + ": " + th.method + " " + th.metric + " is given twice");
+    }
+    result.thresholds.push_back(th);
+  }
+  return result;
+}
+
+std::vector<std::string> GateMetricNames() { return MetricNames(); }
+
+std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
+                                           double processor_scale) {
+  struct Pool {
+    std::vector<double> slope_errors, roughness_errors;
+    int within_two_sigma = 0, rois = 0, rois_with_slope = 0, failed = 0;
+    double flight_seconds = -1.0;
+    bool present = false;
+  };
+  std::map<std::string, Pool> pools;
+  std::vector<std::string> order;
+  for (const std::string& dir : entry_dirs) {
+    const std::string path = (fs::path(dir) / "compare.json").string();
+    const Json j = ReadJsonFile(path);
+    for (const Json& m : j.at("methods")) {
+      const std::string name = m.at("name").get<std::string>();
+      if (pools.count(name) == 0) order.push_back(name);
+      Pool& pool = pools[name];
+      pool.present = true;
+      if (!m.at("ok").get<bool>()) ++pool.failed;
+    }
+    for (const Json& roi : j.at("rois")) {
+      const Json& truth = roi.at("truth");
+      for (const auto& item : roi.at("methods").items()) {
+        Pool& pool = pools[item.key()];
+        const Json& r = item.value();
+        ++pool.rois;
+        const std::string status = r.at("status").get<std::string>();
+        const bool has_slope = !r.at("slope_deg").is_null() &&
+                               (item.key() == kMethodFlight ? FlightHasSlope(status) : status == "ok");
+        if (has_slope) ++pool.rois_with_slope;
+        if (r.at("slope_deg").is_null() || truth.is_null() || r.at("slope_error_deg").is_null() ||
+            r.at("num_points").get<int>() < kMinPointsForSlopeStats) {
+          continue;
+        }
+        const double error = std::abs(r.at("slope_error_deg").get<double>());
+        pool.slope_errors.push_back(error);
+        if (!r.at("roughness_rms_m").is_null() && !truth.at("roughness_rms_m").is_null()) {
+          pool.roughness_errors.push_back(std::abs(r.at("roughness_rms_m").get<double>() -
+                                                   truth.at("roughness_rms_m").get<double>()));
+        }
+        if (!r.at("slope_sigma_deg").is_null() && error <= 2.0 * r.at("slope_sigma_deg").get<double>()) {
+          ++pool.within_two_sigma;
+        }
+      }
+    }
+    const std::string timings_path = (fs::path(dir) / "compare_timings.json").string();
+    const Json t = ReadJsonFile(timings_path);
+    for (const Json& m : t.at("methods")) {
+      if (m.at("name") != kMethodFlight || m.at("seconds").is_null()) continue;
+      Pool& pool = pools[kMethodFlight];
+      pool.flight_seconds = std::max(pool.flight_seconds, m.at("seconds").get<double>() / processor_scale);
+    }
+  }
+  std::vector<GateMetric> metrics;
+  for (const std::string& method : order) {
+    const Pool& pool = pools[method];
+    const auto add = [&](const std::string& metric, double value) {
+      metrics.push_back({method, metric, value});
+    };
+    if (!pool.slope_errors.empty()) {
+      std::vector<double> sorted = pool.slope_errors;
+      std::sort(sorted.begin(), sorted.end());
+      add("slope_error_median_deg", util::Quantile(sorted, 0.5));
+      add("slope_error_p90_deg", util::Quantile(sorted, 0.9));
+      add("slope_error_max_deg", sorted.back());
+    }
+    if (!pool.roughness_errors.empty()) {
+      std::vector<double> sorted = pool.roughness_errors;
+      std::sort(sorted.begin(), sorted.end());
+      add("roughness_error_median_m", util::Quantile(sorted, 0.5));
+    }
+    if (pool.rois > 0) add("rois_with_slope_share", static_cast<double>(pool.rois_with_slope) / pool.rois);
+    if (method == kMethodFlight && !pool.slope_errors.empty()) {
+      add("within_two_sigma_share",
+          static_cast<double>(pool.within_two_sigma) / static_cast<double>(pool.slope_errors.size()));
+    }
+    if (method == kMethodFlight && pool.flight_seconds >= 0.0) {
+      add("flight_seconds_per_pair", pool.flight_seconds);
+    }
+    add("failed_entries", pool.failed);
+    add("slope_error_rois", static_cast<double>(pool.slope_errors.size()));
+  }
+  return metrics;
+}
+
+std::string GateCheck::Summary() const {
+  const std::string name = threshold.method + " " + threshold.metric;
+  if (!has_value) return name + ": no value in this run (no data for the metric)";
+  std::string text = name + " = " + FormatValue(value);
+  if (!passed) {
+    text += threshold.max ? " > " + FormatValue(*threshold.max) + " (threshold)"
+                          : " < " + FormatValue(*threshold.min) + " (threshold)";
+  }
+  if (regressed) {
+    text += std::string(passed ? "" : ";") + " regressed from the baseline's " + FormatValue(baseline) +
+            " by more than " + FormatValue(threshold.tolerance);
+  }
+  return text;
+}
+
+std::vector<GateCheck> CheckGate(const std::vector<GateMetric>& metrics,
+                                 const GateThresholds& thresholds,
+                                 const std::vector<GateMetric>* baseline) {
+  const auto find = [](const std::vector<GateMetric>& list, const std::string& method,
+                       const std::string& metric) -> const GateMetric* {
+    for (const GateMetric& m : list) {
+      if (m.method == method && m.metric == metric) return &m;
+    }
+    return nullptr;
+  };
+  std::vector<GateCheck> checks;
+  for (const GateThreshold& t : thresholds.thresholds) {
+    GateCheck check;
+    check.threshold = t;
+    const GateMetric* m = find(metrics, t.method, t.metric);
+    if (m != nullptr) {
+      check.has_value = true;
+      check.value = m->value;
+      check.margin = t.max ? *t.max - m->value : m->value - *t.min;
+      check.passed = check.margin >= 0.0;
+    }
+    if (baseline != nullptr && m != nullptr) {
+      if (const GateMetric* b = find(*baseline, t.method, t.metric)) {
+        check.has_baseline = true;
+        check.baseline = b->value;
+        const double worse = HigherIsBetter(t.metric) ? b->value - m->value : m->value - b->value;
+        check.regressed = worse > t.tolerance;
+      }
+    }
+    checks.push_back(check);
+  }
+  return checks;
+}
+
+std::string GateMetricsJson(const std::vector<GateMetric>& metrics) {
+  Json j;
+  j["format"] = kGateMetricsFormatName;
+  j["format_version"] = kGateFormatVersion;
+  Json list = Json::array();
+  for (const GateMetric& m : metrics) list.push_back({{"method", m.method}, {"metric", m.metric}, {"value", m.value}});
+  j["metrics"] = list;
+  return j.dump(1) + "\n";
+}
+
+std::vector<GateMetric> ReadGateMetrics(const std::string& path) {
+  const Json j = ReadJsonFile(path);
+  CheckFormat(j, kGateMetricsFormatName, path);
+  std::vector<GateMetric> metrics;
+  if (!j.contains("metrics") || !j["metrics"].is_array()) {
+    throw InputError(path + ": field 'metrics' must be a list");
+  }
+  for (size_t i = 0; i < j["metrics"].size(); ++i) {
+    const Json& m = j["metrics"][i];
+    const std::string where = path + ": metrics[" + std::to_string(i) + "]";
+    if (!m.is_object()) throw InputError(where + ": expected an object");
+    metrics.push_back({StringField(m, "method", where), StringField(m, "metric", where),
+                       NumberField(m, "value", where)});
+  }
+  return metrics;
+}
+
+std::string GateTable(const std::vector<GateCheck>& checks) {
+  std::ostringstream out;
+  out << "| method | metric | value | threshold | margin | baseline | verdict |\n"
+      << "| --- | --- | --- | --- | --- | --- | --- |\n";
+  for (const GateCheck& c : checks) {
+    const GateThreshold& t = c.threshold;
+    const std::string threshold = t.max ? "<= " + FormatValue(*t.max) : ">= " + FormatValue(*t.min);
+    std::string verdict = !c.has_value ? "FAIL (no data)" : c.passed ? "pass" : "FAIL";
+    if (c.regressed) verdict += c.passed ? " but REGRESSED" : ", REGRESSED";
+    out << "| " << t.method << " | " << t.metric << " | " << (c.has_value ? FormatValue(c.value) : "-")
+        << " | " << threshold << " | " << (c.has_value ? FormatValue(c.margin) : "-") << " | "
+        << (c.has_baseline ? FormatValue(c.baseline) : "-") << " | " << verdict << " |\n";
+  }
+  return out.str();
+}
+
+
+std::string GateHtml(const std::string& suite_file, const std::vector<GateCheck>& checks,
+                     const std::vector<GateEntryOutcome>& outcomes) {
+  std::ostringstream out;
+  int failures = 0;
+  for (const GateCheck& c : checks) failures += (c.has_value && c.passed && !c.regressed) ? 0 : 1;
+  for (const GateEntryOutcome& o : outcomes) failures += o.ok ? 0 : 1;
+  out << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>Gate: "
+      << util::HtmlEscape(suite_file) << "</title>\n<style>body{font-family:sans-serif;margin:2em}"
+      << "table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:3px 8px;text-align:right}"
+      << "td:first-child,td:nth-child(2),th{text-align:left}tr.fail td{background:#f8c8c8}"
+      << ".verdict{font-weight:bold}</style></head><body>\n<h1>Gate: " << util::HtmlEscape(suite_file)
+      << "</h1>\n<p class=\"verdict\" id=\"verdict\">"
+      << (failures == 0 ? "PASS: every metric within its threshold"
+                        : "FAIL: " + std::to_string(failures) + " failure(s)")
+      << "</p>\n<table id=\"gate-table\"><thead><tr><th>method</th><th>metric</th><th>value</th>"
+      << "<th>threshold</th><th>margin</th><th>baseline</th><th>verdict</th></tr></thead><tbody>\n";
+  for (const GateCheck& c : checks) {
+    const GateThreshold& t = c.threshold;
+    const bool ok = c.has_value && c.passed && !c.regressed;
+    std::string verdict = !c.has_value ? "FAIL (no data)" : c.passed ? "pass" : "FAIL";
+    if (c.regressed) verdict += c.passed ? " but REGRESSED" : ", REGRESSED";
+    out << "<tr" << (ok ? "" : " class=\"fail\"") << " title=\"" << util::HtmlEscape(t.why) << "\"><td>"
+        << util::HtmlEscape(t.method) << "</td><td>" << util::HtmlEscape(t.metric) << "</td><td>"
+        << (c.has_value ? FormatValue(c.value) : "-") << "</td><td>"
+        << (t.max ? "&lt;= " + FormatValue(*t.max) : "&gt;= " + FormatValue(*t.min)) << "</td><td>"
+        << (c.has_value ? FormatValue(c.margin) : "-") << "</td><td>"
+        << (c.has_baseline ? FormatValue(c.baseline) : "-") << "</td><td>" << verdict << "</td></tr>\n";
+  }
+  out << "</tbody></table>\n<h2>Entries</h2>\n<ul id=\"entries\">\n";
+  for (const GateEntryOutcome& o : outcomes) {
+    out << "<li>";
+    if (o.ok) {
+      out << "<a href=\"entries/" << util::HtmlEscape(o.name) << "/report.html\">" << util::HtmlEscape(o.name)
+          << "</a>" << (o.reused ? " (complete from an earlier run)" : "");
+    } else {
+      out << util::HtmlEscape(o.name) << ": FAILED: " << util::HtmlEscape(o.error);
+    }
+    out << "</li>\n";
+  }
+  out << "</ul>\n</body></html>\n";
+  return out.str();
+}
+
+std::vector<std::string> GateRunOptions::Validate() const {
+  std::vector<std::string> errors;
+  if (out_dir.empty()) errors.push_back("out_dir is empty: expected the gate's output folder");
+  RequireOption(jobs >= 1, "jobs", jobs, ">= 1", &errors);
+  RequireOption(synth_threads >= 1, "synth_threads", synth_threads, ">= 1", &errors);
+  RequireOption(fault_match_noise_px >= 0.0, "fault_match_noise_px", fault_match_noise_px, ">= 0",
+                &errors);
+  RequireOption(processor_scale > 0.0, "processor_scale", processor_scale, "> 0", &errors);
+  if (colmap_executable.empty()) errors.push_back("colmap_executable is empty: expected a program");
+  return errors;
+}
+
+std::vector<GateEntryOutcome> RunGateSuite(const GateSuite& suite, const GateRunOptions& options,
+                                           const GateProgress& progress) {
+  if (const std::vector<std::string> errors = options.Validate(); !errors.empty()) {
+    throw InputError(errors.front());
+  }
+  fs::create_directories(fs::path(options.out_dir) / "entries");
+  // Leftovers of an interrupted run are never trusted.
+  for (const fs::path& folder : {fs::path(options.out_dir) / "entries", fs::path(options.out_dir) / "datasets"}) {
+    std::error_code ec;
+    if (!fs::is_directory(folder, ec)) continue;
+    for (const auto& item : fs::directory_iterator(folder, ec)) {
+      if (item.path().filename().string().find(".partial-") != std::string::npos) {
+        fs::remove_all(item.path(), ec);
+      }
+    }
+  }
+  std::vector<GateEntryOutcome> outcomes(suite.entries.size());
+  std::atomic<int> finished{0};
+  std::mutex say_mutex;
+  const int total = static_cast<int>(suite.entries.size());
+  util::ParallelFor("gate entries", total, options.jobs, [&](int index) {
+    const size_t i = static_cast<size_t>(index);
+    outcomes[i] = RunEntry(suite.entries[i], suite, options);
+    const int done = ++finished;
+    if (!progress) return;
+    const GateEntryOutcome& o = outcomes[i];
+    std::ostringstream line;
+    line << "[" << done << "/" << total << "] " << o.name << ": "
+         << (o.reused ? "complete from an earlier run"
+                      : o.ok ? "done in " + util::FixedText(o.wall_s, 1) + " s" : "FAILED: " + o.error);
+    const std::lock_guard<std::mutex> lock(say_mutex);
+    progress(line.str());
+  });
+  return outcomes;
+}
+
+}  // namespace hdabench::reference

@@ -1,0 +1,162 @@
+// The merge gate (`hdabench gate`): a checked-in suite of datasets, the
+// comparison (reference/compare.h) on each, metrics per method pooled over the
+// suite, checked against checked-in thresholds and, optionally, against the
+// stored metrics of main (a baseline). Formats and metric definitions:
+// docs/gate.md.
+//
+// Running a suite: every entry's dataset is generated (synthetic) or found,
+// then compared; the entry's folder is written under a temporary name and
+// renamed into place when complete, with a record of what it was run with. A
+// rerun skips every entry whose folder is complete and was run with the same
+// settings, so an interrupted gate resumes where it stopped and never trusts a
+// half-written entry. Metrics are always computed from the files on disk.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "datasets/synth/synth.h"
+
+namespace hdabench::reference {
+
+inline constexpr char kGateSuiteFormatName[] = "hdabench-gate-suite";
+inline constexpr char kGateThresholdsFormatName[] = "hdabench-gate-thresholds";
+inline constexpr char kGateMetricsFormatName[] = "hdabench-gate-metrics";
+inline constexpr int kGateFormatVersion = 1;
+
+// One dataset of the suite.
+struct GateEntry {
+  std::string name;            // unique, [A-Za-z0-9._-]+: the entry's folder name
+  // Exactly one source: a synthetic scene (preset, terrain, seed, overrides,
+  // image size as `hdabench synth`), an existing dataset folder (relative to
+  // the suite file's folder), or a StereoLunar pair folder (relative to the
+  // suite file's folder) with the sun index.
+  std::optional<std::string> synth_preset;
+  std::string synth_terrain;   // empty: the preset's
+  std::uint64_t synth_seed = 1;
+  int synth_image_size_px = 0; // 0: the preset's
+  std::vector<std::pair<std::string, std::string>> synth_overrides;  // key=value, in order
+  std::optional<std::string> dataset_dir;
+  std::optional<std::string> stereolunar_pair_dir;
+  int stereolunar_sun = 0;
+  std::optional<double> site_size_m;  // the flight quadtree's site size for this entry
+};
+
+struct GateSuite {
+  std::string file;                      // where it was read from
+  std::string description;
+  std::vector<std::string> methods;      // compared on every entry (reference::ParseMethodList)
+  std::vector<GateEntry> entries;
+};
+
+// Reads a suite file (JSON, docs/gate.md). Throws InputError naming the file
+// and the field for anything malformed: unknown fields, missing or repeated
+// names, an entry with no source or two, unknown methods.
+GateSuite ReadGateSuite(const std::string& path);
+
+// One threshold: the metric of a method must stay at or below `max` (or at or
+// above `min`). `tolerance` is how far it may move against the baseline before
+// the gate calls it a regression (same unit as the metric).
+struct GateThreshold {
+  std::string method;
+  std::string metric;
+  std::optional<double> max;
+  std::optional<double> min;
+  double tolerance = 0.0;
+  std::string why;  // where the number comes from (measured value and margin)
+};
+
+struct GateThresholds {
+  std::string file;
+  std::vector<GateThreshold> thresholds;
+};
+GateThresholds ReadGateThresholds(const std::string& path);
+
+// The metrics, per method (docs/gate.md):
+//   slope_error_median_deg, slope_error_p90_deg, slope_error_max_deg
+//       |slope - truth| over the suite's ROIs with a slope, truth and at least
+//       kMinPointsForSlopeStats points
+//   roughness_error_median_m    |roughness rms - truth rms| over the same ROIs
+//   rois_with_slope_share       ROIs with a slope (flight: evaluated, unsafe
+//                               slope or unsafe roughness; others: ok) / all ROIs
+//   within_two_sigma_share      flight: share of the slope-error ROIs with
+//                               |error| <= 2 predicted sigmas
+//   flight_seconds_per_pair     flight: the largest flight time of an entry on
+//                               the flight computer (wall time / processor_scale)
+//   failed_entries              entries where the method failed for the run
+//   slope_error_rois            how many ROIs the slope errors are over
+// A metric without data (no ROI with truth, say) is absent.
+struct GateMetric {
+  std::string method;
+  std::string metric;
+  double value = 0.0;
+};
+std::vector<std::string> GateMetricNames();
+
+// One entry's results on disk (its compare.json and compare_timings.json).
+std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
+                                           double processor_scale);
+
+// The verdict of one threshold.
+struct GateCheck {
+  GateThreshold threshold;
+  bool has_value = false;       // false: the metric has no data in this run (a failure)
+  double value = 0.0;
+  bool passed = false;
+  double margin = 0.0;          // how far inside the threshold (negative: outside), metric units
+  bool has_baseline = false;
+  double baseline = 0.0;
+  bool regressed = false;       // worse than the baseline by more than the tolerance
+  std::string Summary() const;  // one line: "flight slope_error_p90_deg = 5.2 > 4.0 (threshold)"
+};
+std::vector<GateCheck> CheckGate(const std::vector<GateMetric>& metrics,
+                                 const GateThresholds& thresholds,
+                                 const std::vector<GateMetric>* baseline);
+
+// Metrics as JSON (the baseline format) and back.
+std::string GateMetricsJson(const std::vector<GateMetric>& metrics);
+std::vector<GateMetric> ReadGateMetrics(const std::string& path);
+
+// The table of every check: method, metric, value, threshold, margin,
+// baseline, verdict. Markdown.
+std::string GateTable(const std::vector<GateCheck>& checks);
+
+// gate.html: one self-contained page with the table of every check (failing
+// rows marked) and the suite's entries, each linked to its own report
+// (entries/<name>/report.html) or with the reason it failed.
+struct GateEntryOutcome;
+std::string GateHtml(const std::string& suite_file, const std::vector<GateCheck>& checks,
+                     const std::vector<GateEntryOutcome>& outcomes);
+
+struct GateRunOptions {
+  std::string out_dir;
+  int jobs = 2;                       // entries run at once (>= 1)
+  int synth_threads = 1;              // threads of each synthetic scene (the output does not depend on it)
+  double fault_match_noise_px = 0.0;  // passed to the flight method (tests of the gate only)
+  std::string colmap_executable = "colmap";
+  double processor_scale = 0.1;       // hda::HdaOptions::processor_scale
+
+  // Every violated constraint, one message each ("field = value: expected ...").
+  std::vector<std::string> Validate() const;
+};
+
+struct GateEntryOutcome {
+  std::string name;
+  std::string dir;        // the entry's complete folder (empty when it failed)
+  bool reused = false;    // complete from an earlier run with the same settings
+  bool ok = false;
+  std::string error;      // when not ok: why (one line)
+  double wall_s = 0.0;
+};
+
+using GateProgress = std::function<void(const std::string& line)>;
+
+// Runs every entry of the suite (in parallel, `jobs` at a time), skipping the
+// complete ones. An entry that cannot be run (a dataset that cannot be made or
+// loaded) is reported, not thrown; the others still run.
+std::vector<GateEntryOutcome> RunGateSuite(const GateSuite& suite, const GateRunOptions& options,
+                                           const GateProgress& progress);
+
+}  // namespace hdabench::reference

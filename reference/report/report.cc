@@ -1,0 +1,839 @@
+#include "reference/report/report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <system_error>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tools/util/error.h"
+#include "tools/util/files.h"
+#include "tools/util/options_check.h"
+#include "tools/util/process.h"
+#include "tools/util/python_script.h"
+#include "reference/compare/compare_outputs.h"
+#include "reference/flight/flight_outputs.h"
+#include "tools/util/text.h"
+#include "tools/util/statistics.h"
+
+namespace hdabench::reference {
+
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+constexpr char kPngSignature[] = "\x89PNG\r\n\x1a\n";
+constexpr size_t kPngSignatureSize = 8;
+// Exit code of report_plots.py when matplotlib or numpy cannot be imported.
+constexpr int kPlotsExitNoMatplotlib = 5;
+// The dataset's maps are at DEM resolution (thousands of pixels): the page
+// gets them shrunk to this many pixels on the longer side.
+constexpr int kMapMaxSidePx = 1024;
+
+// ---------------------------------------------------------------- files
+
+std::string ReadFileOrThrow(const fs::path& path) {
+  std::string bytes, error;
+  if (!util::ReadFileBytes(path, &bytes, &error)) {
+    throw InputError(path.string() + ": " + error);
+  }
+  return bytes;
+}
+
+Json ParseJsonFile(const fs::path& path) {
+  const std::string text = ReadFileOrThrow(path);
+  try {
+    return Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    throw InputError(path.string() + ": not valid JSON (" + e.what() + ")");
+  }
+}
+
+// Checks the "format" and "format_version" keys of a record the report reads.
+void CheckFormat(const Json& json, const fs::path& path, const std::string& format, int version) {
+  if (!json.is_object() || !json.contains("format") || json["format"] != format) {
+    throw InputError(path.string() + ": format is not \"" + format + "\"");
+  }
+  if (!json.contains("format_version") || !json["format_version"].is_number_integer() ||
+      json["format_version"].get<int>() != version) {
+    throw InputError(path.string() + ": format_version " +
+                     (json.contains("format_version") ? json["format_version"].dump() : "missing") +
+                     ": this hdabench reads " + std::to_string(version));
+  }
+}
+
+// A member of a JSON object, null when absent (or when `json` is no object).
+const Json& Member(const Json& json, const char* key) {
+  static const Json null_value;
+  if (!json.is_object()) return null_value;
+  const auto it = json.find(key);
+  return it == json.end() ? null_value : *it;
+}
+
+// An element of a JSON array, null when absent.
+const Json& Element(const Json& json, size_t index) {
+  static const Json null_value;
+  return json.is_array() && index < json.size() ? json[index] : null_value;
+}
+
+// A member that the record's format requires, of the given kind.
+const Json& Required(const Json& json, const char* key, const fs::path& path, const char* what) {
+  const Json& value = Member(json, key);
+  const bool ok = (std::string(what) == "array" && value.is_array()) ||
+                  (std::string(what) == "object" && value.is_object()) ||
+                  (std::string(what) == "string" && value.is_string());
+  if (!ok) throw InputError(path.string() + ": key \"" + key + "\": expected " + what);
+  return value;
+}
+
+bool IsNumber(const Json& j) { return j.is_number() && std::isfinite(j.get<double>()); }
+std::string Fixed(const Json& j, int digits) {
+  return IsNumber(j) ? util::FixedText(j.get<double>(), digits) : "-";
+}
+std::string Text(const Json& j) {
+  if (j.is_string()) return j.get<std::string>();
+  if (j.is_null()) return "";
+  return j.dump();
+}
+int IntOr(const Json& j, int fallback) { return j.is_number_integer() ? j.get<int>() : fallback; }
+
+bool IsPng(const std::string& bytes) {
+  return bytes.size() > kPngSignatureSize &&
+         bytes.compare(0, kPngSignatureSize, kPngSignature, kPngSignatureSize) == 0;
+}
+
+// A PNG shrunk (area averaging) so that its longer side is at most
+// max_side_px; the bytes unchanged when already small enough or when OpenCV
+// cannot decode them. `note` receives "shrunk from W x H px" when shrunk.
+std::string ShrinkPng(const std::string& bytes, int max_side_px, std::string* note) {
+  const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1,
+                        const_cast<char*>(bytes.data()));
+  const cv::Mat image = cv::imdecode(encoded, cv::IMREAD_COLOR);
+  if (image.empty() || std::max(image.cols, image.rows) <= max_side_px) return bytes;
+  const double scale = max_side_px / static_cast<double>(std::max(image.cols, image.rows));
+  const cv::Size size(std::max(1, static_cast<int>(std::lround(image.cols * scale))),
+                      std::max(1, static_cast<int>(std::lround(image.rows * scale))));
+  cv::Mat small;
+  cv::resize(image, small, size, 0, 0, cv::INTER_AREA);
+  std::vector<unsigned char> out;
+  if (!cv::imencode(".png", small, out, {cv::IMWRITE_PNG_COMPRESSION, 6})) return bytes;
+  *note = "shrunk from " + std::to_string(image.cols) + " x " + std::to_string(image.rows) + " px";
+  return std::string(out.begin(), out.end());
+}
+
+
+// ---------------------------------------------------------------- text
+
+
+// Markdown table cells must not hold '|' or line breaks.
+std::string MdCell(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    if (c == '|') {
+      out += "\\|";
+    } else if (c == '\n') {
+      out += ' ';
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+// A CSS class name for a status ("unsafe slope" -> "st-unsafe-slope").
+std::string StatusClass(const std::string& status) {
+  std::string out = "st-";
+  for (const char c : status) {
+    out += (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ? c : '-';
+  }
+  return out;
+}
+
+// ---------------------------------------------------------------- the page model
+
+struct Figure {
+  std::string id;       // HTML id, file-name-like
+  std::string title;
+  std::string caption;
+  std::string png;      // the bytes
+};
+
+struct Cell {
+  std::string text;
+  std::string css_class;  // empty: none
+  std::string title;      // tooltip (a status's reason); empty: none
+};
+
+struct Table {
+  std::string id;
+  std::vector<std::string> header;
+  std::vector<std::vector<Cell>> rows;
+};
+
+struct Page {
+  std::string kind;                    // "run" or "compare"
+  std::string dataset_name;            // as the record names it
+  std::string heading;                 // first line
+  std::vector<std::string> facts;      // "key: value" lines under the heading
+  std::vector<std::string> failures;   // failed methods with their reasons
+  std::vector<std::string> notes;      // what is missing
+  Table summary;                       // per method (compare) or per status (run)
+  std::vector<std::string> summary_lines;  // statistics sentences
+  Table rois;                          // the per-ROI table
+  std::vector<Figure> plots;           // matplotlib's
+  std::string plots_error;             // why there are no plots; empty when they are there
+  std::vector<Figure> flight_figures;  // quadtree, matches
+  std::vector<Figure> roi_pairs;       // figures/roi_pairs/*.png
+  std::vector<Figure> maps;            // the dataset's maps
+  std::string dataset_dir;             // where the maps come from
+};
+
+std::string StatsText(const Json& stats, int digits) {
+  if (IntOr(Member(stats, "count"), 0) == 0) return "-";
+  return Fixed(Member(stats, "median"), digits) + " / " + Fixed(Member(stats, "p90"), digits) +
+         " / " + Fixed(Member(stats, "max"), digits) + " (" +
+         std::to_string(IntOr(Member(stats, "count"), 0)) + ")";
+}
+
+std::string Percent(const Json& fraction) {
+  return IsNumber(fraction) ? util::FixedText(100.0 * fraction.get<double>(), 0) : "-";
+}
+
+// ---------------------------------------------------------------- run folders
+
+// The statuses in the order of hda::RoiStatus (docs/flight-results.md).
+const std::vector<std::string>& FlightStatuses() {
+  static const std::vector<std::string> statuses = {
+      "evaluated",      "unsafe slope",   "unsafe roughness", "degenerate",
+      "too few points", "not in image 2", "not evaluated"};
+  return statuses;
+}
+
+void FillRunPage(const fs::path& dir, Page* page) {
+  const fs::path result_path = dir / "result.json";
+  const Json result = ParseJsonFile(result_path);
+  CheckFormat(result, result_path, kFlightResultFormatName, kFlightResultFormatVersion);
+  const Json& rois = Required(result, "rois", result_path, "array");
+  const Json& frames = Member(result, "frames");
+
+  page->dataset_name = Text(Member(result, "dataset"));
+  page->heading = "Flight run of " + page->dataset_name;
+  page->facts.push_back("dataset: " + Text(Member(result, "dataset")));
+  page->facts.push_back("frames: " + Text(Element(frames, 0)) + ", " + Text(Element(frames, 1)));
+  page->facts.push_back("baseline: " + Fixed(Member(Member(result, "inputs"), "baseline_m"), 2) +
+                        " m, LRF range " +
+                        Fixed(Member(Member(result, "inputs"), "lrf_range_m"), 1) + " m");
+  page->facts.push_back("ROIs: " + std::to_string(rois.size()) + "; time budget " +
+                        Fixed(Member(result, "budget_s"), 2) + " s" +
+                        (Member(result, "budget_exhausted") == true ? " (ran out)" : ""));
+
+  // Statuses and their counts.
+  page->summary.id = "status-table";
+  page->summary.header = {"status", "ROIs"};
+  const Json& counts = Member(result, "status_counts");
+  for (const std::string& status : FlightStatuses()) {
+    page->summary.rows.push_back(
+        {{status, StatusClass(status), ""}, {std::to_string(IntOr(Member(counts, status.c_str()), 0)), "", ""}});
+  }
+
+  // The flight table.
+  Table& table = page->rois;
+  table.id = "roi-table";
+  table.header = {"ROI", "status", "truth slope (deg)", "est. slope (deg)", "sigma (deg)",
+                  "# points", "truth rough. RMS (m)", "est. relief (m)", "score", "rank"};
+  std::vector<double> errors;
+  int within_two_sigma = 0;
+  for (const Json& roi : rois) {
+    const Json& truth = Member(roi, "truth");
+    const bool has_truth = Member(truth, "available") == true;
+    const Json& fit = Member(roi, "fit");
+    const std::string status = Text(Member(roi, "status"));
+    const int points = IntOr(Member(Member(roi, "counts"), "depth_inliers"), 0);
+    table.rows.push_back({
+        {Text(Member(roi, "id")), "", ""},
+        {status, StatusClass(status), Text(Member(roi, "reason"))},
+        {has_truth ? Fixed(Member(truth, "slope_deg"), 2) : "-", "", ""},
+        {Fixed(Member(fit, "slope_deg"), 2), "", ""},
+        {Fixed(Member(fit, "slope_sigma_deg"), 2), "", ""},
+        {fit.is_object() ? std::to_string(points) : "-", "", ""},
+        {has_truth ? Fixed(Member(truth, "roughness_rms_m"), 3) : "-", "", ""},
+        {Fixed(Member(fit, "roughness_excess_m"), 3), "", ""},
+        {Fixed(Member(roi, "score"), 3), "", ""},
+        {Member(roi, "rank").is_number() ? Text(Member(roi, "rank")) : "-", "", ""},
+    });
+    const Json& error = Member(roi, "slope_error_deg");
+    if (IsNumber(error) && points >= kMinPointsForSlopeStats) {
+      const double e = std::abs(error.get<double>());
+      errors.push_back(e);
+      const Json& sigma = Member(fit, "slope_sigma_deg");
+      if (IsNumber(sigma) && e <= 2.0 * sigma.get<double>()) ++within_two_sigma;
+    }
+  }
+  if (errors.empty()) {
+    page->summary_lines.push_back("Slope error: no ROI has a fit, truth and at least " +
+                                  std::to_string(kMinPointsForSlopeStats) + " points.");
+  } else {
+    std::sort(errors.begin(), errors.end());
+    page->summary_lines.push_back(
+        "Slope error over " + std::to_string(errors.size()) + " ROI(s) with a fit, truth and at least " +
+        std::to_string(kMinPointsForSlopeStats) + " points: median |error| " +
+        util::FixedText(util::Quantile(errors, 0.5), 2) + " deg, 90th percentile " +
+        util::FixedText(util::Quantile(errors, 0.9), 2) + " deg, " +
+        util::FixedText(100.0 * within_two_sigma / static_cast<double>(errors.size()), 0) +
+        " % within 2 predicted sigmas.");
+  }
+}
+
+// The stage times of a flight run's timings.json against its budget, one line.
+std::string TimingLine(const fs::path& timings_path, std::vector<std::string>* notes) {
+  if (!fs::is_regular_file(timings_path)) {
+    notes->push_back(timings_path.filename().string() + " is missing: no stage times.");
+    return "";
+  }
+  const Json timings = ParseJsonFile(timings_path);
+  CheckFormat(timings, timings_path, kFlightTimingsFormatName, kFlightResultFormatVersion);
+  const Json& total = Member(Member(timings, "stages"), "total_s");
+  const Json& budget = Member(timings, "budget_s");
+  std::string line = "Flight method time on this machine: " + Fixed(total, 3) + " s of a " +
+                     Fixed(budget, 2) + " s budget";
+  if (IsNumber(total) && IsNumber(budget) && budget.get<double>() > 0.0) {
+    line += " (" + util::FixedText(100.0 * total.get<double>() / budget.get<double>(), 0) + " %)";
+  }
+  if (Member(timings, "budget_exhausted") == true) line += "; the budget ran out";
+  return line + ".";
+}
+
+// ---------------------------------------------------------------- compare folders
+
+void FillComparePage(const fs::path& dir, Page* page) {
+  const fs::path compare_path = dir / "compare.json";
+  const Json compare = ParseJsonFile(compare_path);
+  CheckFormat(compare, compare_path, kCompareResultFormatName, kCompareResultFormatVersion);
+  const Json& methods = Required(compare, "methods", compare_path, "array");
+  const Json& rois = Required(compare, "rois", compare_path, "array");
+  const Json& frames = Member(compare, "frames");
+
+  std::map<std::string, double> seconds;
+  const fs::path timings_path = dir / "compare_timings.json";
+  if (fs::is_regular_file(timings_path)) {
+    const Json timings = ParseJsonFile(timings_path);
+    CheckFormat(timings, timings_path, kCompareTimingsFormatName, kCompareResultFormatVersion);
+    for (const Json& m : Member(timings, "methods")) {
+      if (IsNumber(Member(m, "seconds"))) seconds[Text(Member(m, "name"))] = Member(m, "seconds").get<double>();
+    }
+  } else {
+    page->notes.push_back("compare_timings.json is missing: no time per method.");
+  }
+
+  page->dataset_name = Text(Member(compare, "dataset"));
+  page->heading = "Comparison on " + page->dataset_name;
+  page->facts.push_back("dataset: " + Text(Member(compare, "dataset")));
+  page->facts.push_back("frames: " + Text(Element(frames, 0)) + ", " + Text(Element(frames, 1)));
+  page->facts.push_back("baseline: " + Fixed(Member(compare, "baseline_m"), 2) + " m, LRF range " +
+                        Fixed(Member(compare, "lrf_range_m"), 1) + " m");
+  page->facts.push_back("ROIs: " + std::to_string(rois.size()) + "; methods: " +
+                        std::to_string(methods.size()) +
+                        (Member(compare, "truth") == true ? "; with truth" : "; no truth"));
+
+  std::vector<std::string> names;
+  Table& summary = page->summary;
+  summary.id = "method-table";
+  summary.header = {"method", "status", "ROIs with a slope", "slope error vs truth (deg)",
+                    "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
+                    "points within 0.1 / 0.3 / 1 m (%)", "rotation / baseline-dir. error (deg)",
+                    "time (s)"};
+  for (const Json& m : methods) {
+    const std::string name = Text(Member(m, "name"));
+    names.push_back(name);
+    const bool ok = Member(m, "ok") == true;
+    if (!ok) page->failures.push_back(name + ": " + Text(Member(m, "failure")));
+    const Json& accuracy = Member(m, "point_accuracy");
+    const std::string accuracy_text =
+        accuracy.is_object() ? Percent(Member(accuracy, "within_0_1_m")) + " / " +
+                                   Percent(Member(accuracy, "within_0_3_m")) + " / " +
+                                   Percent(Member(accuracy, "within_1_m")) + " (" +
+                                   Text(Member(accuracy, "num_points")) + ")"
+                             : "-";
+    const Json& rotation = Member(m, "rotation_error_deg");
+    const Json& direction = Member(m, "translation_direction_error_deg");
+    const auto time = seconds.find(name);
+    summary.rows.push_back({
+        {name, "", ""},
+        {ok ? "ok" : "failed", ok ? "" : "st-failed", ok ? "" : Text(Member(m, "failure"))},
+        {Text(Member(m, "rois_with_fit")), "", ""},
+        {StatsText(Member(m, "slope_error_vs_truth_deg"), 2), "", ""},
+        {StatsText(Member(m, "roughness_error_vs_truth_m"), 3), "", ""},
+        {StatsText(Member(m, "slope_difference_vs_colmap_nav_deg"), 2), "", ""},
+        {accuracy_text, "", ""},
+        {IsNumber(rotation) || IsNumber(direction) ? Fixed(rotation, 3) + " / " + Fixed(direction, 2) : "-",
+         "", ""},
+        {time == seconds.end() ? "-" : util::FixedText(time->second, 3), "", ""},
+    });
+  }
+  page->summary_lines.push_back(
+      "Errors are median / 90th percentile / max (count) over ROIs with at least " +
+      Text(Member(compare, "min_points_for_stats")) + " points.");
+
+  Table& table = page->rois;
+  table.id = "roi-table";
+  table.header = {"ROI", "truth slope (deg)"};
+  for (const std::string& name : names) table.header.push_back(name);
+  for (const Json& roi : rois) {
+    std::vector<Cell> row;
+    row.push_back({Text(Member(roi, "id")), "", ""});
+    row.push_back({Fixed(Member(Member(roi, "truth"), "slope_deg"), 2), "", ""});
+    const Json& values = Member(roi, "methods");
+    for (const std::string& name : names) {
+      const Json& v = Member(values, name.c_str());
+      const std::string status = Text(Member(v, "status"));
+      const std::string reason = Text(Member(v, "reason"));
+      if (IsNumber(Member(v, "slope_deg"))) {
+        const bool confident = status == "ok" || status == "evaluated" || status == "unsafe slope" ||
+                               status == "unsafe roughness";
+        row.push_back({Fixed(Member(v, "slope_deg"), 2) + " (" + Text(Member(v, "num_points")) + ")" +
+                           (confident ? "" : " " + status),
+                       StatusClass(status), reason});
+      } else {
+        row.push_back({"- (" + (status.empty() ? "no value" : status) + ")", StatusClass(status), reason});
+      }
+    }
+    table.rows.push_back(std::move(row));
+  }
+}
+
+// ---------------------------------------------------------------- figures
+
+// Adds `path` as a figure when it is a PNG; a note otherwise.
+void AddPngFile(const fs::path& path, const std::string& id, const std::string& title,
+                const std::string& caption, std::vector<Figure>* figures,
+                std::vector<std::string>* notes) {
+  const std::string bytes = ReadFileOrThrow(path);
+  if (!IsPng(bytes)) {
+    notes->push_back(path.string() + " is not a PNG file: left out.");
+    return;
+  }
+  figures->push_back({id, title, caption, bytes});
+}
+
+void AddRunFigures(const fs::path& figures_dir, Page* page) {
+  if (!fs::is_directory(figures_dir)) {
+    page->notes.push_back("No figures folder (" + figures_dir.string() +
+                          "): the run was made with --no-figures.");
+    return;
+  }
+  const fs::path quadtree = figures_dir / "quadtree.png";
+  if (fs::is_regular_file(quadtree)) {
+    AddPngFile(quadtree, "fig-quadtree", "Quadtree: ROIs and rejected blocks",
+               "Image 1 with every ROI box labelled with its id and coloured by status (green "
+               "evaluated, orange unsafe slope, yellow unsafe roughness, red degenerate, greys: "
+               "too few points, not in image 2, not evaluated); rejected blocks thin dark blue.",
+               &page->flight_figures, &page->notes);
+  }
+  const fs::path matches = figures_dir / "matches.png";
+  if (fs::is_regular_file(matches)) {
+    AddPngFile(matches, "fig-matches", "Matches",
+               "Both images with every surviving match, one colour per ROI.", &page->flight_figures,
+               &page->notes);
+  }
+  const fs::path pairs_dir = figures_dir / "roi_pairs";
+  if (!fs::is_directory(pairs_dir)) return;
+  std::vector<fs::path> pairs;
+  for (const fs::directory_entry& entry : fs::directory_iterator(pairs_dir)) {
+    if (entry.is_regular_file() && entry.path().extension() == ".png") pairs.push_back(entry.path());
+  }
+  // roi_007 < roi_010 < roi_1000: by length, then by name.
+  std::sort(pairs.begin(), pairs.end(), [](const fs::path& a, const fs::path& b) {
+    const std::string sa = a.filename().string(), sb = b.filename().string();
+    return sa.size() != sb.size() ? sa.size() < sb.size() : sa < sb;
+  });
+  for (const fs::path& path : pairs) {
+    const std::string stem = path.stem().string();
+    std::string id = stem.substr(stem.find('_') + 1);
+    id.erase(0, std::min(id.find_first_not_of('0'), id.size() - 1));
+    AddPngFile(path, "fig-" + stem, "ROI " + id,
+               "Image-1 box (left) and image-2 search box (right) with the surviving matches.",
+               &page->roi_pairs, &page->notes);
+  }
+}
+
+// The dataset's name from its manifest.json; empty when it cannot be read.
+std::string DatasetName(const fs::path& dir) {
+  std::string bytes, error;
+  if (!util::ReadFileBytes(dir / "manifest.json", &bytes, &error)) return "";
+  try {
+    const Json manifest = Json::parse(bytes);
+    return Text(Member(manifest, "name"));
+  } catch (const Json::parse_error&) {
+    return "";
+  }
+}
+
+// The dataset folder: the given one, or the first folder beside the run whose
+// manifest names the run's dataset. Empty when none is found (a note says so).
+fs::path FindDataset(const fs::path& run_dir, const std::string& name, const std::string& given,
+                     std::vector<std::string>* notes) {
+  if (!given.empty()) {
+    std::error_code ec;
+    if (!fs::is_directory(given, ec)) throw InputError(given + ": dataset folder not found");
+    const std::string found = DatasetName(given);
+    if (found != name) {
+      notes->push_back("The dataset folder " + given + " holds '" + found +
+                       "', but the run was made on '" + name + "'.");
+    }
+    return given;
+  }
+  const fs::path parent = fs::absolute(run_dir).lexically_normal().parent_path();
+  std::vector<fs::path> candidates = {parent / "dataset", run_dir / "dataset"};
+  if (!name.empty() && name.find('/') == std::string::npos && name != "." && name != "..") {
+    candidates.push_back(parent / name);
+  }
+  for (const fs::path& candidate : candidates) {
+    if (!name.empty() && DatasetName(candidate) == name) return candidate;
+  }
+  notes->push_back("The dataset folder of '" + name +
+                   "' was not found beside the run folder (pass --dataset DIR): no elevation and "
+                   "slope maps.");
+  return {};
+}
+
+void AddMaps(const fs::path& dataset_dir, Page* page) {
+  page->dataset_dir = dataset_dir.string();
+  const struct {
+    const char* file;
+    const char* title;
+    const char* caption;
+  } maps[] = {
+      {"elevation.png", "Elevation", "The synthetic scene's elevation map (maps/elevation.png)."},
+      {"slope.png", "Slope", "The synthetic scene's slope map (maps/slope.png)."},
+      {"hazards.png", "Hazards", "The synthetic scene's hazard map (maps/hazards.png)."},
+  };
+  int found = 0;
+  for (const auto& map : maps) {
+    const fs::path path = dataset_dir / "maps" / map.file;
+    if (!fs::is_regular_file(path)) continue;
+    ++found;
+    AddPngFile(path, std::string("map-") + fs::path(map.file).stem().string(), map.title,
+               map.caption, &page->maps, &page->notes);
+    if (!page->maps.empty() && page->maps.back().title == map.title) {
+      std::string shrunk;
+      page->maps.back().png = ShrinkPng(page->maps.back().png, kMapMaxSidePx, &shrunk);
+      if (!shrunk.empty()) page->maps.back().caption += " (" + shrunk + ")";
+    }
+  }
+  if (found == 0) {
+    page->notes.push_back("The dataset folder " + dataset_dir.string() +
+                          " has no maps/ (only synthetic datasets have them).");
+  }
+}
+
+// Runs report_plots.py on the folder; fills page->plots, or page->plots_error.
+void DrawPlots(const fs::path& run_dir, const ReportOptions& options, Page* page) {
+  const std::string python = util::FindExecutable(options.python);
+  if (python.empty()) {
+    page->plots_error = "the Python interpreter '" + options.python +
+                        "' was not found; the plots need Python 3 with matplotlib (Debian: "
+                        "python3-matplotlib)";
+    return;
+  }
+  const util::PythonScript script("report", "report_plots.py", ReportPlotsScript());
+  const fs::path out = script.folder() / "plots";
+  const fs::path log = script.folder() / "plots.log";
+  std::error_code ec;
+  fs::create_directories(out, ec);
+  util::PythonScriptOptions run;
+  run.python = python;
+  run.log_file = log.string();
+  run.working_dir = script.folder().string();
+  run.timeout_s = options.plot_timeout_s;
+  const util::ProcessResult result =
+      script.Run({page->kind, fs::absolute(run_dir).string(), out.string()}, run);
+  if (!result.Ok()) {
+    const std::string last_line = util::LastLineOfLog(log.string());
+    if (result.started && !result.timed_out && result.exit_code == kPlotsExitNoMatplotlib) {
+      page->plots_error = last_line;
+    } else {
+      page->plots_error = "the plotting script (report_plots.py under " + python + ") failed: " +
+                          result.error + (last_line.empty() ? "" : ": " + last_line);
+    }
+    return;
+  }
+  const fs::path listing = out / "plots.json";
+  Json plots;
+  try {
+    plots = ParseJsonFile(listing);
+  } catch (const InputError& e) {
+    page->plots_error = std::string("the plotting script wrote no usable list of plots: ") + e.what();
+    return;
+  }
+  for (const Json& plot : plots) {
+    const std::string file = Text(Member(plot, "file"));
+    std::string bytes, error;
+    if (!util::ReadFileBytes(out / file, &bytes, &error) || !IsPng(bytes)) {
+      page->plots_error = "the plotting script did not write a PNG " + file;
+      page->plots.clear();
+      return;
+    }
+    page->plots.push_back({"plot-" + fs::path(file).stem().string(), Text(Member(plot, "title")),
+                           Text(Member(plot, "caption")), bytes});
+  }
+}
+
+// ---------------------------------------------------------------- HTML
+
+constexpr char kCss[] = R"css(
+body { font-family: "DejaVu Sans", Arial, sans-serif; margin: 24px; color: #222; max-width: 1360px; }
+h1 { font-size: 24px; margin-bottom: 4px; }
+h2 { font-size: 19px; border-bottom: 1px solid #ccc; padding-bottom: 3px; margin-top: 28px; }
+ul.facts { list-style: none; padding: 0; margin: 6px 0; color: #444; }
+.notes { background: #fff7e0; border: 1px solid #e6c200; padding: 8px 14px; }
+.failures, .plots-error { background: #fde8e8; border: 1px solid #d9534f; padding: 8px 14px; }
+table { border-collapse: collapse; font-size: 13px; margin: 8px 0; }
+th, td { border: 1px solid #ccc; padding: 3px 7px; text-align: right; white-space: nowrap; }
+th { background: #f0f0f0; }
+td:first-child, th:first-child { text-align: left; }
+.st-evaluated, .st-ok { background: #dff3df; }
+.st-unsafe-slope { background: #ffe1c2; }
+.st-unsafe-roughness { background: #fff5b8; }
+.st-degenerate, .st-failed, .st-pose-failed { background: #f8d0d0; }
+.st-too-few-points, .st-no-search-box { background: #f2f2f2; }
+.st-not-in-image-2, .st-planar, .st-low-parallax { background: #dcdcdc; }
+.st-not-evaluated { background: #b8b8b8; }
+figure { margin: 12px 0 20px 0; }
+figure img { max-width: 100%; border: 1px solid #ddd; }
+figcaption { font-size: 13px; color: #444; margin-top: 4px; }
+.scroll { overflow-x: auto; }
+.grid { display: flex; flex-wrap: wrap; gap: 12px; }
+.grid figure { margin: 0; }
+.grid figure img { max-height: 320px; }
+)css";
+
+void AppendTable(const Table& table, std::string* html) {
+  *html += "<div class=\"scroll\"><table id=\"" + table.id + "\">\n<thead><tr>";
+  for (const std::string& h : table.header) *html += "<th>" + util::HtmlEscape(h) + "</th>";
+  *html += "</tr></thead>\n<tbody>\n";
+  for (const std::vector<Cell>& row : table.rows) {
+    *html += "<tr>";
+    for (const Cell& cell : row) {
+      *html += "<td";
+      if (!cell.css_class.empty()) *html += " class=\"" + util::HtmlEscape(cell.css_class) + "\"";
+      if (!cell.title.empty()) *html += " title=\"" + util::HtmlEscape(cell.title) + "\"";
+      *html += ">" + util::HtmlEscape(cell.text) + "</td>";
+    }
+    *html += "</tr>\n";
+  }
+  *html += "</tbody>\n</table></div>\n";
+}
+
+void AppendFigure(const Figure& figure, std::string* html) {
+  *html += "<figure id=\"" + util::HtmlEscape(figure.id) + "\"><img alt=\"" + util::HtmlEscape(figure.title) +
+           "\" src=\"data:image/png;base64," + Base64Encode(figure.png) + "\"><figcaption><b>" +
+           util::HtmlEscape(figure.title) + ".</b> " + util::HtmlEscape(figure.caption) + "</figcaption></figure>\n";
+}
+
+std::string BuildHtml(const Page& page) {
+  std::string html =
+      "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>hdabench " +
+      page.kind + " report: " + util::HtmlEscape(page.heading) + "</title>\n<style>" + kCss +
+      "</style>\n</head>\n<body>\n";
+  html += "<h1>" + util::HtmlEscape(page.heading) + "</h1>\n<ul class=\"facts\">\n";
+  for (const std::string& fact : page.facts) html += "<li>" + util::HtmlEscape(fact) + "</li>\n";
+  html += "</ul>\n";
+  if (!page.failures.empty()) {
+    html += "<div class=\"failures\" id=\"failures\"><b>Failed methods</b> (no values for the run):<ul>\n";
+    for (const std::string& f : page.failures) html += "<li>" + util::HtmlEscape(f) + "</li>\n";
+    html += "</ul></div>\n";
+  }
+  if (!page.notes.empty()) {
+    html += "<div class=\"notes\" id=\"notes\"><b>Notes</b><ul>\n";
+    for (const std::string& n : page.notes) html += "<li>" + util::HtmlEscape(n) + "</li>\n";
+    html += "</ul></div>\n";
+  }
+
+  html += page.kind == "compare" ? "<h2>Per method</h2>\n" : "<h2>Statuses</h2>\n";
+  AppendTable(page.summary, &html);
+  for (const std::string& line : page.summary_lines) html += "<p>" + util::HtmlEscape(line) + "</p>\n";
+
+  html += page.kind == "compare"
+              ? "<h2>Slope per ROI and method</h2>\n<p>Degrees, number of points in brackets; "
+                "without a slope, the status. Hover a cell for its reason.</p>\n"
+              : "<h2>Per ROI</h2>\n<p>Hover a status for its reason; # points are the points of "
+                "the plane fit, est. relief the roughness beyond the matching noise.</p>\n";
+  AppendTable(page.rois, &html);
+
+  html += "<h2>Plots</h2>\n";
+  if (!page.plots_error.empty()) {
+    html += "<div class=\"plots-error\" id=\"plots-error\"><b>No plots:</b> " +
+            util::HtmlEscape(page.plots_error) + "</div>\n";
+  } else if (page.plots.empty()) {
+    html += "<p>No data to plot: no ROI has a fitted plane or stage times.</p>\n";
+  }
+  for (const Figure& f : page.plots) AppendFigure(f, &html);
+
+  if (!page.flight_figures.empty() || !page.roi_pairs.empty()) {
+    html += "<h2>Flight method figures</h2>\n";
+    for (const Figure& f : page.flight_figures) AppendFigure(f, &html);
+    if (!page.roi_pairs.empty()) {
+      html += "<h3>ROI pairs with matches</h3>\n<div class=\"grid\">\n";
+      for (const Figure& f : page.roi_pairs) AppendFigure(f, &html);
+      html += "</div>\n";
+    }
+  }
+  html += "<h2>Scene maps</h2>\n";
+  if (page.maps.empty()) {
+    html += "<p>None (see the notes).</p>\n";
+  } else {
+    html += "<p>From " + util::HtmlEscape(page.dataset_dir) + ".</p>\n<div class=\"grid\">\n";
+    for (const Figure& f : page.maps) AppendFigure(f, &html);
+    html += "</div>\n";
+  }
+  html += "</body>\n</html>\n";
+  return html;
+}
+
+// ---------------------------------------------------------------- Markdown
+
+void AppendMarkdownTable(const Table& table, std::string* md) {
+  std::string line = "|", rule = "|";
+  for (const std::string& h : table.header) {
+    line += " " + MdCell(h) + " |";
+    rule += " --- |";
+  }
+  *md += line + "\n" + rule + "\n";
+  for (const std::vector<Cell>& row : table.rows) {
+    line = "|";
+    for (const Cell& cell : row) line += " " + MdCell(cell.text) + " |";
+    *md += line + "\n";
+  }
+}
+
+std::string BuildMarkdown(const Page& page, int num_figures) {
+  std::string md = "# " + page.heading + "\n\n";
+  for (const std::string& fact : page.facts) md += "- " + fact + "\n";
+  md += "\n";
+  if (!page.failures.empty()) {
+    md += "## Failed methods\n\n";
+    for (const std::string& f : page.failures) md += "- " + f + "\n";
+    md += "\n";
+  }
+  md += page.kind == "compare" ? "## Per method\n\n" : "## Statuses\n\n";
+  AppendMarkdownTable(page.summary, &md);
+  md += "\n";
+  for (const std::string& line : page.summary_lines) md += line + "\n\n";
+  md += "## Report\n\n`report.html` holds the per-ROI table (" +
+        std::to_string(page.rois.rows.size()) + " ROIs) and " + std::to_string(num_figures) +
+        " figures:\n\n";
+  const auto list = [&md](const std::vector<Figure>& figures) {
+    for (const Figure& f : figures) md += "- " + f.title + "\n";
+  };
+  list(page.plots);
+  list(page.flight_figures);
+  if (!page.roi_pairs.empty()) {
+    md += "- " + std::to_string(page.roi_pairs.size()) + " ROI pair(s) with matches\n";
+  }
+  list(page.maps);
+  if (!page.notes.empty()) {
+    md += "\n## Notes\n\n";
+    for (const std::string& n : page.notes) md += "- " + n + "\n";
+  }
+  return md;
+}
+
+}  // namespace
+
+std::string Base64Encode(const std::string& bytes) {
+  static const char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  size_t i = 0;
+  const auto byte = [&bytes](size_t k) { return static_cast<unsigned>(static_cast<unsigned char>(bytes[k])); };
+  for (; i + 2 < bytes.size(); i += 3) {
+    const unsigned v = byte(i) << 16 | byte(i + 1) << 8 | byte(i + 2);
+    out += kAlphabet[v >> 18 & 63];
+    out += kAlphabet[v >> 12 & 63];
+    out += kAlphabet[v >> 6 & 63];
+    out += kAlphabet[v & 63];
+  }
+  if (i + 1 == bytes.size()) {
+    const unsigned v = byte(i) << 16;
+    out += kAlphabet[v >> 18 & 63];
+    out += kAlphabet[v >> 12 & 63];
+    out += "==";
+  } else if (i + 2 == bytes.size()) {
+    const unsigned v = byte(i) << 16 | byte(i + 1) << 8;
+    out += kAlphabet[v >> 18 & 63];
+    out += kAlphabet[v >> 12 & 63];
+    out += kAlphabet[v >> 6 & 63];
+    out += '=';
+  }
+  return out;
+}
+
+std::vector<std::string> ReportOptions::Validate() const {
+  std::vector<std::string> errors;
+  if (python.empty()) errors.push_back("python is empty: expected an interpreter such as /usr/bin/python3");
+  RequireOption(plot_timeout_s > 0.0, "plot_timeout_s", plot_timeout_s, "> 0 seconds", &errors);
+  return errors;
+}
+
+ReportResult WriteReport(const std::string& run_dir, const ReportOptions& options) {
+  if (const std::vector<std::string> errors = options.Validate(); !errors.empty()) {
+    throw InputError(errors.front());
+  }
+  std::error_code ec;
+  const fs::path dir(run_dir);
+  if (!fs::exists(dir, ec)) throw InputError(run_dir + ": no such folder");
+  if (!fs::is_directory(dir, ec)) throw InputError(run_dir + ": is not a folder; expected a run or compare folder");
+
+  Page page;
+  if (fs::exists(dir / "compare.json", ec)) {
+    page.kind = "compare";
+    FillComparePage(dir, &page);
+    const std::string timing = TimingLine(dir / "flight" / "timings.json", &page.notes);
+    if (!timing.empty()) page.summary_lines.push_back(timing);
+    AddRunFigures(dir / "flight" / "figures", &page);
+  } else if (fs::exists(dir / "result.json", ec)) {
+    page.kind = "run";
+    FillRunPage(dir, &page);
+    const std::string timing = TimingLine(dir / "timings.json", &page.notes);
+    if (!timing.empty()) page.summary_lines.push_back(timing);
+    AddRunFigures(dir / "figures", &page);
+  } else {
+    throw InputError(run_dir +
+                     ": neither a run folder (result.json, from hdabench run) nor a compare "
+                     "folder (compare.json, from hdabench compare)");
+  }
+
+  const fs::path dataset_dir = FindDataset(dir, page.dataset_name, options.dataset_dir, &page.notes);
+  if (!dataset_dir.empty()) AddMaps(dataset_dir, &page);
+
+  DrawPlots(dir, options, &page);
+
+  ReportResult result;
+  result.kind = page.kind;
+  result.plots_ok = page.plots_error.empty();
+  result.plots_error = page.plots_error;
+  result.dataset_dir = page.dataset_dir;
+  result.notes = page.notes;  // the plots' problem is in plots_error
+  if (!result.plots_ok) page.notes.push_back("No plots: " + page.plots_error);
+  result.num_figures = static_cast<int>(page.plots.size() + page.flight_figures.size() +
+                                        page.roi_pairs.size() + page.maps.size());
+  result.num_table_rows = static_cast<int>(page.rois.rows.size());
+  result.html_path = (dir / "report.html").string();
+  result.markdown_path = (dir / "report.md").string();
+  util::WriteFileAtomically(result.html_path, BuildHtml(page));
+  util::WriteFileAtomically(result.markdown_path, BuildMarkdown(page, result.num_figures));
+  return result;
+}
+
+}  // namespace hdabench::reference

@@ -1,0 +1,239 @@
+// `hdabench calibrate` and `hdabench calib-diff` (calib/calibrate.h,
+// calib/calibration_analysis.h, docs/calibration.md).
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "calib/calibrate.h"
+#include "calib/calibration_analysis.h"
+#include "calib/camera_model.h"
+#include "tools/util/error.h"
+#include "tools/cli/command_line.h"
+#include "tools/cli/commands.h"
+#include "tools/cli/exit_codes.h"
+
+namespace hdabench::tools {
+
+namespace {
+
+// "9x6" -> 9, 6; false when the text is not two positive whole numbers.
+bool ParseBoardSize(const std::string& text, int* width, int* height) {
+  int w = 0, h = 0;
+  char x = 0;
+  int consumed = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%n", &w, &x, &h, &consumed) != 3) return false;
+  if (consumed != static_cast<int>(text.size()) || (x != 'x' && x != 'X')) return false;
+  *width = w;
+  *height = h;
+  return true;
+}
+
+std::string Fixed(double value, int decimals) {
+  char text[64];
+  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
+  return text;
+}
+
+// Runs `work`, mapping the library's errors to exit codes with one line on err.
+template <typename Work>
+int WithExitCodes(const std::string& command, std::ostream& err, Work work) {
+  try {
+    work();
+  } catch (const InputError& e) {
+    err << command << e.what() << "\n";
+    return kExitInput;
+  } catch (const UnsupportedError& e) {
+    err << command << e.what() << "\n";
+    return kExitInput;
+  } catch (const ExternalError& e) {
+    err << command << e.what() << "\n";
+    return kExitExternal;
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int RunCalibrate(const CalibrateCommandOptions& options, std::ostream& out, std::ostream& err) {
+  const std::string command = "hdabench calibrate: ";
+  calib::CalibrateOptions calibrate;
+  if (!ParseBoardSize(options.board, &calibrate.board.width, &calibrate.board.height) ||
+      calibrate.board.width < 2 || calibrate.board.height < 2) {
+    err << command << "--board '" << options.board
+        << "': expected inner corners per row x rows, e.g. 9x6 (each at least 2)\n";
+    return kExitUsage;
+  }
+  calibrate.board.spacing = options.spacing;
+  calibrate.images = options.images;
+  calibrate.pair_images = options.pair_images;
+  calibrate.lensmodel = options.lensmodel;
+  calibrate.focal_px = options.focal_px;
+  calibrate.min_views = options.min_views;
+  calibrate.out_dir = options.out_dir;
+  calibrate.analysis.hda.range_m = options.hda_range_m;
+  calibrate.analysis.hda.baseline_m = options.hda_baseline_m;
+  calibrate.analysis.hda.site_m = options.hda_site_m;
+  calibrate.analysis.slope_samples = options.slope_samples;
+  calibrate.analysis.seed = options.seed;
+  try {
+    calibrate.detector = calib::ParseCornerDetector(options.detector);
+  } catch (const InputError& e) {
+    err << command << "--detector: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  // Flag values are checked before any image is read: a bad flag is a usage error.
+  std::vector<std::string> problems = calibrate.Validate();
+  for (const std::string& p : calibrate.analysis.Validate()) problems.push_back(p);
+  if (!problems.empty()) {
+    for (const std::string& p : problems) err << command << p << "\n";
+    return kExitUsage;
+  }
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (fs::exists(options.out_dir, ec) &&
+      (!fs::is_directory(options.out_dir, ec) || !fs::is_empty(options.out_dir, ec))) {
+    err << command << options.out_dir << ": exists and is not an empty folder; choose a new folder\n";
+    return kExitUsage;
+  }
+  if (!options.quiet) {
+    calibrate.progress = [&err](const std::string& line) { err << "calibrate: " << line << "\n"; };
+  }
+  return WithExitCodes(command, err, [&] {
+    const calib::CalibrateResult result = calib::Calibrate(calibrate);
+    out << calib::CalibrationSummaryMarkdown(calibrate, result);
+    out << "\nwrote " << result.model_paths.size() << " model(s) and the summary to "
+        << options.out_dir << " (detection " << Fixed(result.detection_s, 1) << " s, mrcal "
+        << Fixed(result.mrcal_s, 1) << " s, analysis " << Fixed(result.analysis_s, 1)
+        << " s)\n";
+  });
+}
+
+int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std::ostream& err) {
+  const std::string command = "hdabench calib-diff: ";
+  calib::DiffOptions diff;
+  diff.gridn = options.gridn;
+  diff.with_uncertainty_of_a = options.with_uncertainty;
+  const std::vector<std::string> problems = diff.Validate();
+  if (!problems.empty()) {
+    for (const std::string& p : problems) err << command << p << "\n";
+    return kExitUsage;
+  }
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(options.out_dir, ec);
+  if (ec || !fs::is_directory(options.out_dir, ec)) {
+    err << command << options.out_dir << ": cannot create the output folder\n";
+    return kExitInput;
+  }
+  return WithExitCodes(command, err, [&] {
+    // Both must be models the bench itself can use.
+    const calib::CameraModel a = calib::CameraModel::Load(options.model_a);
+    const calib::CameraModel b = calib::CameraModel::Load(options.model_b);
+    const fs::path dir(options.out_dir);
+    const calib::ProjectionDiff result = calib::DiffCalibrations(
+        options.model_a, options.model_b, (dir / "calib-diff.json").string(),
+        (dir / "calib-diff.png").string(), diff);
+    out << "projection difference " << options.model_a << " -> " << options.model_b << " ("
+        << a.LensModelName() << " -> " << b.LensModelName() << ", " << a.WidthPx() << " x "
+        << a.HeightPx() << " px, " << result.points << " grid points, implied rotation "
+        << Fixed(result.rotation_deg, 4) << " deg taken out):\n"
+        << "  median " << Fixed(result.median_px, 3) << " px, p90 " << Fixed(result.p90_px, 3)
+        << " px, max " << Fixed(result.max_px, 3) << " px\n";
+    if (result.uncertainty_of_a) {
+      const calib::DiffUncertainty& u = *result.uncertainty_of_a;
+      out << "  A's projection uncertainty (1 sigma): median " << Fixed(u.median_px, 3) << " px, max "
+          << Fixed(u.max_px, 3) << " px; difference within 1/2/3 sigma at "
+          << Fixed(100 * u.within_1_sigma, 0) << " / " << Fixed(100 * u.within_2_sigma, 0) << " / "
+          << Fixed(100 * u.within_3_sigma, 0) << " % of the grid\n";
+    }
+    out << "wrote " << result.json_path << " and " << result.heatmap_png << "\n";
+  });
+}
+
+namespace {
+
+// calibrate: IMAGES, --pair, the board, mrcal's options, --out and the HDA
+// geometry of the slope-error figure.
+Command AddCalibrateCommand(CLI::App& app) {
+  const auto options = std::make_shared<CalibrateCommandOptions>();
+  CLI::App* calibrate = app.add_subcommand(
+      "calibrate",
+      "Calibrate a camera (or a pair) from chessboard images with mrcal, and judge the result\n"
+      "(docs/calibration.md)");
+  calibrate->add_option("IMAGES", options->images, "Chessboard images of the camera")->required();
+  calibrate->add_option("--pair", options->pair_images,
+                        "Images of a second camera calibrated together with the first: one per "
+                        "image, in the same order");
+  calibrate->add_option("--board", options->board,
+                        "Inner corners per row x rows, e.g. 9x6 (OpenCV's patternSize)")
+      ->required();
+  calibrate->add_option("--spacing", options->spacing,
+                        "Distance between neighbouring corners (metres, or 1 for squares)")
+      ->required();
+  calibrate->add_option("--lensmodel", options->lensmodel,
+                        "mrcal lens model, e.g. LENSMODEL_OPENCV8 or\n"
+                        "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=100")
+      ->capture_default_str();
+  calibrate->add_option("--detector", options->detector,
+                        "Corner detector: auto (mrgingham for square boards, else OpenCV), opencv, "
+                        "mrgingham")
+      ->capture_default_str();
+  calibrate->add_option("--focal-px", options->focal_px,
+                        "Focal-length seed for mrcal in pixels (0: estimated from the corners)")
+      ->capture_default_str();
+  calibrate->add_option("--min-views", options->min_views,
+                        "Fewest images with the whole board, per camera")
+      ->capture_default_str();
+  calibrate->add_option("--out", options->out_dir, "Folder to create (must not exist, or be empty)")
+      ->required();
+  calibrate->add_option("--hda-range-m", options->hda_range_m,
+                        "HDA geometry of the slope-error figure: range to the site, m")
+      ->capture_default_str();
+  calibrate->add_option("--hda-baseline-m", options->hda_baseline_m,
+                        "HDA geometry: baseline between the two images, m")
+      ->capture_default_str();
+  calibrate->add_option("--hda-site-m", options->hda_site_m, "HDA geometry: landing-site side, m")
+      ->capture_default_str();
+  calibrate->add_option("--slope-samples", options->slope_samples,
+                        "Monte Carlo re-solves behind the slope-error figure")
+      ->capture_default_str();
+  calibrate->add_option("--seed", options->seed, "Random seed of the Monte Carlo noise")
+      ->capture_default_str();
+  calibrate->add_flag("--quiet", options->quiet, "No progress lines");
+  return {calibrate, [options] { return RunCalibrate(*options, std::cout, std::cerr); }};
+}
+
+// calib-diff: models A and B, --out, --gridn and --with-uncertainty.
+Command AddCalibDiffCommand(CLI::App& app) {
+  const auto options = std::make_shared<CalibDiffCommandOptions>();
+  CLI::App* calib_diff = app.add_subcommand(
+      "calib-diff", "Projection difference between two calibrations of one camera (median, max, "
+                    "heat map)");
+  calib_diff->add_option("A", options->model_a, "The reference .cameramodel (e.g. the last one)")
+      ->required();
+  calib_diff->add_option("B", options->model_b, "The .cameramodel to compare with it")->required();
+  calib_diff->add_option("--out", options->out_dir,
+                         "Folder for calib-diff.json and calib-diff.png (created if missing)")
+      ->required();
+  calib_diff->add_option("--gridn", options->gridn, "Grid points across the imager's width")
+      ->capture_default_str();
+  calib_diff->add_flag("--with-uncertainty", options->with_uncertainty,
+                       "Also A's projection uncertainty on the grid, and how much of the "
+                       "difference it covers (A must come from a calibration)");
+  return {calib_diff, [options] { return RunCalibDiff(*options, std::cout, std::cerr); }};
+}
+
+}  // namespace
+
+// calibrate, then calib-diff.
+std::vector<Command> AddCalibrateCommands(CLI::App& app) {
+  return {AddCalibrateCommand(app), AddCalibDiffCommand(app)};
+}
+
+}  // namespace hdabench::tools

@@ -1,0 +1,121 @@
+#include "tools/cli/command_support.h"
+
+#include <filesystem>
+#include <sstream>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+#include <CLI/CLI.hpp>
+
+#include "tools/util/error.h"
+#include "reference/flight/flight_outputs.h"
+#include "reference/flight/flight_run.h"
+#include "tools/cli/exit_codes.h"
+
+namespace hdabench::tools {
+
+namespace fs = std::filesystem;
+
+std::vector<int> ParseIntList(const std::string& text, std::size_t count, const std::string& flag,
+                              const std::string& form) {
+  std::vector<int> values;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    std::size_t used = 0;
+    int value = 0;
+    try {
+      value = std::stoi(item, &used);
+    } catch (const std::logic_error&) {
+      used = std::string::npos;
+    }
+    if (used != item.size()) {
+      throw CLI::ValidationError(flag, "expected " + form + " (whole numbers), got '" + text + "'");
+    }
+    values.push_back(value);
+  }
+  if (values.size() != count) {
+    throw CLI::ValidationError(flag, "expected " + form + ", got '" + text + "'");
+  }
+  return values;
+}
+
+std::optional<std::pair<int, int>> ParseFramesFlag(const std::string& text) {
+  if (text.empty()) return std::nullopt;
+  const std::vector<int> pair = ParseIntList(text, 2, "--frames", "i,j");
+  return std::make_pair(pair[0], pair[1]);
+}
+
+int CheckDatasetFolder(const std::string& dir, const std::string& command, std::ostream& err) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(dir, ec);
+  if (ec || !fs::exists(status)) {
+    err << "hdabench " << command << ": " << dir << ": no such folder\n";
+    return kExitInput;
+  }
+  if (!fs::is_directory(status)) {
+    err << "hdabench " << command << ": " << dir << ": is not a folder; expected a dataset folder\n";
+    return kExitInput;
+  }
+  return kExitOk;
+}
+
+std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
+                                                     const datasets::LoadOptions& load,
+                                                     const std::string& command, std::ostream& err) {
+  datasets::DatasetLoadResult loaded = datasets::LoadDataset(dir, load);
+  if (!loaded.Ok()) {
+    err << "hdabench " << command << ": " << loaded.problems.size() << " problem(s) in " << dir
+        << " (see hdabench dataset check):\n";
+    for (const datasets::Problem& p : loaded.problems) err << "  " << p.ToString() << "\n";
+    return std::nullopt;
+  }
+  return std::move(loaded.dataset);
+}
+
+PairLoad LoadDatasetPair(const std::string& dataset_dir,
+                         const std::optional<std::pair<int, int>>& frames,
+                         const std::string& out_dir, const std::string& command,
+                         std::ostream& err, const std::function<void(const std::string&)>& progress) {
+  PairLoad result;
+  const std::string prefix = "hdabench " + command + ": ";
+  if (frames.has_value() && frames->first == frames->second) {
+    err << prefix << "--frames " << frames->first << "," << frames->second
+        << ": the two frames must differ\n";
+    result.exit_code = kExitUsage;
+    return result;
+  }
+  result.exit_code = CheckDatasetFolder(dataset_dir, command, err);
+  if (result.exit_code != kExitOk) return result;
+  try {
+    reference::PrepareOutputFolder(out_dir);
+  } catch (const InputError& e) {
+    err << prefix << "--out " << e.what() << "\n";
+    result.exit_code = kExitInput;
+    return result;
+  }
+  progress("loading " + dataset_dir);
+  datasets::LoadOptions load;
+  load.keep_images = true;
+  load.keep_truth = true;
+  result.dataset = LoadDatasetOrReport(dataset_dir, load, command, err);
+  if (!result.dataset.has_value()) {
+    result.exit_code = kExitInput;
+    return result;
+  }
+  const int num_frames = static_cast<int>(result.dataset->frames.size());
+  result.frames = frames.has_value() ? *frames : reference::DefaultFramePair(*result.dataset);
+  for (const int frame : {result.frames.first, result.frames.second}) {
+    if (frame < 0 || frame >= num_frames) {
+      err << prefix << "--frames: frame " << frame << " is not in " << dataset_dir
+          << ", which has frames 0.." << num_frames - 1 << "\n";
+      result.dataset.reset();
+      result.exit_code = kExitUsage;
+      return result;
+    }
+  }
+  return result;
+}
+
+}  // namespace hdabench::tools

@@ -1,0 +1,55 @@
+// Helpers shared by the hdabench commands: the same messages and exit codes
+// everywhere.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "datasets/dataset.h"
+
+namespace hdabench::tools {
+
+// Parses a flag's text "a,b,..." into exactly `count` integers; otherwise throws
+// CLI::ValidationError (exit code 2) naming `flag` and the expected `form`.
+std::vector<int> ParseIntList(const std::string& text, std::size_t count, const std::string& flag,
+                              const std::string& form);
+
+// The --frames flag's "i,j" as a pair (ParseIntList); nothing when `text` is
+// empty, i.e. the flag was not given.
+std::optional<std::pair<int, int>> ParseFramesFlag(const std::string& text);
+
+// kExitOk when `dir` is a folder; otherwise prints "hdabench <command>: <dir>:
+// no such folder" (or "is not a folder") to err and returns kExitInput.
+int CheckDatasetFolder(const std::string& dir, const std::string& command, std::ostream& err);
+
+// Loads the dataset in `dir`. On problems prints "hdabench <command>: N
+// problem(s) in DIR (see hdabench dataset check):" and each problem to err and
+// returns nothing: the command then exits with kExitInput.
+std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
+                                                     const datasets::LoadOptions& load,
+                                                     const std::string& command, std::ostream& err);
+
+// A dataset loaded with its images and truth, and the frame pair to use.
+struct PairLoad {
+  int exit_code = 0;  // kExitOk, or the code the command exits with (the message is printed)
+  std::optional<datasets::Dataset> dataset;
+  std::pair<int, int> frames{0, 1};
+};
+
+// What `run` and `compare` do before their work: checks that the frames (when
+// given) differ and the dataset folder exists, prepares the output folder,
+// loads the dataset with images and truth, and takes the given frames (checked
+// against the dataset) or reference::DefaultFramePair. Prints
+// "hdabench <command>: ..." on a problem: equal or missing frames exit
+// kExitUsage, an unusable dataset or output folder kExitInput.
+PairLoad LoadDatasetPair(const std::string& dataset_dir,
+                         const std::optional<std::pair<int, int>>& frames,
+                         const std::string& out_dir, const std::string& command,
+                         std::ostream& err, const std::function<void(const std::string&)>& progress);
+
+}  // namespace hdabench::tools

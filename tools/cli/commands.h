@@ -1,0 +1,186 @@
+// Entry points of the hdabench subcommands. Each command file registers its
+// subcommands on the command line (command_line.h) and calls these after the
+// parse; each returns an exit code from exit_codes.h and writes its report to
+// `out` and problems to `err`. The work itself lives in the modules: these
+// functions only load, call and print.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace hdabench::tools {
+
+struct DatasetCheckOptions {
+  std::string dataset_dir;                     // the dataset folder (holds manifest.json)
+  std::optional<std::pair<int, int>> frames;   // frame indices for the baseline line; default: first and last
+};
+int RunDatasetCheck(const DatasetCheckOptions& options, std::ostream& out, std::ostream& err);
+
+struct DatasetCreateOptions {
+  std::string out_dir;     // folder to create; must not exist or be empty
+  std::uint64_t seed = 1;  // same seed, same bytes
+};
+int RunDatasetCreate(const DatasetCreateOptions& options, std::ostream& out, std::ostream& err);
+
+struct SynthCommandOptions {
+  std::string out_dir;                  // folder to create; must not exist, or be empty
+  std::string preset = "novac-lateral"; // novac-lateral, novac-boresight, truck, aircraft
+  std::string terrain;                  // mare, cratered, rocky; empty: the preset's
+  std::uint64_t seed = 1;               // same seed, same bytes
+  int threads = 0;                      // 0: all cores; the output does not depend on it
+  int image_size_px = 0;                // 0: the preset's (1024)
+  std::string camera_model_file;        // a .cameramodel instead of the default camera
+  std::vector<std::string> overrides;   // "key=value", docs/synthetic-scenes.md
+  bool quiet = false;                   // no progress lines
+};
+int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct TruthCommandOptions {
+  std::string dataset_dir;
+  int frame = 0;
+  int roi[4] = {0, 0, 0, 0};  // x, y, width, height in pixels
+  bool json = false;          // print one JSON object instead of a table
+};
+int RunTruth(const TruthCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct RunFlightOptions {
+  std::string dataset_dir;
+  std::optional<std::pair<int, int>> frames;  // default: reference::DefaultFramePair
+  std::string out_dir;                        // created if missing; files of the same names replaced
+  std::optional<double> processor_scale;      // HdaOptions::processor_scale; default: the options'
+  std::optional<double> budget_s;             // HdaOptions::compute_budget_s; default: the options'
+  std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: the options'
+  bool figures = true;                        // write figures/ (PNG)
+  bool report = true;                         // write report.html and report.md (docs/report.md)
+  bool quiet = false;                         // no progress lines on err
+};
+// hdabench run: the flight method on two frames of a dataset, its outputs
+// written into out_dir (docs/flight-results.md) and the report with the
+// per-ROI table printed to out.
+int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& err);
+
+struct CompareCommandOptions {
+  std::string dataset_dir;
+  std::optional<std::pair<int, int>> frames;  // default: reference::DefaultFramePair
+  std::string methods = "all";                // comma-separated (reference::ParseMethodList) or "all"
+  std::string out_dir;                        // created if missing; files of the same names replaced
+  std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: the options'
+  double fault_match_noise_px = 0.0;          // HdaOptions::fault_match_noise_px (gate tests only)
+  std::string colmap_executable = "colmap";   // a name looked up on PATH, or a path
+  double colmap_timeout_s = 600.0;            // per COLMAP step
+  bool colmap_all_frames = false;             // colmap-free on every frame of the collection window
+  bool opengv_dense = false;                  // OpenGV on denser ORB matches than the flight's
+  bool figures = true;                        // write flight/figures/ (PNG)
+  bool report = true;                         // write report.html and report.md (docs/report.md)
+  bool quiet = false;                         // no progress lines on err
+};
+// hdabench compare: the flight method and the reference methods on two frames
+// of a dataset, per ROI; outputs in out_dir (docs/compare-results.md), the
+// Markdown table printed to out. Exit codes: 0 every method ran; 4 a method
+// failed for the run (its column says why; every other output is written);
+// 2 bad flags; 3 an unusable dataset or output folder.
+int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct ReportCommandOptions {
+  std::string run_dir;                  // a folder written by hdabench run or hdabench compare
+  std::string dataset_dir;              // the dataset (for its maps); empty: looked for beside run_dir
+  std::string python = "/usr/bin/python3";  // the interpreter that draws the plots (matplotlib)
+  bool quiet = false;                   // no note lines on err
+};
+// hdabench report: report.html and report.md of a run or compare folder
+// (docs/report.md). Exit codes: 0 written with every plot; 3 run_dir is not a
+// run or compare folder, a file in it is malformed, --dataset is not a folder,
+// or the report cannot be written; 4 the plots could not be drawn (no Python,
+// no matplotlib, the script failed): the report is written without them.
+int RunReportCommand(const ReportCommandOptions& options, std::ostream& out, std::ostream& err);
+
+// Writes the report of a folder that `command` ("run", "compare") has just
+// written from `dataset_dir`. A problem is one warning line on err
+// ("hdabench <command>: report: ..."); it never changes the command's exit
+// code (docs/report.md). Returns true when the report has every plot.
+bool WriteReportAfterCommand(const std::string& out_dir, const std::string& dataset_dir,
+                             const std::string& command, bool quiet, std::ostream& out,
+                             std::ostream& err);
+
+struct GateCommandOptions {
+  std::string suite_file;             // the suite (docs/gate.md)
+  std::string thresholds_file;        // the thresholds (docs/gate.md)
+  std::string baseline_file;          // empty: no baseline
+  std::string write_baseline_file;    // empty: do not write one
+  std::string out_dir;                // entries, datasets, metrics.json, gate.md; reused by a rerun
+  int jobs = 2;                       // entries at a time
+  std::string colmap_executable = "colmap";
+  double fault_match_noise_px = 0.0;  // fault injection into the flight method (tests of the gate)
+  bool quiet = false;
+};
+// hdabench gate: the suite through the comparison, the metrics against the
+// thresholds and the baseline. Exit codes: 0 every check passed; 1 a metric
+// failed its threshold, regressed against the baseline, or an entry failed;
+// 2 bad flags; 3 an unusable suite, thresholds, baseline or output folder.
+int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct DemoOptions {
+  std::string out_dir = "hdabench-demo";  // replaced on each run; the dataset goes in out_dir/dataset
+  std::uint64_t seed = 1;                 // same seed, same bytes
+  int image_size_px = 0;                  // 0: the default camera's 1024
+  int threads = 0;                        // 0: all cores
+};
+// The main job on the built-in default: generate the default synthetic
+// dataset (hdabench synth, preset novac-lateral) into out_dir/dataset, then
+// compare every method on it (hdabench compare) into out_dir/compare and print
+// the table.
+int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err);
+
+struct IngestStereoLunarOptions {
+  std::string pair_dir;      // a StereoLunar pair folder (im_NNNNN.jpg and .exr)
+  std::string out_dir;       // folder to create; must not exist or be empty
+  std::string cameras_file;  // cameras.txt; empty: datasets::DefaultStereoLunarCamerasFile
+  int sun = 0;               // sun position, 0-based (0, 1 or 2 for the shared pairs)
+};
+// hdabench ingest stereolunar: convert one sun position of a pair
+// (datasets/stereolunar.h) and write it with WriteDataset. Exit codes: 0
+// written and loads cleanly; 2 bad flags or an output folder in use; 3 an
+// unusable source (the message names the file and line).
+int RunIngestStereoLunar(const IngestStereoLunarOptions& options, std::ostream& out,
+                         std::ostream& err);
+
+struct CalibrateCommandOptions {
+  std::vector<std::string> images;       // camera 0's chessboard images
+  std::vector<std::string> pair_images;  // camera 1's, the i-th with the i-th of `images`; may be empty
+  std::string board;                     // "WxH" inner corners, e.g. "9x6"
+  double spacing = 0.0;                  // corner spacing (metres, or squares)
+  std::string lensmodel = "LENSMODEL_OPENCV8";
+  std::string detector = "auto";         // auto, opencv, mrgingham
+  double focal_px = 0.0;                 // focal seed; 0: estimated
+  int min_views = 5;                     // fewest usable views per camera
+  std::string out_dir;                   // folder to create; must not exist or be empty
+  double hda_range_m = 570.0;            // the HDA geometry of the slope-error figure
+  double hda_baseline_m = 30.0;
+  double hda_site_m = 10.0;
+  int slope_samples = 30;                // Monte Carlo re-solves for that figure
+  std::uint64_t seed = 1;                // of the Monte Carlo noise
+  bool quiet = false;                    // no progress lines
+};
+// hdabench calibrate (calib/calibrate.h, docs/calibration.md). Exit codes: 0
+// calibrated; 2 bad flags (board size, spacing, lens model name); 3 unusable
+// inputs (unreadable images, too few views with the board: nothing calibrated,
+// no model written); 4 mrcal's tool or the analysis failed.
+int RunCalibrate(const CalibrateCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct CalibDiffCommandOptions {
+  std::string model_a;  // the reference calibration (e.g. the last one)
+  std::string model_b;  // the new one
+  std::string out_dir;  // created if missing: calib-diff.json, calib-diff.png
+  int gridn = 60;       // grid points across the imager's width
+  bool with_uncertainty = false;  // also A's projection uncertainty on the grid (needs its optimization inputs)
+};
+// hdabench calib-diff: projection difference between two calibrations of one
+// camera. Exit codes: 0 ok; 2 bad flags; 3 unusable models (missing,
+// unreadable, different imager sizes); 4 the analysis script failed.
+int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std::ostream& err);
+
+}  // namespace hdabench::tools

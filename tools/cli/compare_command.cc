@@ -1,0 +1,165 @@
+// `hdabench compare`: load a dataset, run the flight method and the reference
+// methods on two of its frames, write the outputs (reference/compare_outputs.h,
+// docs/compare-results.md) and print the Markdown table.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core/utility.hpp>
+
+#include "tools/util/error.h"
+#include "datasets/dataset.h"
+#include "hda/hda_options.h"
+#include "reference/compare/compare.h"
+#include "reference/compare/compare_outputs.h"
+#include "reference/flight/flight_outputs.h"
+#include "reference/flight/flight_run.h"
+#include "tools/cli/command_line.h"
+#include "tools/cli/command_support.h"
+#include "tools/cli/commands.h"
+#include "tools/cli/exit_codes.h"
+
+namespace hdabench::tools {
+
+int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, std::ostream& err) {
+  const auto progress = [&](const std::string& line) {
+    if (!options.quiet) err << "hdabench compare: " << line << "\n";
+  };
+  reference::CompareOptions compare;
+  try {
+    compare.methods = reference::ParseMethodList(options.methods);
+  } catch (const InputError& e) {
+    err << "hdabench compare: --methods: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  if (options.site_size_m.has_value()) compare.hda.quadtree.site_size_m = *options.site_size_m;
+  compare.hda.fault_match_noise_px = options.fault_match_noise_px;
+  compare.colmap.executable = options.colmap_executable;
+  compare.colmap.timeout_s = options.colmap_timeout_s;
+  compare.colmap.use_all_frames = options.colmap_all_frames;
+  compare.opengv_dense_features = options.opengv_dense;
+  const std::vector<std::string> invalid = compare.Validate();
+  if (!invalid.empty()) {
+    err << "hdabench compare: unusable options:\n";
+    for (const std::string& problem : invalid) err << "  " << problem << "\n";
+    return kExitUsage;
+  }
+
+  const PairLoad pair = LoadDatasetPair(options.dataset_dir, options.frames, options.out_dir,
+                                        "compare", err, progress);
+  if (pair.exit_code != kExitOk) return pair.exit_code;
+  const datasets::Dataset& dataset = *pair.dataset;
+  const std::pair<int, int> frames = pair.frames;
+
+  // The flight method runs on one core, as on the flight computer; the
+  // reference methods are timed the same way.
+  cv::setNumThreads(1);
+  const std::string workspace = (std::filesystem::path(options.out_dir) / "colmap").string();
+  reference::CompareRun run;
+  try {
+    run = reference::RunCompare(dataset, frames.first, frames.second, compare, workspace, progress);
+  } catch (const InputError& e) {
+    err << "hdabench compare: " << e.what() << "\n";
+    return kExitInput;
+  }
+
+  progress("writing " + options.out_dir);
+  std::vector<std::string> written;
+  try {
+    const auto& f1 = dataset.frames[static_cast<size_t>(frames.first)].image;
+    const auto& f2 = dataset.frames[static_cast<size_t>(frames.second)].image;
+    written = reference::WriteCompareOutputs(run, f1, f2, options.out_dir, options.figures);
+  } catch (const InputError& e) {
+    err << "hdabench compare: " << e.what() << "\n";
+    return kExitInput;
+  }
+  out << reference::CompareMarkdown(run);
+  out << "\nwrote " << written.size() << " files to " << options.out_dir
+      << " (compare.json, compare.csv, compare.md, compare_timings.json, flight/"
+      << (run.colmap_workspace.empty() ? "" : ", colmap/") << ")\n";
+  int failed = 0;
+  for (const reference::MethodSummary& s : run.summaries) {
+    if (s.ok) continue;
+    ++failed;
+    err << "hdabench compare: method " << s.method << " failed: " << s.failure << "\n";
+  }
+  // The report never changes the exit code: a problem is a warning line.
+  if (options.report) {
+    WriteReportAfterCommand(options.out_dir, options.dataset_dir, "compare", options.quiet, out,
+                            err);
+  }
+  return failed > 0 ? kExitExternal : kExitOk;
+}
+
+namespace {
+
+// What `compare` parses into: its options, the --frames text, --site-size-m
+// (set only when given) and the negated output flags.
+struct CompareArgs {
+  CompareCommandOptions options;
+  std::string frames_text;
+  double site_size_m = hda::HdaOptions().quadtree.site_size_m;
+  bool no_figures = false;
+  bool no_report = false;
+  CLI::Option* site_option = nullptr;
+};
+
+// Completes the options of `compare` from what was parsed into `args`, then runs it.
+int RunParsedCompare(CompareArgs& args) {
+  args.options.frames = ParseFramesFlag(args.frames_text);
+  args.options.figures = !args.no_figures;
+  args.options.report = !args.no_report;
+  if (args.site_option->count() > 0) args.options.site_size_m = args.site_size_m;
+  return RunCompareCommand(args.options, std::cout, std::cerr);
+}
+
+}  // namespace
+
+// compare: DATASET, --frames, --methods, --out and the reference methods' options.
+Command AddCompareCommand(CLI::App& app) {
+  const auto args = std::make_shared<CompareArgs>();
+  CompareCommandOptions& options = args->options;
+  CLI::App* compare = app.add_subcommand(
+      "compare",
+      "Compare the flight method with COLMAP, OpenGV, Ceres and the truth per ROI on two frames");
+  compare->add_option("DATASET", options.dataset_dir, "Dataset folder")->required();
+  compare->add_option("--frames", args->frames_text,
+                      "Two different frame indices i,j (default: as hdabench run)");
+  compare->add_option("--methods", options.methods,
+                      "Comma-separated methods, or all: flight, flight-refined, colmap-nav,\n"
+                      "colmap-free, opengv-stewenius, opengv-nister, opengv-eight-point,\n"
+                      "opengv-eigensolver, opengv-two-point (flight always runs)")
+      ->capture_default_str();
+  compare->add_option("--out", options.out_dir,
+                      "Output folder (created if missing; files replaced)")
+      ->required();
+  args->site_option =
+      compare->add_option("--site-size-m", args->site_size_m,
+                          "Side of a landing site, metres (sets the quadtree's smallest ROI)")
+          ->capture_default_str();
+  compare->add_option("--colmap", options.colmap_executable,
+                      "The colmap program: a name on PATH or a path")
+      ->capture_default_str();
+  compare->add_option("--colmap-timeout-s", options.colmap_timeout_s,
+                      "Time limit of each COLMAP step, seconds")
+      ->capture_default_str();
+  compare->add_flag("--colmap-all-frames", options.colmap_all_frames,
+                    "colmap-free on every frame of the collection window, not only the pair");
+  compare->add_option("--fault-match-noise-px", options.fault_match_noise_px,
+                      "Fault injection for testing the gate: Gaussian noise added to the flight\n"
+                      "method's image-2 matches, pixels per axis (0: none)")
+      ->capture_default_str();
+  compare->add_flag("--opengv-dense", options.opengv_dense,
+                    "OpenGV on denser ORB matches (2000 keypoints per ROI, FAST threshold 5)\n"
+                    "instead of the flight matcher's");
+  compare->add_flag("--no-figures", args->no_figures, "Do not write flight/figures/");
+  compare->add_flag("--no-report", args->no_report, "Do not write report.html and report.md");
+  compare->add_flag("--quiet", options.quiet, "No progress lines");
+  return {compare, [args] { return RunParsedCompare(*args); }};
+}
+
+}  // namespace hdabench::tools

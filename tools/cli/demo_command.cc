@@ -1,0 +1,66 @@
+// `hdabench demo`: the default synthetic dataset, then every method compared on it.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <system_error>
+
+#include <CLI/CLI.hpp>
+
+#include "tools/cli/command_line.h"
+#include "tools/cli/commands.h"
+#include "tools/cli/exit_codes.h"
+
+namespace hdabench::tools {
+
+namespace fs = std::filesystem;
+
+int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
+  const fs::path dataset_dir = fs::path(options.out_dir) / "dataset";
+  // The demo folder is the bench's own: its dataset is replaced on every run.
+  // synth renames a complete folder into place, so a failed run leaves no
+  // half-written dataset behind.
+  std::error_code ec;
+  fs::remove_all(dataset_dir, ec);
+  if (ec) {
+    err << "hdabench demo: cannot replace " << dataset_dir.string() << ": " << ec.message() << "\n";
+    return kExitInput;
+  }
+  fs::create_directories(options.out_dir, ec);
+  if (ec) {
+    err << "hdabench demo: cannot create " << options.out_dir << ": " << ec.message() << "\n";
+    return kExitInput;
+  }
+  SynthCommandOptions synth;
+  synth.out_dir = dataset_dir.string();
+  synth.seed = options.seed;
+  synth.image_size_px = options.image_size_px;
+  synth.threads = options.threads;
+  out << "== Generating the default synthetic dataset (preset novac-lateral, seed " << options.seed
+      << ")\n";
+  const int created = RunSynth(synth, out, err);
+  if (created != kExitOk) return created;
+  out << "== Comparing every method on " << dataset_dir.string() << "\n";
+  CompareCommandOptions compare;
+  compare.dataset_dir = dataset_dir.string();
+  compare.out_dir = (fs::path(options.out_dir) / "compare").string();
+  return RunCompareCommand(compare, out, err);
+}
+
+// demo: --out, --seed, --image-size and --threads.
+Command AddDemoCommand(CLI::App& app) {
+  const auto options = std::make_shared<DemoOptions>();
+  CLI::App* demo = app.add_subcommand(
+      "demo",
+      "The main job on the built-in default: generate the default synthetic dataset and compare\n"
+      "every method on it");
+  demo->add_option("--out", options->out_dir, "Output folder (replaced on each run)")
+      ->capture_default_str();
+  demo->add_option("--seed", options->seed, "Random seed")->capture_default_str();
+  demo->add_option("--image-size", options->image_size_px,
+                   "Square imager side in pixels (default 1024)");
+  demo->add_option("--threads", options->threads, "Worker threads (0: all cores)")
+      ->capture_default_str();
+  return {demo, [options] { return RunDemo(*options, std::cout, std::cerr); }};
+}
+
+}  // namespace hdabench::tools

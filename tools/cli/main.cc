@@ -1,0 +1,107 @@
+// hdabench: the bench's single binary. This file sets up the command line
+// (CLI11), has each command file register its subcommands (command_line.h), and
+// maps errors to exit codes; the subcommands live in commands.h and the work in
+// the modules.
+#include <exception>
+#include <iostream>
+#include <utility>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "tools/util/error.h"
+#include "tools/cli/command_line.h"
+#include "tools/cli/exit_codes.h"
+#include "tools/cli/version.h"
+
+namespace hdabench::tools {
+namespace {
+
+// version: prints the version and the libraries in use.
+Command AddVersionCommand(CLI::App& app) {
+  CLI::App* version = app.add_subcommand("version", "Print the version and the libraries in use");
+  return {version, [] {
+            std::cout << VersionReport();
+            return kExitOk;
+          }};
+}
+
+// Appends `added` to `commands`.
+void Append(std::vector<Command>& commands, std::vector<Command> added) {
+  for (Command& command : added) commands.push_back(std::move(command));
+}
+
+// Every subcommand, registered in the order of `hdabench --help`.
+std::vector<Command> AddCommands(CLI::App& app) {
+  std::vector<Command> commands;
+  commands.push_back(AddVersionCommand(app));
+  Append(commands, AddDatasetCommands(app));
+  Append(commands, AddSynthCommands(app));
+  commands.push_back(AddRunCommand(app));
+  commands.push_back(AddCompareCommand(app));
+  commands.push_back(AddReportCommand(app));
+  commands.push_back(AddGateCommand(app));
+  commands.push_back(AddIngestCommand(app));
+  Append(commands, AddCalibrateCommands(app));
+  commands.push_back(AddDemoCommand(app));
+  return commands;
+}
+
+// Parses the command line and runs the chosen command; returns the exit code.
+int Main(int argc, char** argv) {
+  CLI::App app{"hdabench: test bench for the NOVA-C hazard detection and avoidance method.\n"
+               "Exit codes: 0 ok, 1 checks failed, 2 bad command line, 3 unusable input,\n"
+               "4 an external program failed, 70 internal error.",
+               "hdabench"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", kVersionString);
+  const std::vector<Command> commands = AddCommands(app);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return kExitUsage;
+  }
+
+  for (const Command& command : commands) {
+    if (command.app->parsed()) return command.run();
+  }
+  std::cerr << "hdabench: no command given; see hdabench --help\n";
+  return kExitUsage;
+}
+
+}  // namespace
+}  // namespace hdabench::tools
+
+// The binary: Main, with escaped exceptions mapped to exit codes.
+int main(int argc, char** argv) {
+  using namespace hdabench::tools;
+  try {
+    return Main(argc, argv);
+  } catch (const CLI::ValidationError& e) {
+    std::cerr << "hdabench: error: " << e.what() << "\n";
+    return kExitUsage;
+  } catch (const hdabench::InputError& e) {
+    std::cerr << "hdabench: error: " << e.what() << "\n";
+    return kExitInput;
+  } catch (const hdabench::UnsupportedError& e) {
+    std::cerr << "hdabench: error: " << e.what() << "\n";
+    return kExitInput;
+  } catch (const hdabench::ExternalError& e) {
+    std::cerr << "hdabench: error: " << e.what() << "\n";
+    return kExitExternal;
+  } catch (const std::exception& e) {
+    std::cerr << "hdabench: internal error: " << e.what() << "\n";
+    return kExitInternal;
+  } catch (...) {
+    std::cerr << "hdabench: internal error: unknown exception\n";
+    return kExitInternal;
+  }
+}

@@ -1,0 +1,139 @@
+// `hdabench run`: load a dataset, run the flight method on two of its frames,
+// write the outputs (reference/flight_outputs.h, docs/flight-results.md) and
+// print the report.
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core/utility.hpp>
+
+#include "tools/util/error.h"
+#include "datasets/dataset.h"
+#include "hda/hda_options.h"
+#include "hda/pipeline.h"
+#include "reference/flight/flight_outputs.h"
+#include "reference/flight/flight_run.h"
+#include "tools/cli/command_line.h"
+#include "tools/cli/command_support.h"
+#include "tools/cli/commands.h"
+#include "tools/cli/exit_codes.h"
+
+namespace hdabench::tools {
+
+int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& err) {
+  const auto progress = [&](const std::string& line) {
+    if (!options.quiet) err << "hdabench run: " << line << "\n";
+  };
+  hda::HdaOptions hda_options;
+  if (options.processor_scale.has_value()) hda_options.processor_scale = *options.processor_scale;
+  if (options.budget_s.has_value()) hda_options.compute_budget_s = *options.budget_s;
+  if (options.site_size_m.has_value()) hda_options.quadtree.site_size_m = *options.site_size_m;
+  const std::vector<std::string> invalid = hda_options.Validate();
+  if (!invalid.empty()) {
+    err << "hdabench run: unusable options (--processor-scale, --budget-s, --site-size-m):\n";
+    for (const std::string& problem : invalid) err << "  " << problem << "\n";
+    return kExitUsage;
+  }
+
+  const PairLoad pair = LoadDatasetPair(options.dataset_dir, options.frames, options.out_dir, "run",
+                                        err, progress);
+  if (pair.exit_code != kExitOk) return pair.exit_code;
+  const datasets::Dataset& dataset = *pair.dataset;
+  const std::pair<int, int> frames = pair.frames;
+
+  progress("flight method on frames " + std::to_string(frames.first) + "," +
+           std::to_string(frames.second));
+  // The flight method runs on one core, as on the flight computer (OpenCV's
+  // parallel loops would otherwise use every core; results do not change).
+  cv::setNumThreads(1);
+  const reference::FlightRun run =
+      reference::RunFlight(dataset, frames.first, frames.second, hda_options);
+
+  progress("writing " + options.out_dir);
+  std::vector<std::string> written;
+  try {
+    written = reference::WriteFlightOutputs(run, dataset.frames[static_cast<size_t>(frames.first)].image,
+                                            dataset.frames[static_cast<size_t>(frames.second)].image,
+                                            options.out_dir,
+                                            options.figures);
+  } catch (const InputError& e) {
+    err << "hdabench run: " << e.what() << "\n";
+    return kExitInput;
+  }
+  out << reference::FlightReport(run);
+  out << "wrote " << written.size() << " files to " << options.out_dir
+      << " (result.json, timings.json, rois.csv, points/"
+      << (options.figures ? ", figures/" : "") << ")\n";
+  // The report never changes the exit code: a problem is a warning line.
+  if (options.report) {
+    WriteReportAfterCommand(options.out_dir, options.dataset_dir, "run", options.quiet, out, err);
+  }
+  return kExitOk;
+}
+
+namespace {
+
+// What `run` parses into: its options, and the flags that only set them when
+// given (the HdaOptions defaults are shown in --help).
+struct RunArgs {
+  RunFlightOptions options;
+  std::string frames_text;
+  double processor_scale = hda::HdaOptions().processor_scale;
+  double budget_s = hda::HdaOptions().compute_budget_s;
+  double site_size_m = hda::HdaOptions().quadtree.site_size_m;
+  bool no_figures = false;
+  bool no_report = false;
+  CLI::Option* scale_option = nullptr;
+  CLI::Option* budget_option = nullptr;
+  CLI::Option* site_option = nullptr;
+};
+
+// Completes the options of `run` from what was parsed into `args`, then runs it.
+int RunParsedFlight(RunArgs& args) {
+  args.options.frames = ParseFramesFlag(args.frames_text);
+  if (args.scale_option->count() > 0) args.options.processor_scale = args.processor_scale;
+  if (args.budget_option->count() > 0) args.options.budget_s = args.budget_s;
+  if (args.site_option->count() > 0) args.options.site_size_m = args.site_size_m;
+  args.options.figures = !args.no_figures;
+  args.options.report = !args.no_report;
+  return RunFlight(args.options, std::cout, std::cerr);
+}
+
+}  // namespace
+
+// run: DATASET, --frames, --out, the flight method's options and the outputs.
+Command AddRunCommand(CLI::App& app) {
+  const auto args = std::make_shared<RunArgs>();
+  CLI::App* run = app.add_subcommand(
+      "run",
+      "Run the flight HDA method on two frames of a dataset: results, figures, per-ROI table");
+  run->add_option("DATASET", args->options.dataset_dir, "Dataset folder")->required();
+  run->add_option(
+      "--frames", args->frames_text,
+      "Two different frame indices i,j (default: frame 0 and the frame whose baseline is\n"
+      "closest to the paper's 30 m at 566 m)");
+  run->add_option("--out", args->options.out_dir,
+                  "Output folder (created if missing; files replaced)")
+      ->required();
+  args->scale_option =
+      run->add_option("--processor-scale", args->processor_scale,
+                      "This machine's seconds per second of the flight computer's work")
+          ->capture_default_str();
+  args->budget_option =
+      run->add_option("--budget-s", args->budget_s,
+                      "Computation budget on the flight computer, seconds")
+          ->capture_default_str();
+  args->site_option =
+      run->add_option("--site-size-m", args->site_size_m,
+                      "Side of a landing site, metres (sets the quadtree's smallest ROI)")
+          ->capture_default_str();
+  run->add_flag("--no-figures", args->no_figures, "Do not write figures/");
+  run->add_flag("--no-report", args->no_report, "Do not write report.html and report.md");
+  run->add_flag("--quiet", args->options.quiet, "No progress lines");
+  return {run, [args] { return RunParsedFlight(*args); }};
+}
+
+}  // namespace hdabench::tools

@@ -1,0 +1,183 @@
+// hdabench synth and hdabench truth.
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "tools/util/error.h"
+#include "datasets/dataset.h"
+#include "datasets/synth/synth.h"
+#include "datasets/synth/truth.h"
+#include "tools/cli/command_line.h"
+#include "tools/cli/command_support.h"
+#include "tools/cli/commands.h"
+#include "tools/cli/exit_codes.h"
+
+namespace hdabench::tools {
+
+namespace fs = std::filesystem;
+namespace synth = datasets::synth;
+
+int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream& err) {
+  std::error_code ec;
+  if (fs::exists(options.out_dir, ec) &&
+      (!fs::is_directory(options.out_dir, ec) || !fs::is_empty(options.out_dir, ec))) {
+    err << "hdabench synth: " << options.out_dir
+        << " already exists and is not an empty folder; choose a new --out\n";
+    return kExitUsage;
+  }
+  synth::SynthOptions synth_options = synth::SynthPreset(options.preset);
+  if (!options.terrain.empty()) synth_options.terrain = options.terrain;
+  if (options.image_size_px > 0) synth_options.image_size_px = options.image_size_px;
+  synth_options.camera_model_file = options.camera_model_file;
+  synth_options.threads = options.threads > 0
+                              ? options.threads
+                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  synth::TerrainOptions terrain = synth::TerrainPreset(synth_options.terrain);
+  for (const std::string& override_text : options.overrides) {
+    const size_t eq = override_text.find('=');
+    if (eq == std::string::npos || eq == 0) {
+      err << "hdabench synth: --set expects key=value, got '" << override_text << "'\n";
+      return kExitUsage;
+    }
+    synth::ApplyOverride(override_text.substr(0, eq), override_text.substr(eq + 1), &synth_options,
+                         &terrain);
+  }
+  synth::ScaleTerrain(synth_options.terrain_scale, &terrain);
+
+  int last_percent = -1;
+  std::string last_stage;
+  const synth::SynthProgress progress = [&](const std::string& stage, double fraction) {
+    if (options.quiet) return;
+    const int percent = static_cast<int>(fraction * 100.0);
+    if (stage == last_stage && percent / 10 == last_percent / 10 && percent != 100) return;
+    last_stage = stage;
+    last_percent = percent;
+    err << "hdabench synth: " << stage << " " << percent << "%\n";
+  };
+  synth::SynthSummary summary;
+  const datasets::Dataset dataset =
+      synth::GenerateSynthDataset(synth_options, terrain, options.seed, progress, &summary);
+  datasets::WriteDataset(dataset, options.out_dir);
+  synth::WriteTruthMaps(dataset, (fs::path(options.out_dir) / "maps").string());
+  out << "wrote synthetic dataset '" << dataset.name << "' to " << options.out_dir << "\n  "
+      << summary.Summary() << "\n  maps: " << (fs::path(options.out_dir) / "maps").string()
+      << "/{elevation,slope,hazards}.png\n";
+  // Peak resident memory of this process so far (Linux reports kilobytes).
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) == 0) {
+    out << "  peak memory: " << usage.ru_maxrss / 1024 << " MB\n";
+  }
+  return kExitOk;
+}
+
+int RunTruth(const TruthCommandOptions& options, std::ostream& out, std::ostream& err) {
+  datasets::LoadOptions load;
+  load.decode_images = false;
+  load.keep_truth = true;
+  const std::optional<datasets::Dataset> loaded =
+      LoadDatasetOrReport(options.dataset_dir, load, "truth", err);
+  if (!loaded.has_value()) return kExitInput;
+  const datasets::Dataset& dataset = *loaded;
+  if (options.frame < 0 || options.frame >= static_cast<int>(dataset.frames.size())) {
+    err << "hdabench truth: --frame " << options.frame << " is not a frame of the dataset (0.."
+        << dataset.frames.size() - 1 << ")\n";
+    return kExitUsage;
+  }
+  const synth::PixelRoi roi{options.roi[0], options.roi[1], options.roi[2], options.roi[3]};
+  const synth::RoiTruth truth = synth::ComputeRoiTruth(dataset, options.frame, roi);
+  if (options.json) {
+    nlohmann::ordered_json j;
+    j["frame"] = options.frame;
+    j["roi"] = {roi.x, roi.y, roi.width, roi.height};
+    j["num_points"] = truth.num_points;
+    j["slope_deg"] = truth.slope_deg;
+    j["roughness_rms_m"] = truth.roughness_rms_m;
+    j["roughness_max_m"] = truth.roughness_max_m;
+    j["max_rock_height_m"] = truth.max_rock_height_m;
+    j["hazard_height_m"] = truth.hazard_height_m;
+    out << j.dump(2) << "\n";
+    return kExitOk;
+  }
+  out << std::fixed << std::setprecision(3) << "truth of frame " << options.frame << " ROI (x "
+      << roi.x << ", y " << roi.y << ", " << roi.width << " x " << roi.height << " px)\n"
+      << "  points:            " << truth.num_points << "\n"
+      << "  slope:             " << truth.slope_deg << " deg\n"
+      << "  roughness RMS:     " << truth.roughness_rms_m << " m\n"
+      << "  roughness max:     " << truth.roughness_max_m << " m\n"
+      << "  tallest rock:      " << truth.max_rock_height_m << " m\n"
+      << "  hazard height:     " << truth.hazard_height_m << " m\n";
+  return kExitOk;
+}
+
+namespace {
+
+// synth: --out, the preset and every override.
+Command AddSynthCommand(CLI::App& app) {
+  const auto options = std::make_shared<SynthCommandOptions>();
+  CLI::App* synth_app = app.add_subcommand(
+      "synth", "Generate a synthetic lunar dataset with ground truth (docs/synthetic-scenes.md)");
+  synth_app->add_option("--out", options->out_dir, "Folder to create (must not exist, or be empty)")
+      ->required();
+  synth_app->add_option("--preset", options->preset,
+                        "novac-lateral, novac-boresight, truck or aircraft")
+      ->capture_default_str();
+  synth_app->add_option("--terrain", options->terrain,
+                        "mare, cratered or rocky (default: the preset's)");
+  synth_app->add_option("--seed", options->seed, "Random seed: same seed, same bytes")
+      ->capture_default_str();
+  synth_app->add_option("--threads", options->threads,
+                        "Worker threads (0: all cores); output does not depend on it")
+      ->capture_default_str();
+  synth_app->add_option("--image-size", options->image_size_px,
+                        "Square imager side in pixels (default 1024; 2048 variant)");
+  synth_app->add_option("--camera-model", options->camera_model_file,
+                        "A .cameramodel to use instead of the default camera");
+  synth_app->add_option(
+      "--set", options->overrides,
+      "Override any parameter: key=value (e.g. render.sun_elevation_deg=15, terrain.rock_k=0.01)");
+  synth_app->add_flag("--quiet", options->quiet, "No progress lines");
+  return {synth_app, [options] { return RunSynth(*options, std::cout, std::cerr); }};
+}
+
+// What `truth` parses into: its options and the --roi text.
+struct TruthArgs {
+  TruthCommandOptions options;
+  std::string roi_text;
+};
+
+// truth: DATASET, --frame, --roi and --json.
+Command AddTruthCommand(CLI::App& app) {
+  const auto args = std::make_shared<TruthArgs>();
+  CLI::App* truth_app = app.add_subcommand(
+      "truth", "True slope, roughness and hazard height of an ROI of a dataset with truth");
+  truth_app->add_option("DATASET", args->options.dataset_dir, "Dataset folder")->required();
+  truth_app->add_option("--frame", args->options.frame, "Frame index")->capture_default_str();
+  truth_app->add_option("--roi", args->roi_text, "x,y,w,h in pixels")->required();
+  truth_app->add_flag("--json", args->options.json, "Print JSON instead of a table");
+  return {truth_app, [args] {
+            const std::vector<int> roi = ParseIntList(args->roi_text, 4, "--roi", "x,y,w,h");
+            std::copy(roi.begin(), roi.end(), args->options.roi);
+            return RunTruth(args->options, std::cout, std::cerr);
+          }};
+}
+
+}  // namespace
+
+// synth, then truth.
+std::vector<Command> AddSynthCommands(CLI::App& app) {
+  return {AddSynthCommand(app), AddTruthCommand(app)};
+}
+
+}  // namespace hdabench::tools

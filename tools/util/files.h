@@ -1,0 +1,35 @@
+// Files: reading one whole, writing one so that no reader ever sees it
+// half-written, and a temporary folder that cleans up after itself.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+namespace hdabench::util {
+
+// Reads a whole file. On failure returns false and sets `error` to a message
+// without the path: "file not found", "is a directory; expected a file",
+// "cannot be read (Permission denied)".
+bool ReadFileBytes(const std::filesystem::path& path, std::string* bytes, std::string* error);
+
+// Writes `bytes` to a temporary name next to `path`, then renames it into
+// place, so readers never see a partial file. Creates the parent folders.
+// Throws InputError naming the path on failure (the temporary is removed).
+void WriteFileAtomically(const std::filesystem::path& path, const std::string& bytes);
+
+// A fresh folder under the system's temporary folder (hdabench-<purpose>-XXXXXX),
+// removed with everything in it when this goes out of scope. Throws InputError
+// naming the temporary folder when it cannot be created.
+class TempFolder {
+ public:
+  explicit TempFolder(const std::string& purpose);
+  ~TempFolder();
+  TempFolder(const TempFolder&) = delete;
+  TempFolder& operator=(const TempFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace hdabench::util

@@ -1,0 +1,77 @@
+#include "tools/util/parallel_for.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cstdlib>
+#include <exception>
+#include <mutex>
+#include <stdexcept>
+#include <system_error>
+#include <thread>
+#include <vector>
+
+namespace hdabench::util {
+
+namespace {
+
+// True when HDABENCH_FAULT_IN_WORKER names this loop (read once per loop,
+// before any thread starts).
+bool FaultInjected(const std::string& name) {
+  const char* value = std::getenv("HDABENCH_FAULT_IN_WORKER");
+  return value != nullptr && name == value;
+}
+
+}  // namespace
+
+void ParallelFor(const std::string& name, int count, int threads,
+                 const std::function<void(int index)>& body,
+                 const std::function<void(int items_done)>& done) {
+  if (count <= 0) return;
+  const int workers = std::max(1, std::min(threads, count));
+  const bool inject = FaultInjected(name);
+  std::atomic<int> next{0};
+  std::atomic<bool> injected{false};          // the injected fault has been thrown
+  std::atomic<bool> caller_alone{workers == 1};  // no other thread runs: the fault is the caller's
+  std::mutex mutex;  // guards items_done, failure and the done callback
+  int items_done = 0;
+  std::exception_ptr failure;
+
+  const auto work = [&](bool caller) {
+    // With a fault injected, the caller takes no item before another thread
+    // has thrown, so the fault is on a worker thread whatever the timing.
+    while (inject && caller && !caller_alone && !injected) std::this_thread::yield();
+    try {
+      for (int i = next.fetch_add(1); i < count; i = next.fetch_add(1)) {
+        if (inject && (!caller || caller_alone) && !injected.exchange(true)) {
+          throw std::runtime_error("a fault injected into a worker of " + name +
+                                   " (HDABENCH_FAULT_IN_WORKER)");
+        }
+        body(i);
+        if (done) {
+          const std::lock_guard<std::mutex> lock(mutex);
+          done(++items_done);
+        }
+      }
+    } catch (...) {
+      next.store(count);  // no more items for anyone
+      const std::lock_guard<std::mutex> lock(mutex);
+      if (!failure) failure = std::current_exception();
+    }
+  };
+
+  std::vector<std::thread> pool;
+  pool.reserve(static_cast<size_t>(workers - 1));
+  for (int t = 1; t < workers; ++t) {
+    try {
+      pool.emplace_back(work, false);
+    } catch (const std::system_error&) {
+      break;  // no more threads to be had: those running (and the caller) do every item
+    }
+  }
+  if (pool.empty()) caller_alone = true;
+  work(true);
+  for (std::thread& thread : pool) thread.join();
+  if (failure) std::rethrow_exception(failure);
+}
+
+}  // namespace hdabench::util

@@ -1,0 +1,51 @@
+#include "tools/util/python_script.h"
+
+#include <system_error>
+
+#include "tools/util/error.h"
+
+namespace hdabench::util {
+
+namespace fs = std::filesystem;
+
+PythonScript::PythonScript(const std::string& purpose, const std::string& file_name,
+                           const std::string& text)
+    : folder_(purpose), script_(folder_.path() / file_name), config_(folder_.path() / "matplotlib") {
+  std::error_code ec;
+  fs::create_directories(config_, ec);
+  if (ec) {
+    throw InputError(config_.string() + ": cannot create the matplotlib configuration folder (" +
+                     ec.message() + ")");
+  }
+  WriteFileAtomically(script_, text);
+}
+
+ProcessResult PythonScript::Run(const std::vector<std::string>& arguments,
+                                const PythonScriptOptions& options) const {
+  if (!options.log_file.empty()) {
+    // A fresh log per run, so that its last line is this run's.
+    std::error_code ec;
+    fs::remove(options.log_file, ec);
+    if (ec) throw InputError(options.log_file + ": cannot remove the earlier log: " + ec.message());
+  }
+  ProcessOptions process;
+  process.working_dir = options.working_dir;
+  process.log_file = options.log_file;
+  process.timeout_s = options.timeout_s;
+  process.environment = {{"MPLBACKEND", "Agg"},
+                         {"MPLCONFIGDIR", config_.string()},
+                         {"MATPLOTLIBRC", config_.string()},
+                         {"PYTHONDONTWRITEBYTECODE", "1"},
+                         {"PYTHONHASHSEED", "0"},
+                         {"SOURCE_DATE_EPOCH", "0"}};
+  if (options.single_threaded_math) {
+    process.environment.insert(process.environment.end(), {{"OPENBLAS_NUM_THREADS", "1"},
+                                                           {"OMP_NUM_THREADS", "1"},
+                                                           {"MKL_NUM_THREADS", "1"}});
+  }
+  std::vector<std::string> argv = {options.python, script_.string()};
+  argv.insert(argv.end(), arguments.begin(), arguments.end());
+  return RunProcess(argv, process);
+}
+
+}  // namespace hdabench::util

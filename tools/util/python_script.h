@@ -1,0 +1,48 @@
+// Running a Python script that is compiled into the bench (the calibration
+// analysis, the report's plots) in a clean, repeatable environment.
+#pragma once
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "tools/util/files.h"
+#include "tools/util/process.h"
+
+namespace hdabench::util {
+
+struct PythonScriptOptions {
+  std::string python = "/usr/bin/python3";  // the interpreter (a name is looked up in PATH)
+  std::string log_file;                     // receives the script's stdout and stderr, started afresh
+  std::string working_dir;                  // empty: the caller's
+  double timeout_s = 0.0;                   // wall-time limit, seconds; <= 0: none
+  // One thread for NumPy's linear algebra (OpenBLAS, OpenMP, MKL), so sums
+  // are done in the same order on every run.
+  bool single_threaded_math = false;
+};
+
+// A script's text written as `file_name` into a fresh scratch folder (removed
+// with this object), run as `python script arguments...` with: matplotlib's
+// Agg backend and a fresh configuration (no user style changes a figure), no
+// byte-code files, a fixed hash seed and SOURCE_DATE_EPOCH 0. The scratch
+// folder is the place for the script's own outputs.
+class PythonScript {
+ public:
+  // Throws InputError when the scratch folder or the script cannot be written.
+  PythonScript(const std::string& purpose, const std::string& file_name, const std::string& text);
+
+  const std::filesystem::path& folder() const { return folder_.path(); }
+  const std::filesystem::path& script() const { return script_; }
+
+  // Runs the script; what goes wrong with Python is in the result (RunProcess).
+  // Throws InputError when the earlier log cannot be removed or the options
+  // are invalid.
+  ProcessResult Run(const std::vector<std::string>& arguments, const PythonScriptOptions& options) const;
+
+ private:
+  TempFolder folder_;
+  std::filesystem::path script_;
+  std::filesystem::path config_;
+};
+
+}  // namespace hdabench::util

@@ -1,0 +1,63 @@
+// Numbers and text, one helper per purpose, used by every module:
+// - ShortestText: the shortest decimal that reads back as the same double, for
+//   files other programs read (dataset tables, COLMAP models, camera models);
+// - CsvNumber: a double as nlohmann's JSON writes it, for CSV tables that sit
+//   beside a JSON file with the same numbers;
+// - FixedText: a fixed number of decimals, for tables and messages people read;
+// - parsing of whole decimal numbers, trimming, aligned text tables and HTML
+//   escaping.
+// Locale-independent (std::to_chars / std::from_chars / "%.*f" in the C locale).
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+
+namespace hdabench::util {
+
+// Shortest decimal that reads back as the same double ("0.02", "1e-07", "nan",
+// "inf", "-inf").
+std::string ShortestText(double value);
+
+// "(1, 2, 3)" with ShortestText for each element.
+std::string VectorText(const Eigen::VectorXd& values);
+
+// A double as CSV text that reads back identical, in nlohmann's JSON form
+// ("1.0", "0.25"), so a CSV and its JSON twin print the same numbers; empty
+// when it is not finite.
+std::string CsvNumber(double value);
+
+// Fixed-point text with `digits` decimals ("%.*f"); "-" when not finite.
+std::string FixedText(double value, int digits);
+
+// Columns aligned to their widest cell; `left` columns are left-aligned, the
+// others right-aligned; a rule of dashes under the header (the first row).
+std::string FormatTextTable(const std::vector<std::vector<std::string>>& rows,
+                            const std::vector<bool>& left);
+
+// Text for HTML: & < > " ' replaced by their entities.
+std::string HtmlEscape(const std::string& text);
+
+enum class ParseStatus {
+  kOk,
+  kEmpty,       // nothing but blanks
+  kNotNumber,   // not a decimal number (or trailing characters)
+  kOutOfRange,  // a number too large for the type
+  kNotFinite,   // nan or inf (doubles only)
+  kNotInteger,  // a number, but not a whole one (integers only)
+};
+
+// Parses the whole of `text` as a decimal double. Accepts an optional sign,
+// digits, a fraction and an exponent; "nan" and "inf" parse but return
+// kNotFinite (the value is still stored).
+ParseStatus ParseDouble(std::string_view text, double* value);
+
+// Parses the whole of `text` as a decimal int (optional leading '-' or '+').
+ParseStatus ParseInt(std::string_view text, int* value);
+
+// Removes leading and trailing spaces and tabs.
+std::string_view Trim(std::string_view text);
+
+}  // namespace hdabench::util

@@ -21,6 +21,7 @@
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
 #include "tools/util/process.h"
+#include "tools/util/text.h"
 
 namespace hdabench::calib {
 
@@ -177,13 +178,6 @@ double NumberAfter(const std::string& text, const std::string& key) {
   }
 }
 
-std::string FormatNumber(double value, int decimals) {
-  if (!std::isfinite(value)) return "-";
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
-}
-
 Json NumberOrNull(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
 
 std::string DetectionsCsv(const CalibrateResult& result) {
@@ -236,12 +230,7 @@ Json SummaryJson(const CalibrateOptions& options, const CalibrateResult& result)
 
 // Throws one InputError listing every invalid option, before anything is written.
 void ThrowIfInvalid(const CalibrateOptions& options) {
-  const std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) {
-    std::string message = "calibration options:";
-    for (const std::string& e : errors) message += "\n  " + e;
-    throw InputError(message);
-  }
+  hdabench::ThrowIfInvalid("calibration options:\n  ", options.Validate(), "\n  ");
 }
 
 // Step 1: the corners of every camera's images, camera 0 first; the time is
@@ -303,7 +292,7 @@ std::string FocalSeedList(const CalibrateOptions& options,
   for (const CameraImages& cam : cameras) {
     const double focal = options.focal_px > 0.0 ? options.focal_px : EstimateFocal(options, cam);
     if (focal_list.empty()) result->focal_seed_px = focal;
-    focal_list += (focal_list.empty() ? "" : ",") + FormatNumber(focal, 3);
+    focal_list += (focal_list.empty() ? "" : ",") + util::FixedCell(focal, 3);
   }
   return focal_list;
 }
@@ -341,7 +330,7 @@ std::vector<std::string> MrcalArguments(const CalibrateOptions& options, const s
                                    std::to_string(result.imager_width_px),
                                    std::to_string(result.imager_height_px),
                                    "--object-spacing",
-                                   FormatNumber(options.board.spacing, 12),
+                                   util::FixedCell(options.board.spacing, 12),
                                    "--object-width-n",
                                    std::to_string(options.board.width),
                                    "--object-height-n",
@@ -525,7 +514,7 @@ namespace hdabench::calib {
 namespace {
 
 std::string OptionalNumber(const std::optional<double>& value, int decimals) {
-  return value ? FormatNumber(*value, decimals) : "-";
+  return value ? util::FixedCell(*value, decimals) : "-";
 }
 
 // A row of the summary table: a label and one cell per camera.
@@ -550,8 +539,8 @@ void WriteSummaryHead(std::ostringstream& out, const CalibrateOptions& options,
   out << "- lens model: " << options.lensmodel << "\n";
   out << "- imager: " << result.imager_width_px << " x " << result.imager_height_px << " px\n";
   out << "- board: " << options.board.SizeText() << " inner corners, spacing "
-      << FormatNumber(options.board.spacing, 6) << "\n";
-  out << "- focal-length seed: " << FormatNumber(result.focal_seed_px, 1) << " px\n";
+      << util::FixedCell(options.board.spacing, 6) << "\n";
+  out << "- focal-length seed: " << util::FixedCell(result.focal_seed_px, 1) << " px\n";
   for (size_t c = 0; c < result.model_paths.size(); ++c) {
     out << "- camera " << c << ": " << fs::path(result.model_paths[c]).filename().string() << "\n";
   }
@@ -582,8 +571,8 @@ void WriteFitRows(std::ostringstream& out, const CalibrateResult& result) {
           const CameraModel model = CameraModel::Load(result.model_paths.at(cam.index));
           if (!model.HasCore()) return std::string("(no core)");
           const std::vector<double>& k = model.Intrinsics();
-          return FormatNumber(k[0], 2) + ", " + FormatNumber(k[1], 2) + ", " + FormatNumber(k[2], 2) +
-                 ", " + FormatNumber(k[3], 2);
+          return util::FixedCell(k[0], 2) + ", " + util::FixedCell(k[1], 2) + ", " + util::FixedCell(k[2], 2) +
+                 ", " + util::FixedCell(k[3], 2);
         } catch (const std::exception&) {
           return std::string("-");
         }
@@ -592,18 +581,18 @@ void WriteFitRows(std::ostringstream& out, const CalibrateResult& result) {
         return std::to_string(cam.residuals.inliers) + " / " + std::to_string(cam.residuals.outliers);
       }));
   Row(out, "RMS reprojection error per corner (px)",
-      Cells(cams, [](const CameraAnalysis& cam) { return FormatNumber(cam.residuals.rms_px, 3); }));
+      Cells(cams, [](const CameraAnalysis& cam) { return util::FixedCell(cam.residuals.rms_px, 3); }));
   Row(out, "worst inlier residual (px)", Cells(cams, [](const CameraAnalysis& cam) {
-        return FormatNumber(cam.residuals.worst_px, 3);
+        return util::FixedCell(cam.residuals.worst_px, 3);
       }));
   Row(out, "mrcal's RMS per coordinate (px)", Cells(cams, [](const CameraAnalysis& cam) {
-        return FormatNumber(cam.residuals.mrcal_rms_px, 3);
+        return util::FixedCell(cam.residuals.mrcal_rms_px, 3);
       }));
   Row(out, "imager cells with corners (10 x 10)", Cells(cams, [](const CameraAnalysis& cam) {
-        return FormatNumber(100.0 * cam.coverage.share, 0) + " %";
+        return util::FixedCell(100.0 * cam.coverage.share, 0) + " %";
       }));
   Row(out, "HDA band cells with corners", Cells(cams, [](const CameraAnalysis& cam) {
-        return FormatNumber(100.0 * cam.coverage.band_share, 0) + " %";
+        return util::FixedCell(100.0 * cam.coverage.band_share, 0) + " %";
       }));
 }
 
@@ -613,14 +602,14 @@ void WriteCheckRows(std::ostringstream& out, const CalibrateResult& result) {
   const std::vector<CameraAnalysis>& cams = result.analysis.cameras;
   Row(out, "projection uncertainty, HDA band median / max (px, 1 sigma)",
       Cells(cams, [](const CameraAnalysis& cam) {
-        return cam.uncertainty ? FormatNumber(cam.uncertainty->band_median_px, 3) + " / " +
-                                     FormatNumber(cam.uncertainty->band_max_px, 3)
+        return cam.uncertainty ? util::FixedCell(cam.uncertainty->band_median_px, 3) + " / " +
+                                     util::FixedCell(cam.uncertainty->band_max_px, 3)
                                : "- (" + cam.uncertainty_error + ")";
       }));
   Row(out, "projection uncertainty, imager centre / median (px)",
       Cells(cams, [](const CameraAnalysis& cam) {
-        return cam.uncertainty ? FormatNumber(cam.uncertainty->imager_centre_px, 3) + " / " +
-                                     FormatNumber(cam.uncertainty->imager_median_px, 3)
+        return cam.uncertainty ? util::FixedCell(cam.uncertainty->imager_centre_px, 3) + " / " +
+                                     util::FixedCell(cam.uncertainty->imager_median_px, 3)
                                : "-";
       }));
   Row(out, "HDA slope error from the calibration alone, RMS / p90 (deg)",
@@ -630,13 +619,13 @@ void WriteCheckRows(std::ostringstream& out, const CalibrateResult& result) {
                " re-solves)";
       }));
   Row(out, "OpenCV cross-check: RMS (px)", Cells(cams, [](const CameraAnalysis& cam) {
-        return cam.opencv ? FormatNumber(cam.opencv->rms_px, 3) : "- (" + cam.opencv_error + ")";
+        return cam.opencv ? util::FixedCell(cam.opencv->rms_px, 3) : "- (" + cam.opencv_error + ")";
       }));
   Row(out, "mrcal vs OpenCV projection, median / p90 / max over the imager (px)",
       Cells(cams, [](const CameraAnalysis& cam) {
-        return cam.opencv ? FormatNumber(cam.opencv->diff.median_px, 3) + " / " +
-                                FormatNumber(cam.opencv->diff.p90_px, 3) + " / " +
-                                FormatNumber(cam.opencv->diff.max_px, 3)
+        return cam.opencv ? util::FixedCell(cam.opencv->diff.median_px, 3) + " / " +
+                                util::FixedCell(cam.opencv->diff.p90_px, 3) + " / " +
+                                util::FixedCell(cam.opencv->diff.max_px, 3)
                           : "-";
       }));
   Row(out, "mrcal vs OpenCV projection, HDA band median (px)",
@@ -648,13 +637,13 @@ void WriteCheckRows(std::ostringstream& out, const CalibrateResult& result) {
 // The HDA geometry the figures assume, and the pair's relative poses.
 void WriteGeometry(std::ostringstream& out, const CalibrateOptions& options,
                    const CalibrateResult& result) {
-  out << "\nThe HDA geometry: range " << FormatNumber(options.analysis.hda.range_m, 0)
-      << " m, baseline " << FormatNumber(options.analysis.hda.baseline_m, 1) << " m, site "
-      << FormatNumber(options.analysis.hda.site_m, 1) << " m; the HDA band is x "
-      << FormatNumber(100 * options.analysis.hda.band_x0, 0) << "-"
-      << FormatNumber(100 * options.analysis.hda.band_x1, 0) << " % of the width, y "
-      << FormatNumber(100 * options.analysis.hda.band_y0, 0) << "-"
-      << FormatNumber(100 * options.analysis.hda.band_y1, 0) << " % of the height.\n";
+  out << "\nThe HDA geometry: range " << util::FixedCell(options.analysis.hda.range_m, 0)
+      << " m, baseline " << util::FixedCell(options.analysis.hda.baseline_m, 1) << " m, site "
+      << util::FixedCell(options.analysis.hda.site_m, 1) << " m; the HDA band is x "
+      << util::FixedCell(100 * options.analysis.hda.band_x0, 0) << "-"
+      << util::FixedCell(100 * options.analysis.hda.band_x1, 0) << " % of the width, y "
+      << util::FixedCell(100 * options.analysis.hda.band_y0, 0) << "-"
+      << util::FixedCell(100 * options.analysis.hda.band_y1, 0) << " % of the height.\n";
 
   for (const RelativePose& pose : result.analysis.relative_poses) {
     out << "\nCamera " << pose.camera << " relative to camera " << pose.relative_to << ": baseline "
@@ -705,17 +694,17 @@ std::vector<std::string> CalibrationVerdict(const CalibrateResult& result) {
   for (const CameraAnalysis& cam : result.analysis.cameras) {
     const std::string who = "camera " + std::to_string(cam.index) + ": ";
     if (cam.residuals.rms_px <= kVerdictResidualRmsPx) {
-      lines.push_back(who + "residuals fine (RMS " + FormatNumber(cam.residuals.rms_px, 3) +
-                      " px per corner, limit " + FormatNumber(kVerdictResidualRmsPx, 1) + " px)");
+      lines.push_back(who + "residuals fine (RMS " + util::FixedCell(cam.residuals.rms_px, 3) +
+                      " px per corner, limit " + util::FixedCell(kVerdictResidualRmsPx, 1) + " px)");
     } else {
-      lines.push_back(who + "RESIDUALS HIGH (RMS " + FormatNumber(cam.residuals.rms_px, 3) +
-                      " px per corner, limit " + FormatNumber(kVerdictResidualRmsPx, 1) +
+      lines.push_back(who + "RESIDUALS HIGH (RMS " + util::FixedCell(cam.residuals.rms_px, 3) +
+                      " px per corner, limit " + util::FixedCell(kVerdictResidualRmsPx, 1) +
                       " px): check focus, the board's flatness, the detections, or try a richer "
                       "lens model");
     }
     if (cam.coverage.band_share < 1.0) {
       lines.push_back(who + "the boards left " +
-                      FormatNumber(100.0 * (1.0 - cam.coverage.band_share), 0) +
+                      util::FixedCell(100.0 * (1.0 - cam.coverage.band_share), 0) +
                       " % of the HDA band's cells without a corner: add views there");
     }
     if (!cam.slope.rms_deg) {
@@ -723,15 +712,15 @@ std::vector<std::string> CalibrationVerdict(const CalibrateResult& result) {
                       (cam.slope.error.empty() ? "every re-solve failed" : cam.slope.error) + ")");
     } else if (*cam.slope.p90_deg <= kVerdictSlopeNotLimitDeg) {
       lines.push_back(who + "at the HDA geometry the calibration alone gives " +
-                      FormatNumber(*cam.slope.p90_deg, 3) +
+                      util::FixedCell(*cam.slope.p90_deg, 3) +
                       " deg of slope error (p90): not the limit; the navigation and matching are");
     } else if (*cam.slope.p90_deg <= kVerdictSlopeLimitDeg) {
       lines.push_back(who + "at the HDA geometry the calibration alone gives " +
-                      FormatNumber(*cam.slope.p90_deg, 3) +
+                      util::FixedCell(*cam.slope.p90_deg, 3) +
                       " deg of slope error (p90): noticeable against the 1 deg slope bar");
     } else {
       lines.push_back(who + "CALIBRATION LIMITS THE HDA SLOPE: " +
-                      FormatNumber(*cam.slope.p90_deg, 3) +
+                      util::FixedCell(*cam.slope.p90_deg, 3) +
                       " deg of slope error (p90) at the HDA geometry from the calibration alone");
     }
   }

@@ -92,11 +92,6 @@ void RemoveScriptTemporaries(const fs::path& target, bool whole_folder) {
   }
 }
 
-std::string JoinErrors(const std::vector<std::string>& errors) {
-  std::string text;
-  for (size_t i = 0; i < errors.size(); ++i) text += (i > 0 ? "; " : "") + errors[i];
-  return text;
-}
 
 void RequireModelFile(const std::string& path) {
   std::error_code ec;
@@ -532,7 +527,7 @@ std::vector<std::string> DiffOptions::Validate() const {
 CalibrationAnalysis AnalyseCalibration(const std::vector<std::string>& models,
                                        const std::string& out_dir, const AnalysisOptions& options) {
   const std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) throw InputError("calibration analysis options: " + JoinErrors(errors));
+  ThrowIfInvalid("calibration analysis options: ", errors);
   if (models.empty()) throw InputError("calibration analysis: no camera model given");
   if (out_dir.empty()) throw InputError("calibration analysis: the output folder is empty");
   for (const std::string& model : models) RequireModelFile(model);
@@ -594,7 +589,7 @@ ProjectionDiff DiffCalibrations(const std::string& a, const std::string& b,
                                 const std::string& out_json, const std::string& heatmap_png,
                                 const DiffOptions& options) {
   const std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) throw InputError("calibration diff options: " + JoinErrors(errors));
+  ThrowIfInvalid("calibration diff options: ", errors);
   RequireModelFile(a);
   RequireModelFile(b);
   if (out_json.empty()) throw InputError("calibration diff: the JSON output path is empty");

@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/text.h"
 
 namespace hdabench::datasets {
 
@@ -37,13 +38,6 @@ bool ParseFinite(const std::string& text, double* value) {
   char* end = nullptr;
   *value = std::strtod(begin, &end);
   return end != begin && *end == '\0' && std::isfinite(*value);
-}
-
-std::string Str(double value) {
-  std::ostringstream out;
-  out.precision(9);
-  out << value;
-  return out.str();
 }
 
 // The nearest rotation matrix (SVD projection).
@@ -264,8 +258,8 @@ double CentreDepth(const fs::path& dir, const PairFrames& pair, int i,
   const double depth = static_cast<double>(
       pair.depth[i].at<float>(static_cast<int>(centre.y()), static_cast<int>(centre.x())));
   if (!ValidDepth(depth)) {
-    throw InputError((dir / (pair.source[i].stem + ".exr")).string() + ": depth " + Str(depth) +
-                     " at the centre pixel (" + Str(centre.x()) + ", " + Str(centre.y()) +
+    throw InputError((dir / (pair.source[i].stem + ".exr")).string() + ": depth " + util::ShortestText(depth) +
+                     " at the centre pixel (" + util::ShortestText(centre.x()) + ", " + util::ShortestText(centre.y()) +
                      "); expected a finite depth > 0 (the ILS and LRF spot)");
   }
   return depth;
@@ -284,7 +278,7 @@ void DescribeDataset(const std::string& folder, int sun, const PairFrames& pair,
       "ground point of frame 0's centre pixel (up radial from the Moon's centre). Body = camera; "
       "navigation = truth. Truth points from half-precision depth (steps of about 16 m at 30 km): "
       "truth for slopes over hundreds of metres, not for metre-scale roughness. Pixel footprint "
-      "about " + Str(std::round(centre_depth_m / fx)) + " m: use a site size of several hundred "
+      "about " + util::ShortestText(std::round(centre_depth_m / fx)) + " m: use a site size of several hundred "
       "metres (docs/stereolunar.md).";
 }
 
@@ -389,16 +383,16 @@ std::vector<StereoLunarCamera> ReadStereoLunarCameras(const std::string& path) {
     }
     const Eigen::Matrix4d& m = camera.cam2world;
     if (m(3, 0) != 0.0 || m(3, 1) != 0.0 || m(3, 2) != 0.0 || m(3, 3) != 1.0) {
-      throw InputError(where + ": cam2world of " + camera.key + " has last row (" + Str(m(3, 0)) +
-                       " " + Str(m(3, 1)) + " " + Str(m(3, 2)) + " " + Str(m(3, 3)) +
+      throw InputError(where + ": cam2world of " + camera.key + " has last row (" + util::ShortestText(m(3, 0)) +
+                       " " + util::ShortestText(m(3, 1)) + " " + util::ShortestText(m(3, 2)) + " " + util::ShortestText(m(3, 3)) +
                        "); expected (0 0 0 1)");
     }
     const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
     const double error = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
     if (!(error <= kOrthonormalTolerance) || !(r.determinant() > 0.0)) {
       throw InputError(where + ": cam2world rotation of " + camera.key +
-                       " is not a rotation (|R^T R - I| = " + Str(error) + ", det " +
-                       Str(r.determinant()) + "); expected orthonormal within 1e-4, det +1");
+                       " is not a rotation (|R^T R - I| = " + util::ShortestText(error) + ", det " +
+                       util::ShortestText(r.determinant()) + "); expected orthonormal within 1e-4, det +1");
     }
     const auto inserted = seen.emplace(camera.key, line_number);
     if (!inserted.second) {
@@ -416,8 +410,8 @@ Rigid3d LocalLevelFromMoon(const Eigen::Vector3d& ground_in_moon_m) {
   const Eigen::Vector3d up = ground_in_moon_m.normalized();
   const Eigen::Vector3d east_unnormalised = Eigen::Vector3d::UnitZ().cross(ground_in_moon_m);
   if (!(east_unnormalised.norm() >= 1.0)) {
-    throw InputError("ground point (" + Str(ground_in_moon_m.x()) + ", " +
-                     Str(ground_in_moon_m.y()) + ", " + Str(ground_in_moon_m.z()) +
+    throw InputError("ground point (" + util::ShortestText(ground_in_moon_m.x()) + ", " +
+                     util::ShortestText(ground_in_moon_m.y()) + ", " + util::ShortestText(ground_in_moon_m.z()) +
                      ") m is within 1 m of the Moon's spin axis: east is undefined there");
   }
   const Eigen::Vector3d east = east_unnormalised.normalized();

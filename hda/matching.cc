@@ -45,13 +45,7 @@ constexpr double kWarpEpsilonPx = 1e-2;
 constexpr double kFocalStep = 1e-4;
 
 void ThrowIfInvalid(const std::vector<std::string>& errors) {
-  if (errors.empty()) return;
-  std::string message = "MatchRoiPair: invalid MatchingOptions: ";
-  for (size_t i = 0; i < errors.size(); ++i) {
-    if (i > 0) message += "; ";
-    message += errors[i];
-  }
-  throw InputError(message);
+  hdabench::ThrowIfInvalid("MatchRoiPair: invalid MatchingOptions: ", errors);
 }
 
 void CheckImage(const cv::Mat& image, const char* name, const calib::CameraModel& camera) {

@@ -13,6 +13,7 @@
 
 #include "tools/util/error.h"
 #include "tools/util/angles.h"
+#include "tools/util/text.h"
 
 namespace hdabench::hda {
 
@@ -23,13 +24,6 @@ using util::kDegToRad;
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // Step of the central differences of GroundMotionJacobian, pixels.
 constexpr double kMotionStepPx = 4.0;
-
-std::string Format(double value, int precision = 3) {
-  std::ostringstream s;
-  s.precision(precision);
-  s << std::fixed << value;
-  return s.str();
-}
 
 bool IsFinite(const Rigid3d& pose) {
   return pose.rotation.coeffs().allFinite() && pose.translation.allFinite() &&
@@ -119,7 +113,7 @@ void CheckInput(const HdaInput& input, const calib::CameraModel& camera, const H
     throw InputError("RunHda: cam2_from_cam1 is not finite (or has a zero quaternion)");
   }
   if (!std::isfinite(input.lrf_range_m) || !(input.lrf_range_m > 0.0)) {
-    throw InputError("RunHda: LRF range = " + Format(input.lrf_range_m) + " m: expected finite and > 0");
+    throw InputError("RunHda: LRF range = " + util::FixedText(input.lrf_range_m, 3) + " m: expected finite and > 0");
   }
   if (!input.gravity_in_local_mps2.allFinite() || !(input.gravity_in_local_mps2.norm() > 0.0)) {
     throw InputError("RunHda: gravity is not finite and non-zero");
@@ -132,7 +126,7 @@ void CheckInput(const HdaInput& input, const calib::CameraModel& camera, const H
   const Eigen::Vector3d spot =
       input.lrf_origin_in_cam1_m + input.lrf_range_m * input.lrf_beam_in_cam1.normalized();
   if (!(spot.z() > 0.0)) {
-    throw InputError("RunHda: the LRF spot is not in front of camera 1 (z = " + Format(spot.z()) +
+    throw InputError("RunHda: the LRF spot is not in front of camera 1 (z = " + util::FixedText(spot.z(), 3) +
                      " m)");
   }
 }
@@ -348,16 +342,16 @@ void Classify(const HdaOptions& options, size_t n, RoiResult* roi) {
   if (!std::isfinite(roi->slope_sigma_deg) || roi->slope_sigma_deg > options.max_slope_sigma_deg) {
     roi->status = RoiStatus::kDegenerate;
     roi->reason = "predicted slope sigma " +
-                  (std::isfinite(roi->slope_sigma_deg) ? Format(roi->slope_sigma_deg, 2) + " deg"
+                  (std::isfinite(roi->slope_sigma_deg) ? util::FixedText(roi->slope_sigma_deg, 2) + " deg"
                                                        : std::string("unbounded")) +
-                  " over " + Format(options.max_slope_sigma_deg, 2) + " deg (median parallax " +
-                  Format(roi->median_parallax_deg, 3) + " deg): slope not observable";
+                  " over " + util::FixedText(options.max_slope_sigma_deg, 2) + " deg (median parallax " +
+                  util::FixedText(roi->median_parallax_deg, 3) + " deg): slope not observable";
     return;
   }
   if (roi->slope_deg > options.max_slope_deg) {
     roi->status = RoiStatus::kUnsafeSlope;
-    roi->reason = "slope " + Format(roi->slope_deg, 2) + " deg over " +
-                  Format(options.max_slope_deg, 2) + " deg";
+    roi->reason = "slope " + util::FixedText(roi->slope_deg, 2) + " deg over " +
+                  util::FixedText(options.max_slope_deg, 2) + " deg";
     return;
   }
   // Relief: only what stands out of the noise with confidence. With N points
@@ -368,14 +362,14 @@ void Classify(const HdaOptions& options, size_t n, RoiResult* roi) {
                                             chi_bound * roi->noise_rms_m * roi->noise_rms_m;
   if (relief_lower_bound_squared > options.max_roughness_rms_m * options.max_roughness_rms_m) {
     roi->status = RoiStatus::kUnsafeRoughness;
-    roi->reason = "relief " + Format(roi->roughness_excess_m, 3) + " m RMS beyond noise (at least " +
-                  Format(std::sqrt(relief_lower_bound_squared), 3) + " m with 97.7 % confidence) over " +
-                  Format(options.max_roughness_rms_m, 3) + " m";
+    roi->reason = "relief " + util::FixedText(roi->roughness_excess_m, 3) + " m RMS beyond noise (at least " +
+                  util::FixedText(std::sqrt(relief_lower_bound_squared), 3) + " m with 97.7 % confidence) over " +
+                  util::FixedText(options.max_roughness_rms_m, 3) + " m";
     return;
   }
   roi->status = RoiStatus::kEvaluated;
-  roi->reason = "safe: slope " + Format(roi->slope_deg, 2) + " +- " + Format(roi->slope_sigma_deg, 2) +
-                " deg, relief " + Format(roi->roughness_excess_m, 3) + " m RMS";
+  roi->reason = "safe: slope " + util::FixedText(roi->slope_deg, 2) + " +- " + util::FixedText(roi->slope_sigma_deg, 2) +
+                " deg, relief " + util::FixedText(roi->roughness_excess_m, 3) + " m RMS";
 }
 
 // Plane fit, uncertainty and status of one ROI from its triangulated points
@@ -464,7 +458,7 @@ std::string HdaResult::Summary() const {
   std::ostringstream s;
   s << "hda: " << rois.size() << " ROIs";
   for (int i = 0; i < kNumStatuses; ++i) s << ", " << counts[i] << " " << ToString(static_cast<RoiStatus>(i));
-  s << "; budget " << Format(budget_s, 2) << " s" << (budget_exhausted ? " (exhausted)" : "");
+  s << "; budget " << util::FixedText(budget_s, 2) << " s" << (budget_exhausted ? " (exhausted)" : "");
   if (!note.empty()) s << "; " << note;
   return s.str();
 }
@@ -658,7 +652,7 @@ void EvaluateRois(const Context& ctx, const RoiPlacement& placement, const Clock
     if (result->budget_exhausted || roi_start - start + mean_cost > result->budget_s) {
       result->budget_exhausted = true;
       roi.status = RoiStatus::kNotEvaluated;
-      roi.reason = "time budget of " + Format(result->budget_s, 3) + " s used up before this ROI";
+      roi.reason = "time budget of " + util::FixedText(result->budget_s, 3) + " s used up before this ROI";
       continue;
     }
     timer->Restart(roi_start);

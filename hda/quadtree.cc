@@ -15,13 +15,7 @@ namespace hdabench::hda {
 namespace {
 
 void ThrowIfInvalid(const char* function, const std::vector<std::string>& errors) {
-  if (errors.empty()) return;
-  std::string message = std::string(function) + ": invalid QuadtreeOptions: ";
-  for (size_t i = 0; i < errors.size(); ++i) {
-    if (i > 0) message += "; ";
-    message += errors[i];
-  }
-  throw InputError(message);
+  hdabench::ThrowIfInvalid(std::string(function) + ": invalid QuadtreeOptions: ", errors);
 }
 
 }  // namespace

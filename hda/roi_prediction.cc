@@ -68,12 +68,7 @@ const char* PredictionStatusName(PredictionStatus status) {
 
 PredictedRoi PredictRoi(const Roi& roi, const calib::CameraModel& camera, const Rigid3d& cam2_from_cam1,
                         double ground_distance_m, const PredictionOptions& options) {
-  const std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) {
-    std::string message = "PredictRoi: invalid PredictionOptions: ";
-    for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
-    throw InputError(message);
-  }
+  ThrowIfInvalid("PredictRoi: invalid PredictionOptions: ", options.Validate());
   if (!(std::isfinite(ground_distance_m) && ground_distance_m > 0)) {
     std::ostringstream message;
     message << "PredictRoi: ground_distance_m = " << ground_distance_m

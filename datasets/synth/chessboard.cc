@@ -254,11 +254,6 @@ class BearingSolver {
   std::vector<Eigen::Matrix<double, 3, 2>> derivatives_;  // d(bearing)/d(pixel) per knot
 };
 
-std::string JoinErrors(const std::string& prefix, const std::vector<std::string>& errors) {
-  std::string message = prefix;
-  for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
-  return message;
-}
 
 // The randomly drawn part of a pose.
 struct PoseDraw {
@@ -495,7 +490,7 @@ namespace {
 void ThrowIfInvalid(const ChessboardBoard& board, const ChessboardViewsOptions& options) {
   std::vector<std::string> errors = board.Validate();
   for (const std::string& error : options.Validate()) errors.push_back(error);
-  if (!errors.empty()) throw InputError(JoinErrors("RenderChessboardViews: invalid board or options: ", errors));
+  hdabench::ThrowIfInvalid("RenderChessboardViews: invalid board or options: ", errors);
 }
 
 // One view's placement: the board pose and the pixels of its inner corners.

@@ -12,6 +12,8 @@
 #include "datasets/synth/noise.h"
 #include "tools/util/angles.h"
 #include "tools/util/parallel_for.h"
+#include "tools/util/text.h"
+#include "tools/util/options_check.h"
 
 namespace hdabench::datasets::synth {
 
@@ -20,12 +22,6 @@ namespace {
 using util::kPi;
 using util::kDegToRad;
 
-
-std::string Number(double value) {
-  std::ostringstream out;
-  out << value;
-  return out.str();
-}
 
 // A pair of independent standard normal deviates from two uniforms (Box-Muller).
 void GaussianPair(std::uint64_t seed, std::uint64_t index, double* n1, double* n2) {
@@ -60,44 +56,44 @@ double LunarLambertReflectance(double albedo, double cos_incidence, double cos_e
 std::vector<std::string> RenderOptions::Validate() const {
   std::vector<std::string> errors;
   if (!std::isfinite(sun_azimuth_deg)) {
-    errors.push_back("sun_azimuth_deg: " + Number(sun_azimuth_deg) + " is not finite");
+    errors.push_back("sun_azimuth_deg: " + util::ShortestText(sun_azimuth_deg) + " is not finite");
   }
   if (!std::isfinite(sun_elevation_deg)) {
-    errors.push_back("sun_elevation_deg: " + Number(sun_elevation_deg) +
+    errors.push_back("sun_elevation_deg: " + util::ShortestText(sun_elevation_deg) +
                      " is not finite; expected in (0, 90]");
   } else if (sun_elevation_deg <= 0.0) {
-    errors.push_back("sun_elevation_deg: " + Number(sun_elevation_deg) +
+    errors.push_back("sun_elevation_deg: " + util::ShortestText(sun_elevation_deg) +
                      " puts the sun at or below the horizon; expected in (0, 90]");
   } else if (sun_elevation_deg > 90.0) {
-    errors.push_back("sun_elevation_deg: " + Number(sun_elevation_deg) + " is past the zenith; expected in (0, 90]");
+    errors.push_back("sun_elevation_deg: " + util::ShortestText(sun_elevation_deg) + " is past the zenith; expected in (0, 90]");
   }
   if (samples_per_pixel_axis < 1 || samples_per_pixel_axis > 16) {
     errors.push_back("samples_per_pixel_axis: " + std::to_string(samples_per_pixel_axis) +
                      "; expected 1 to 16");
   }
   if (!std::isfinite(dn_per_reflectance)) {
-    errors.push_back("dn_per_reflectance: " + Number(dn_per_reflectance) +
+    errors.push_back("dn_per_reflectance: " + util::ShortestText(dn_per_reflectance) +
                      " is not finite; expected > 0 (fixed exposure) or <= 0 (auto-exposure)");
   }
   if (!(std::isfinite(target_mean_dn) && target_mean_dn > 0.0)) {
-    errors.push_back("target_mean_dn: " + Number(target_mean_dn) + "; expected a finite value > 0");
+    errors.push_back("target_mean_dn: " + util::ShortestText(target_mean_dn) + "; expected a finite value > 0");
   }
   if (!(std::isfinite(gain_electrons_per_dn) && gain_electrons_per_dn > 0.0)) {
-    errors.push_back("gain_electrons_per_dn: " + Number(gain_electrons_per_dn) +
+    errors.push_back("gain_electrons_per_dn: " + util::ShortestText(gain_electrons_per_dn) +
                      "; expected a finite value > 0");
   }
   if (!(std::isfinite(full_well_electrons) && full_well_electrons > 0.0)) {
-    errors.push_back("full_well_electrons: " + Number(full_well_electrons) +
+    errors.push_back("full_well_electrons: " + util::ShortestText(full_well_electrons) +
                      "; expected a finite value > 0");
   }
   if (!(std::isfinite(read_noise_dn) && read_noise_dn >= 0.0)) {
-    errors.push_back("read_noise_dn: " + Number(read_noise_dn) + "; expected a finite value >= 0");
+    errors.push_back("read_noise_dn: " + util::ShortestText(read_noise_dn) + "; expected a finite value >= 0");
   }
   if (bit_depth != 8 && bit_depth != 16) {
     errors.push_back("bit_depth: " + std::to_string(bit_depth) + "; expected 8 or 16");
   }
   if (!(std::isfinite(ambient_reflectance) && ambient_reflectance >= 0.0)) {
-    errors.push_back("ambient_reflectance: " + Number(ambient_reflectance) +
+    errors.push_back("ambient_reflectance: " + util::ShortestText(ambient_reflectance) +
                      "; expected a finite value >= 0");
   }
   if (threads < 1) {
@@ -109,11 +105,7 @@ std::vector<std::string> RenderOptions::Validate() const {
 namespace {
 
 void ThrowIfInvalid(const RenderOptions& options) {
-  const std::vector<std::string> errors = options.Validate();
-  if (errors.empty()) return;
-  std::string message = "invalid render options: ";
-  for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
-  throw InputError(message);
+  hdabench::ThrowIfInvalid("invalid render options: ", options.Validate());
 }
 
 }  // namespace
@@ -129,8 +121,8 @@ double ExposureFor(const RenderOptions& options, double mean_albedo,
   const double reflectance = LunarLambertReflectance(mean_albedo, cos_incidence, cos_emission, phase_rad) +
                              options.ambient_reflectance * mean_albedo;
   if (!(reflectance > 0.0) || !std::isfinite(reflectance)) {
-    throw InputError("auto-exposure: the reference patch (albedo " + Number(mean_albedo) +
-                     ", view direction z " + Number(cos_emission) +
+    throw InputError("auto-exposure: the reference patch (albedo " + util::ShortestText(mean_albedo) +
+                     ", view direction z " + util::ShortestText(cos_emission) +
                      ") reflects no light; expected albedo > 0 and a camera above the horizon");
   }
   return options.target_mean_dn / reflectance;

@@ -372,12 +372,7 @@ namespace {
 
 // Throws InputError listing every problem of the options, one per line.
 void ThrowIfInvalid(const SynthOptions& options) {
-  std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) {
-    std::string message = "invalid synthetic dataset options:";
-    for (const std::string& e : errors) message += "\n  " + e;
-    throw InputError(message);
-  }
+  hdabench::ThrowIfInvalid("invalid synthetic dataset options:\n  ", options.Validate(), "\n  ");
 }
 
 // Passes a stage's progress on when the caller asked for it.

@@ -12,6 +12,8 @@
 #include "datasets/synth/noise.h"
 #include "tools/util/angles.h"
 #include "tools/util/parallel_for.h"
+#include "tools/util/text.h"
+#include "tools/util/options_check.h"
 
 namespace hdabench::datasets::synth {
 
@@ -37,13 +39,6 @@ constexpr int kFitMinCount = 10;
 
 std::uint64_t Stream(std::uint64_t seed, std::uint64_t stream) { return Mix64(seed ^ stream); }
 
-std::string Num(double value) {
-  std::ostringstream out;
-  out.precision(10);
-  out << value;
-  return out.str();
-}
-
 // ---- Validation helpers: each appends "<field> = <value>: expected <what>".
 class Checker {
  public:
@@ -63,21 +58,21 @@ class Checker {
   }
   bool InClosed(const std::string& name, double value, double lo, double hi) {
     return Check(std::isfinite(value) && value >= lo && value <= hi, name, value,
-                 "a finite value in [" + Num(lo) + ", " + Num(hi) + "]");
+                 "a finite value in [" + util::ShortestText(lo) + ", " + util::ShortestText(hi) + "]");
   }
   bool InHalfOpen(const std::string& name, double value, double lo, double hi) {
     return Check(std::isfinite(value) && value > lo && value <= hi, name, value,
-                 "a finite value in (" + Num(lo) + ", " + Num(hi) + "]");
+                 "a finite value in (" + util::ShortestText(lo) + ", " + util::ShortestText(hi) + "]");
   }
   // "a = 5 and b = 2: expected a < b".
   bool Less(const std::string& name_a, double a, const std::string& name_b, double b) {
     if (a < b) return true;
-    errors_->push_back(name_a + " = " + Num(a) + " and " + name_b + " = " + Num(b) +
+    errors_->push_back(name_a + " = " + util::ShortestText(a) + " and " + name_b + " = " + util::ShortestText(b) +
                        ": expected " + name_a + " < " + name_b);
     return false;
   }
   bool Check(bool ok, const std::string& name, double value, const std::string& expected) {
-    if (!ok) errors_->push_back(name + " = " + Num(value) + ": expected " + expected);
+    if (!ok) errors_->push_back(name + " = " + util::ShortestText(value) + ": expected " + expected);
     return ok;
   }
   void Fail(const std::string& message) { errors_->push_back(message); }
@@ -216,8 +211,8 @@ ExtentChecks ValidateExtent(const TerrainOptions& o, Checker& check) {
     const double nx = NodesToCover(o.max_x_m - o.min_x_m, o.spacing_m);
     const double ny = NodesToCover(o.max_y_m - o.min_y_m, o.spacing_m);
     if (nx * ny > static_cast<double>(o.max_nodes) || nx > INT_MAX || ny > INT_MAX) {
-      check.Fail("grid of " + Num(nx) + " x " + Num(ny) + " nodes (spacing_m = " +
-                 Num(o.spacing_m) + "): expected at most max_nodes = " +
+      check.Fail("grid of " + util::ShortestText(nx) + " x " + util::ShortestText(ny) + " nodes (spacing_m = " +
+                 util::ShortestText(o.spacing_m) + "): expected at most max_nodes = " +
                  std::to_string(o.max_nodes) + " nodes; enlarge spacing_m or shrink the extent");
     }
   }
@@ -230,7 +225,7 @@ void ValidateRelief(const TerrainOptions& o, bool spacing_ok, Checker& check) {
       check.Finite("relief_largest_wavelength_m", o.relief_largest_wavelength_m)) {
     check.Check(o.relief_largest_wavelength_m >= 2.0 * o.spacing_m, "relief_largest_wavelength_m",
                 o.relief_largest_wavelength_m,
-                ">= 2 * spacing_m = " + Num(2.0 * o.spacing_m) + " (the finest relief wavelength)");
+                ">= 2 * spacing_m = " + util::ShortestText(2.0 * o.spacing_m) + " (the finest relief wavelength)");
   }
   check.InClosed("relief_hurst", o.relief_hurst, 0.0, 1.0);
   check.InClosed("regional_slope_deg", o.regional_slope_deg, 0.0, 80.0);
@@ -250,9 +245,9 @@ void ValidateCraterLaw(const TerrainOptions& o, bool extent_ok, Checker& check) 
       check.NonNegative("crater_depth_to_diameter_spread", o.crater_depth_to_diameter_spread)) {
     if (o.crater_depth_to_diameter_spread >= o.crater_depth_to_diameter ||
         o.crater_depth_to_diameter + o.crater_depth_to_diameter_spread > 0.5) {
-      check.Fail("crater_depth_to_diameter = " + Num(o.crater_depth_to_diameter) +
+      check.Fail("crater_depth_to_diameter = " + util::ShortestText(o.crater_depth_to_diameter) +
                  " and crater_depth_to_diameter_spread = " +
-                 Num(o.crater_depth_to_diameter_spread) +
+                 util::ShortestText(o.crater_depth_to_diameter_spread) +
                  ": expected the drawn range [value - spread, value + spread] inside (0, 0.5]");
     }
   }
@@ -266,10 +261,10 @@ void ValidateCraterLaw(const TerrainOptions& o, bool extent_ok, Checker& check) 
     const double expected = ExpectedCount(o.crater_k, o.crater_exponent, o.crater_d_min_m,
                                           o.crater_d_max_m, CraterAreaM2(o));
     if (std::ceil(expected) > static_cast<double>(o.max_craters)) {
-      check.Fail("crater law gives " + Num(expected) + " craters over " +
-                 Num(CraterAreaM2(o)) + " m^2 (crater_k = " + Num(o.crater_k) +
-                 ", crater_exponent = " + Num(o.crater_exponent) + ", crater_d_min_m = " +
-                 Num(o.crater_d_min_m) + ", crater_d_max_m = " + Num(o.crater_d_max_m) +
+      check.Fail("crater law gives " + util::ShortestText(expected) + " craters over " +
+                 util::ShortestText(CraterAreaM2(o)) + " m^2 (crater_k = " + util::ShortestText(o.crater_k) +
+                 ", crater_exponent = " + util::ShortestText(o.crater_exponent) + ", crater_d_min_m = " +
+                 util::ShortestText(o.crater_d_min_m) + ", crater_d_max_m = " + util::ShortestText(o.crater_d_max_m) +
                  "): expected at most max_craters = " + std::to_string(o.max_craters) +
                  "; raise crater_d_min_m or max_craters, or lower crater_k");
     }
@@ -300,16 +295,16 @@ void ValidateRockLaw(const TerrainOptions& o, bool extent_ok, Checker& check) {
   if (check.InHalfOpen("rock_protrusion_min", o.rock_protrusion_min, 0.0, 1.0) &
       check.InHalfOpen("rock_protrusion_max", o.rock_protrusion_max, 0.0, 1.0)) {
     if (o.rock_protrusion_min > o.rock_protrusion_max) {
-      check.Fail("rock_protrusion_min = " + Num(o.rock_protrusion_min) +
-                 " and rock_protrusion_max = " + Num(o.rock_protrusion_max) +
+      check.Fail("rock_protrusion_min = " + util::ShortestText(o.rock_protrusion_min) +
+                 " and rock_protrusion_max = " + util::ShortestText(o.rock_protrusion_max) +
                  ": expected rock_protrusion_min <= rock_protrusion_max");
     }
   }
   if (check.InHalfOpen("rock_albedo", o.rock_albedo, 0.0, 1.0) &
       check.NonNegative("rock_albedo_spread", o.rock_albedo_spread)) {
     if (o.rock_albedo - o.rock_albedo_spread <= 0.0 || o.rock_albedo + o.rock_albedo_spread > 1.0) {
-      check.Fail("rock_albedo = " + Num(o.rock_albedo) + " and rock_albedo_spread = " +
-                 Num(o.rock_albedo_spread) +
+      check.Fail("rock_albedo = " + util::ShortestText(o.rock_albedo) + " and rock_albedo_spread = " +
+                 util::ShortestText(o.rock_albedo_spread) +
                  ": expected the drawn range [albedo - spread, albedo + spread] inside (0, 1]");
     }
   }
@@ -319,10 +314,10 @@ void ValidateRockLaw(const TerrainOptions& o, bool extent_ok, Checker& check) {
     const double expected =
         ExpectedCount(o.rock_k, o.rock_exponent, o.rock_d_min_m, o.rock_d_max_m, ExtentAreaM2(o));
     if (std::ceil(expected) > static_cast<double>(o.max_rocks)) {
-      check.Fail("rock law gives " + Num(expected) + " rocks over " + Num(ExtentAreaM2(o)) +
-                 " m^2 (rock_k = " + Num(o.rock_k) + ", rock_exponent = " + Num(o.rock_exponent) +
-                 ", rock_d_min_m = " + Num(o.rock_d_min_m) + ", rock_d_max_m = " +
-                 Num(o.rock_d_max_m) + "): expected at most max_rocks = " +
+      check.Fail("rock law gives " + util::ShortestText(expected) + " rocks over " + util::ShortestText(ExtentAreaM2(o)) +
+                 " m^2 (rock_k = " + util::ShortestText(o.rock_k) + ", rock_exponent = " + util::ShortestText(o.rock_exponent) +
+                 ", rock_d_min_m = " + util::ShortestText(o.rock_d_min_m) + ", rock_d_max_m = " +
+                 util::ShortestText(o.rock_d_max_m) + "): expected at most max_rocks = " +
                  std::to_string(o.max_rocks) + "; raise rock_d_min_m or max_rocks, or lower rock_k");
     }
   }
@@ -339,9 +334,9 @@ void ValidateExtraRocks(const TerrainOptions& o, bool extent_ok, Checker& check)
     if (check.Finite(name + "center_in_local_m.x", x) &
         check.Finite(name + "center_in_local_m.y", y)) {
       if (extent_ok && (x < o.min_x_m || x > o.max_x_m || y < o.min_y_m || y > o.max_y_m)) {
-        check.Fail(name + "center_in_local_m = (" + Num(x) + ", " + Num(y) +
-                   "): expected inside the extent [" + Num(o.min_x_m) + ", " + Num(o.max_x_m) +
-                   "] x [" + Num(o.min_y_m) + ", " + Num(o.max_y_m) + "]");
+        check.Fail(name + "center_in_local_m = (" + util::ShortestText(x) + ", " + util::ShortestText(y) +
+                   "): expected inside the extent [" + util::ShortestText(o.min_x_m) + ", " + util::ShortestText(o.max_x_m) +
+                   "] x [" + util::ShortestText(o.min_y_m) + ", " + util::ShortestText(o.max_y_m) + "]");
       }
     }
     if (check.Positive(name + "radius_m", rock.radius_m)) {
@@ -361,8 +356,8 @@ void ValidateAlbedo(const TerrainOptions& o, Checker& check) {
   if (check.Positive("albedo_finest_wavelength_m", o.albedo_finest_wavelength_m) &
       check.Positive("albedo_coarsest_wavelength_m", o.albedo_coarsest_wavelength_m)) {
     if (o.albedo_finest_wavelength_m > o.albedo_coarsest_wavelength_m) {
-      check.Fail("albedo_finest_wavelength_m = " + Num(o.albedo_finest_wavelength_m) +
-                 " and albedo_coarsest_wavelength_m = " + Num(o.albedo_coarsest_wavelength_m) +
+      check.Fail("albedo_finest_wavelength_m = " + util::ShortestText(o.albedo_finest_wavelength_m) +
+                 " and albedo_coarsest_wavelength_m = " + util::ShortestText(o.albedo_coarsest_wavelength_m) +
                  ": expected albedo_finest_wavelength_m <= albedo_coarsest_wavelength_m");
     }
   }
@@ -372,11 +367,7 @@ void ValidateAlbedo(const TerrainOptions& o, Checker& check) {
 void ThrowIfInvalid(const TerrainOptions& options, int threads) {
   std::vector<std::string> errors = options.Validate();
   if (threads < 1) errors.push_back("threads = " + std::to_string(threads) + ": expected >= 1");
-  if (!errors.empty()) {
-    std::string message = "invalid terrain options: ";
-    for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
-    throw InputError(message);
-  }
+  hdabench::ThrowIfInvalid("invalid terrain options: ", errors);
 }
 
 // Sizes the DEM to cover the extent, all heights zero, and returns its grid.
@@ -650,15 +641,15 @@ double FitCumulativePowerLawExponent(const std::vector<double>& diameters_m, dou
                                      double d_max_m) {
   if (!(std::isfinite(d_min_m) && std::isfinite(d_max_m) && d_min_m > 0.0 &&
         d_min_m < d_max_m)) {
-    throw InputError("FitCumulativePowerLawExponent: d_min_m = " + Num(d_min_m) +
-                     " and d_max_m = " + Num(d_max_m) +
+    throw InputError("FitCumulativePowerLawExponent: d_min_m = " + util::ShortestText(d_min_m) +
+                     " and d_max_m = " + util::ShortestText(d_max_m) +
                      ": expected finite values with 0 < d_min_m < d_max_m");
   }
   std::vector<double> sorted = diameters_m;
   for (size_t i = 0; i < sorted.size(); ++i) {
     if (!std::isfinite(sorted[i])) {
       throw InputError("FitCumulativePowerLawExponent: diameters_m[" + std::to_string(i) +
-                       "] = " + Num(sorted[i]) + ": expected a finite value");
+                       "] = " + util::ShortestText(sorted[i]) + ": expected a finite value");
     }
   }
   std::sort(sorted.begin(), sorted.end());
@@ -683,8 +674,8 @@ double FitCumulativePowerLawExponent(const std::vector<double>& diameters_m, dou
   }
   if (used < 2) {
     throw InputError("FitCumulativePowerLawExponent: " + std::to_string(used) + " of the " +
-                     std::to_string(kFitPoints) + " log-spaced diameters in [" + Num(d_min_m) +
-                     ", " + Num(d_max_m) + "] m have " + std::to_string(kFitMinCount) +
+                     std::to_string(kFitPoints) + " log-spaced diameters in [" + util::ShortestText(d_min_m) +
+                     ", " + util::ShortestText(d_max_m) + "] m have " + std::to_string(kFitMinCount) +
                      " or more of the " + std::to_string(diameters_m.size()) +
                      " diameters at or above them: expected at least 2");
   }

@@ -19,6 +19,8 @@
 
 #include "tools/util/error.h"
 #include "tools/util/angles.h"
+#include "tools/util/text.h"
+#include "tools/util/options_check.h"
 
 namespace hdabench::reference {
 
@@ -37,20 +39,6 @@ constexpr double kSymmetryTolerance = 1e-9;
 // and the relative step size.
 constexpr double kGradientTolerance = 1e-14;
 constexpr double kParameterTolerance = 1e-14;
-
-std::string Number(double value) {
-  std::ostringstream out;
-  out.precision(17);
-  out << value;
-  return out.str();
-}
-
-std::string Vector(const Eigen::Vector3d& v) {
-  std::ostringstream out;
-  out.precision(17);
-  out << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
-  return out.str();
-}
 
 bool IsFinite(double value) { return std::isfinite(value); }
 
@@ -137,7 +125,7 @@ std::string Whitening(const Eigen::Matrix<double, 6, 6>& covariance,
   const double largest = covariance.cwiseAbs().maxCoeff();
   const double asymmetry = (covariance - covariance.transpose()).cwiseAbs().maxCoeff();
   if (asymmetry > kSymmetryTolerance * largest) {
-    return "nav covariance is not symmetric (largest asymmetry " + Number(asymmetry) + ")";
+    return "nav covariance is not symmetric (largest asymmetry " + util::ShortestText(asymmetry) + ")";
   }
   const Eigen::LLT<Eigen::Matrix<double, 6, 6>> llt(covariance);
   if (llt.info() != Eigen::Success) return "nav covariance is not positive definite";
@@ -150,7 +138,7 @@ std::string Whitening(const Eigen::Matrix<double, 6, 6>& covariance,
 // The data checks, in order; an empty string when the input is usable.
 std::string CheckInput(const CeresRefineInput& input) {
   if (!IsFinite(input.focal_px) || input.focal_px <= 0.0) {
-    return "focal_px = " + Number(input.focal_px) + ": expected a finite value > 0";
+    return "focal_px = " + util::ShortestText(input.focal_px) + ": expected a finite value > 0";
   }
   const size_t n = input.points_in_cam1_m.size();
   if (input.bearings1_in_cam1.size() != n || input.bearings2_in_cam2.size() != n) {
@@ -162,13 +150,13 @@ std::string CheckInput(const CeresRefineInput& input) {
     const Eigen::Vector3d& b1 = input.bearings1_in_cam1[i];
     const Eigen::Vector3d& b2 = input.bearings2_in_cam2[i];
     if (!b1.allFinite() || b1.norm() <= 0.0) {
-      return "bearing1[" + std::to_string(i) + "] = " + Vector(b1) + ": expected finite, non-zero";
+      return "bearing1[" + std::to_string(i) + "] = " + util::VectorText(b1) + ": expected finite, non-zero";
     }
     if (!b2.allFinite() || b2.norm() <= 0.0) {
-      return "bearing2[" + std::to_string(i) + "] = " + Vector(b2) + ": expected finite, non-zero";
+      return "bearing2[" + std::to_string(i) + "] = " + util::VectorText(b2) + ": expected finite, non-zero";
     }
     if (!input.points_in_cam1_m[i].allFinite()) {
-      return "point[" + std::to_string(i) + "] = " + Vector(input.points_in_cam1_m[i]) +
+      return "point[" + std::to_string(i) + "] = " + util::VectorText(input.points_in_cam1_m[i]) +
              ": expected finite";
     }
   }
@@ -178,7 +166,7 @@ std::string CheckInput(const CeresRefineInput& input) {
   }
   const double norm = nav.rotation.norm();
   if (std::abs(norm - 1.0) > kUnitQuaternionTolerance) {
-    return "nav cam2_from_cam1 rotation has norm " + Number(norm) + ": expected a unit quaternion";
+    return "nav cam2_from_cam1 rotation has norm " + util::ShortestText(norm) + ": expected a unit quaternion";
   }
   return "";
 }
@@ -227,12 +215,7 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
 // Options errors are the caller's bug: they throw, unlike problems of the data.
 void ThrowIfInvalid(const CeresRefineOptions& options) {
-  const std::vector<std::string> errors = options.Validate();
-  if (errors.empty()) return;
-  std::string message = "invalid Ceres refinement options:";
-  for (const std::string& error : errors) message += " " + error + ";";
-  message.pop_back();
-  throw InputError(message);
+  hdabench::ThrowIfInvalid("invalid Ceres refinement options: ", options.Validate());
 }
 
 // The result for data that cannot be refined: the nav pose when it is usable,
@@ -427,8 +410,8 @@ CeresRefineResult FinishSolve(const ceres::Solver::Summary& summary, ceres::Prob
   if (!(final_cost.total <= result.initial_cost.total)) {
     result.final_cost = result.initial_cost;
     return Finish(run, run->initial, CeresRefineStatus::kCostIncreased,
-                  "cost increased from " + Number(result.initial_cost.total) + " to " +
-                      Number(final_cost.total) + " (initial state returned)");
+                  "cost increased from " + util::ShortestText(result.initial_cost.total) + " to " +
+                      util::ShortestText(final_cost.total) + " (initial state returned)");
   }
   result.final_cost = final_cost;
   if (summary.termination_type == ceres::NO_CONVERGENCE) {
@@ -436,7 +419,7 @@ CeresRefineResult FinishSolve(const ceres::Solver::Summary& summary, ceres::Prob
                   "not converged: Ceres stopped at the limit of " +
                       std::to_string(run->options.max_iterations) +
                       " iterations (refined state kept, cost " +
-                      Number(result.initial_cost.total) + " -> " + Number(final_cost.total) +
+                      util::ShortestText(result.initial_cost.total) + " -> " + util::ShortestText(final_cost.total) +
                       ")");
   }
   return Finish(run, run->state, CeresRefineStatus::kOk, "");
@@ -510,7 +493,7 @@ std::vector<std::string> CeresRefineOptions::Validate() const {
   std::vector<std::string> errors;
   auto positive = [&errors](const char* name, double value) {
     if (!std::isfinite(value) || value <= 0.0) {
-      errors.push_back(std::string(name) + " = " + Number(value) + ": expected a finite value > 0");
+      errors.push_back(std::string(name) + " = " + util::ShortestText(value) + ": expected a finite value > 0");
     }
   };
   positive("pixel_sigma_px", pixel_sigma_px);
@@ -528,7 +511,7 @@ std::vector<std::string> CeresRefineOptions::Validate() const {
     errors.push_back("max_iterations = " + std::to_string(max_iterations) + ": expected >= 1");
   }
   if (!std::isfinite(function_tolerance) || function_tolerance < 0.0 || function_tolerance >= 1.0) {
-    errors.push_back("function_tolerance = " + Number(function_tolerance) +
+    errors.push_back("function_tolerance = " + util::ShortestText(function_tolerance) +
                      ": expected a finite value in [0, 1)");
   }
   return errors;

@@ -629,12 +629,7 @@ bool ReadModel(const fs::path& dir, const std::string& step, const std::string& 
 // RunColmap's argument checks, so that a bad call throws before the workspace
 // is touched.
 void CheckRunColmapInput(const ColmapInput& input, const ColmapOptions& options) {
-  const std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) {
-    std::string message = "RunColmap: invalid ColmapOptions: ";
-    for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
-    throw InputError(message);
-  }
+  ThrowIfInvalid("RunColmap: invalid ColmapOptions: ", options.Validate());
   if (input.image_paths.size() < 2) {
     throw InputError("RunColmap: " + std::to_string(input.image_paths.size()) +
                      " image(s) given: expected at least 2 (image 1 and image 2)");

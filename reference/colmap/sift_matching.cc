@@ -127,14 +127,7 @@ std::vector<std::string> SiftMatchOptions::Validate() const {
 
 std::vector<SiftMatch> MatchSiftExact(const SiftDescriptors& image1, const SiftDescriptors& image2,
                                       const SiftMatchOptions& options) {
-  {
-    const std::vector<std::string> errors = options.Validate();
-    if (!errors.empty()) {
-      std::string message = "MatchSiftExact: invalid SiftMatchOptions: ";
-      for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
-      throw InputError(message);
-    }
-  }
+  ThrowIfInvalid("MatchSiftExact: invalid SiftMatchOptions: ", options.Validate());
   CheckDescriptors(image1, "image 1");
   CheckDescriptors(image2, "image 2");
   std::vector<SiftMatch> matches;

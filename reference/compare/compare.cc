@@ -11,6 +11,7 @@
 #include "hda/matching.h"
 #include "tools/util/text.h"
 #include "tools/util/angles.h"
+#include "tools/util/options_check.h"
 #include "tools/util/statistics.h"
 
 namespace hdabench::reference {
@@ -72,13 +73,13 @@ void FillFromPoints(const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   roi->points_in_local_m = points;
   const RoiFit fit = FitRoiPoints(points, centre1, centre2, dataset.gravity_in_local_mps2, min_points);
   roi->status = fit.status;
-  if (fit.status == "ok") {
+  if (fit.status == MethodRoiStatus::kOk) {
     roi->has_fit = true;
     roi->slope_deg = fit.slope_deg;
     roi->roughness_rms_m = fit.roughness_rms_m;
     roi->roughness_max_m = fit.roughness_max_m;
     roi->reason = std::to_string(points.size()) + " points";
-  } else if (fit.status == "too few points") {
+  } else if (fit.status == MethodRoiStatus::kTooFewPoints) {
     roi->reason = std::to_string(points.size()) + " points, fewer than " + std::to_string(min_points);
   } else {
     roi->reason = std::to_string(points.size()) + " points, collinear";
@@ -94,7 +95,8 @@ std::vector<MethodRoi> FlightRois(const FlightRun& flight, const Context& ctx) {
   for (size_t i = 0; i < rois.size(); ++i) {
     const hda::RoiResult& r = flight.result.rois[i];
     MethodRoi& roi = rois[i];
-    roi.status = hda::ToString(r.status);
+    roi.status = MethodRoiStatus::kFlight;
+    roi.flight_status = r.status;
     roi.reason = r.reason;
     roi.num_points = static_cast<int>(r.points_in_local_m.size());
     roi.points_in_local_m = r.points_in_local_m;
@@ -233,7 +235,7 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBear
   for (size_t i = 0; i < matches.size(); ++i) {
     MethodRoi& roi = rois[i];
     if (!matches[i].has_box) {
-      roi.status = "no search box";
+      roi.status = MethodRoiStatus::kNoSearchBox;
       roi.reason = "the ROI was not predicted in image 2";
       continue;
     }
@@ -250,13 +252,13 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBear
     }
     if (pose.configuration.type != ConfigurationType::kWellConditioned) {
       // No confident slope from a configuration that cannot give one.
-      roi.status = ToString(pose.configuration.type);
+      roi.status = StatusOfConfiguration(pose.configuration.type);
       roi.reason = pose.configuration.reason;
       roi.num_points = pose.configuration.num_matches;
       continue;
     }
     if (!pose.ok) {
-      roi.status = "pose failed";
+      roi.status = MethodRoiStatus::kPoseFailed;
       roi.reason = pose.message;
       continue;
     }
@@ -289,13 +291,15 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBear
 void WithholdIllConditioned(const ConfigurationReport& configuration, std::vector<MethodRoi>* rois) {
   for (MethodRoi& roi : *rois) {
     roi.configuration = ToString(configuration.type);
-    if (configuration.type == ConfigurationType::kWellConditioned || roi.status == "failed") continue;
+    if (configuration.type == ConfigurationType::kWellConditioned || roi.status == MethodRoiStatus::kFailed) {
+      continue;
+    }
     if (roi.has_fit) {
       roi.reason = "pair " + std::string(ToString(configuration.type)) + "; the fit would give " +
                    std::to_string(roi.slope_deg) + " deg from " + std::to_string(roi.num_points) +
                    " points";
     }
-    roi.status = ToString(configuration.type);
+    roi.status = StatusOfConfiguration(configuration.type);
     roi.has_fit = false;
   }
 }
@@ -437,6 +441,35 @@ std::vector<std::string> CompareOptions::Validate() const {
   return errors;
 }
 
+const char* ToString(MethodRoiStatus status) {
+  switch (status) {
+    case MethodRoiStatus::kOk: return "ok";
+    case MethodRoiStatus::kTooFewPoints: return "too few points";
+    case MethodRoiStatus::kDegenerate: return "degenerate";
+    case MethodRoiStatus::kFailed: return "failed";
+    case MethodRoiStatus::kNoSearchBox: return "no search box";
+    case MethodRoiStatus::kPlanar: return "planar";
+    case MethodRoiStatus::kLowParallax: return "low parallax";
+    case MethodRoiStatus::kPoseFailed: return "pose failed";
+    case MethodRoiStatus::kFlight: return "flight";
+  }
+  return "unknown";
+}
+
+MethodRoiStatus StatusOfConfiguration(ConfigurationType type) {
+  switch (type) {
+    case ConfigurationType::kWellConditioned: return MethodRoiStatus::kOk;
+    case ConfigurationType::kPlanar: return MethodRoiStatus::kPlanar;
+    case ConfigurationType::kLowParallax: return MethodRoiStatus::kLowParallax;
+    case ConfigurationType::kTooFewPoints: return MethodRoiStatus::kTooFewPoints;
+  }
+  return MethodRoiStatus::kTooFewPoints;
+}
+
+std::string MethodRoi::StatusName() const {
+  return status == MethodRoiStatus::kFlight ? hda::ToString(flight_status) : ToString(status);
+}
+
 RoiFit FitRoiPoints(const std::vector<Eigen::Vector3d>& points_in_local,
                     const Eigen::Vector3d& camera1_centre_in_local,
                     const Eigen::Vector3d& camera2_centre_in_local,
@@ -464,16 +497,16 @@ RoiFit FitRoiPoints(const std::vector<Eigen::Vector3d>& points_in_local,
           : hda::FitPlane(points_in_local, gravity_in_local, min_points);
   switch (plane.status) {
     case hda::PlaneFitStatus::kOk:
-      fit.status = "ok";
+      fit.status = MethodRoiStatus::kOk;
       fit.slope_deg = plane.slope_deg;
       fit.roughness_rms_m = plane.roughness_rms_m;
       fit.roughness_max_m = plane.roughness_max_m;
       break;
     case hda::PlaneFitStatus::kTooFewPoints:
-      fit.status = "too few points";
+      fit.status = MethodRoiStatus::kTooFewPoints;
       break;
     default:
-      fit.status = "degenerate";
+      fit.status = MethodRoiStatus::kDegenerate;
       break;
   }
   return fit;
@@ -539,7 +572,7 @@ std::vector<MethodRoi> RoisOfReconstruction(const PairReconstruction& recon,
   std::vector<MethodRoi> rois(flight.rois.size());
   if (!recon.ok) {
     for (MethodRoi& roi : rois) {
-      roi.status = "failed";
+      roi.status = MethodRoiStatus::kFailed;
       roi.reason = recon.failure;
     }
     return rois;
@@ -558,21 +591,11 @@ std::vector<MethodRoi> RoisOfReconstruction(const PairReconstruction& recon,
   return rois;
 }
 
-CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
-                      const CompareOptions& options, const std::string& colmap_workspace,
-                      const CompareProgress& progress) {
-  const std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) {
-    std::string text = "invalid comparison options:";
-    for (const std::string& e : errors) text += " " + e + ";";
-    text.pop_back();
-    throw InputError(text);
-  }
-  const auto say = [&](const std::string& message) {
-    if (progress) progress(message);
-  };
-  CompareRun run;
-  run.methods = options.methods;
+namespace {
+
+// The geometry every method shares: the flight inputs, the nav poses, the
+// true relative pose where there is truth, the focal length in pixels.
+Context MakeContext(const datasets::Dataset& dataset, int frame1, int frame2) {
   Context ctx;
   ctx.dataset = &dataset;
   ctx.input = MakeHdaInput(dataset, frame1, frame2);
@@ -588,6 +611,93 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
       dataset.camera,
       Eigen::Vector2d(0.5 * (dataset.camera.WidthPx() - 1), 0.5 * (dataset.camera.HeightPx() - 1)));
   if (!(ctx.focal_px > 0.0)) throw InputError("the camera cannot project around its image centre");
+  return ctx;
+}
+
+// colmap-nav and colmap-free (whichever are wanted) in one COLMAP run: the
+// pair first, then, with use_all_frames, every other frame of the window.
+ColmapResults RunColmapMethods(const datasets::Dataset& dataset, int frame1, int frame2,
+                               const CompareOptions& options, bool nav, bool free,
+                               const std::string& workspace) {
+  if (dataset.dir.empty()) {
+    throw InputError("colmap needs the dataset's image files: the dataset has no folder");
+  }
+  std::vector<int> frames = {frame1, frame2};
+  if (options.colmap.use_all_frames) {
+    for (int f = 0; f < static_cast<int>(dataset.frames.size()); ++f) {
+      if (f != frame1 && f != frame2) frames.push_back(f);
+    }
+  }
+  ColmapInput input;
+  for (const int f : frames) {
+    input.image_paths.push_back(dataset.dir + "/" + dataset.frames[static_cast<size_t>(f)].image_path);
+    input.local_from_cam.push_back(dataset.CamFromLocal(f).Inverse());
+  }
+  input.camera = dataset.camera;
+  input.workspace = workspace;
+  ColmapOptions colmap = options.colmap;
+  colmap.run_nav = nav;
+  colmap.run_free = free;
+  return RunColmap(input, colmap);
+}
+
+// The configuration of the whole pair, from every ROI's matches: a free
+// reconstruction of a near-planar pair (colmap-free) has an ill-conditioned
+// relative pose, and its ROIs say so instead of giving a confident slope.
+ConfigurationReport PairConfiguration(const std::vector<RoiBearings>& roi_matches,
+                                      const Context& ctx, const CompareOptions& options) {
+  if (roi_matches.empty()) return ConfigurationReport();
+  std::vector<Eigen::Vector3d> b1, b2;
+  for (const RoiBearings& m : roi_matches) {
+    b1.insert(b1.end(), m.bearings1.begin(), m.bearings1.end());
+    b2.insert(b2.end(), m.bearings2.begin(), m.bearings2.end());
+  }
+  return ClassifyConfiguration(b1, b2, ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv);
+}
+
+// The methods that reconstruct the whole pair at once (flight-refined,
+// colmap-nav, colmap-free), each with its name.
+struct WholePairMethods {
+  std::vector<std::pair<std::string, PairReconstruction>> reconstructions;
+  std::string refine_note;  // flight-refined's solver note
+};
+
+// A whole-pair method's ROIs and summary from its reconstruction.
+void FillWholePairMethod(const std::string& method, const PairReconstruction& recon,
+                         const WholePairMethods& whole, const CompareRun& run,
+                         const std::vector<RoiBearings>& roi_matches,
+                         const ConfigurationReport& pair_configuration,
+                         const CompareOptions& options, const Context& ctx,
+                         std::vector<MethodRoi>* rois, MethodSummary* summary) {
+  *rois = RoisOfReconstruction(recon, run.flight.result, *ctx.dataset, ctx.local_from_cam1,
+                               ctx.local_from_cam2, options.min_points);
+  summary->ok = recon.ok;
+  summary->failure = recon.failure;
+  summary->wall_s = recon.wall_s;
+  if (method == kMethodFlightRefined) summary->note = whole.refine_note;
+  if (!recon.log_dir.empty()) summary->note = "logs: " + recon.log_dir;
+  if (method == kMethodColmapFree && !roi_matches.empty()) {
+    summary->note += std::string(summary->note.empty() ? "" : "; ") + "pair configuration: " +
+                     pair_configuration.reason;
+    // With every frame of the window the views are no longer two:
+    // a plane's two-fold ambiguity is resolved, and the ROIs keep their fits.
+    if (!options.colmap.use_all_frames) WithholdIllConditioned(pair_configuration, rois);
+  }
+  PoseErrorAgainstTruth(recon, ctx, summary);
+}
+
+}  // namespace
+
+CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
+                      const CompareOptions& options, const std::string& colmap_workspace,
+                      const CompareProgress& progress) {
+  ThrowIfInvalid("invalid comparison options: ", options.Validate());
+  const auto say = [&](const std::string& message) {
+    if (progress) progress(message);
+  };
+  CompareRun run;
+  run.methods = options.methods;
+  const Context ctx = MakeContext(dataset, frame1, frame2);
 
   say("flight method on frames " + std::to_string(frame1) + "," + std::to_string(frame2));
   run.flight = RunFlight(dataset, frame1, frame2, options.hda);
@@ -597,38 +707,19 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
   const auto wants = [&](const std::string& m) {
     return std::find(run.methods.begin(), run.methods.end(), m) != run.methods.end();
   };
-  std::vector<std::pair<std::string, PairReconstruction>> whole_run;
-  std::string refine_note;
+  WholePairMethods whole;
   if (wants(kMethodFlightRefined)) {
     say("flight-refined: two-view bundle adjustment of the flight points");
-    whole_run.emplace_back(kMethodFlightRefined, FlightRefined(run.flight, options, ctx, &refine_note));
+    whole.reconstructions.emplace_back(kMethodFlightRefined,
+                                       FlightRefined(run.flight, options, ctx, &whole.refine_note));
   }
   if (wants(kMethodColmapNav) || wants(kMethodColmapFree)) {
     say("colmap: SIFT, matching, reconstruction in " + colmap_workspace);
-    ColmapInput input;
-    if (dataset.dir.empty()) {
-      throw InputError("colmap needs the dataset's image files: the dataset has no folder");
-    }
-    // The pair first; with use_all_frames every other frame after it.
-    std::vector<int> frames = {frame1, frame2};
-    if (options.colmap.use_all_frames) {
-      for (int f = 0; f < static_cast<int>(dataset.frames.size()); ++f) {
-        if (f != frame1 && f != frame2) frames.push_back(f);
-      }
-    }
-    for (const int f : frames) {
-      input.image_paths.push_back(dataset.dir + "/" + dataset.frames[static_cast<size_t>(f)].image_path);
-      input.local_from_cam.push_back(dataset.CamFromLocal(f).Inverse());
-    }
-    input.camera = dataset.camera;
-    input.workspace = colmap_workspace;
-    ColmapOptions colmap = options.colmap;
-    colmap.run_nav = wants(kMethodColmapNav);
-    colmap.run_free = wants(kMethodColmapFree);
-    ColmapResults results = RunColmap(input, colmap);
+    ColmapResults results = RunColmapMethods(dataset, frame1, frame2, options, wants(kMethodColmapNav),
+                                             wants(kMethodColmapFree), colmap_workspace);
     run.colmap_workspace = colmap_workspace;
-    if (colmap.run_nav) whole_run.emplace_back(kMethodColmapNav, std::move(results.nav));
-    if (colmap.run_free) whole_run.emplace_back(kMethodColmapFree, std::move(results.free));
+    if (wants(kMethodColmapNav)) whole.reconstructions.emplace_back(kMethodColmapNav, std::move(results.nav));
+    if (wants(kMethodColmapFree)) whole.reconstructions.emplace_back(kMethodColmapFree, std::move(results.free));
   }
   std::vector<RoiBearings> roi_matches;
   const bool any_opengv = std::any_of(run.methods.begin(), run.methods.end(), IsOpenGvMethod);
@@ -636,19 +727,7 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
     say("matching the ROIs without navigation (OpenGV, the pair's configuration)");
     roi_matches = MatchAllRois(run.flight, options, ctx);
   }
-  // The configuration of the whole pair, from every ROI's matches: a free
-  // reconstruction of a near-planar pair (colmap-free) has an ill-conditioned
-  // relative pose, and its ROIs say so instead of giving a confident slope.
-  ConfigurationReport pair_configuration;
-  if (!roi_matches.empty()) {
-    std::vector<Eigen::Vector3d> b1, b2;
-    for (const RoiBearings& m : roi_matches) {
-      b1.insert(b1.end(), m.bearings1.begin(), m.bearings1.end());
-      b2.insert(b2.end(), m.bearings2.begin(), m.bearings2.end());
-    }
-    pair_configuration =
-        ClassifyConfiguration(b1, b2, ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv);
-  }
+  const ConfigurationReport pair_configuration = PairConfiguration(roi_matches, ctx, options);
 
   run.rois.resize(run.methods.size());
   run.summaries.resize(run.methods.size());
@@ -665,23 +744,10 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
           ParseOpenGvSolver(method.substr(std::string(kOpenGvMethodPrefix).size()));
       run.rois[m] = OpenGvRois(solver, roi_matches, options, ctx, &summary);
     } else {
-      for (const auto& [name, recon] : whole_run) {
+      for (const auto& [name, recon] : whole.reconstructions) {
         if (name != method) continue;
-        run.rois[m] = RoisOfReconstruction(recon, run.flight.result, dataset, ctx.local_from_cam1,
-                                            ctx.local_from_cam2, options.min_points);
-        summary.ok = recon.ok;
-        summary.failure = recon.failure;
-        summary.wall_s = recon.wall_s;
-        if (method == kMethodFlightRefined) summary.note = refine_note;
-        if (!recon.log_dir.empty()) summary.note = "logs: " + recon.log_dir;
-        if (method == kMethodColmapFree && !roi_matches.empty()) {
-          summary.note += std::string(summary.note.empty() ? "" : "; ") + "pair configuration: " +
-                          pair_configuration.reason;
-          // With every frame of the window the views are no longer two:
-          // a plane's two-fold ambiguity is resolved, and the ROIs keep their fits.
-          if (!options.colmap.use_all_frames) WithholdIllConditioned(pair_configuration, &run.rois[m]);
-        }
-        PoseErrorAgainstTruth(recon, ctx, &summary);
+        FillWholePairMethod(method, recon, whole, run, roi_matches, pair_configuration, options, ctx,
+                            &run.rois[m], &summary);
       }
     }
   }

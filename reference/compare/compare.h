@@ -94,15 +94,32 @@ struct PointAccuracy {
   double within_1_m = 0.0;
 };
 
+// What became of one method on one ROI (compare.json "status", ToString).
+enum class MethodRoiStatus {
+  kOk,            // "ok": the ROI's points were fitted
+  kTooFewPoints,  // "too few points": fewer points (or usable matches) than the fit needs
+  kDegenerate,    // "degenerate": the points are collinear
+  kFailed,        // "failed": the method failed for the run
+  kNoSearchBox,   // "no search box": the ROI was not predicted in image 2
+  kPlanar,        // "planar": OpenGV for the ROI, colmap-free for the pair: the
+                  // configuration cannot give a confident free relative pose, so no slope
+  kLowParallax,   // "low parallax": likewise
+  kPoseFailed,    // "pose failed": OpenGV found no pose
+  kFlight,        // the flight method: its own status, MethodRoi::flight_status
+};
+const char* ToString(MethodRoiStatus status);  // the names above
+
+// The status of an ROI whose configuration is not well-conditioned: kPlanar,
+// kLowParallax or kTooFewPoints (kOk for a well-conditioned one).
+MethodRoiStatus StatusOfConfiguration(ConfigurationType type);
+
 // One method on one ROI.
 struct MethodRoi {
-  // "ok", "too few points", "degenerate" (collinear points), "failed" (the
-  // method failed for the run), "no search box" (the ROI was not predicted in
-  // image 2), "planar" / "low parallax" (OpenGV for the ROI, colmap-free for
-  // the whole pair: the configuration cannot give a confident free relative
-  // pose, so no slope is given), "pose failed" (OpenGV), or the
-  // flight's own status name for the flight method.
-  std::string status;
+  MethodRoiStatus status = MethodRoiStatus::kFailed;
+  hda::RoiStatus flight_status = hda::RoiStatus::kNotEvaluated;  // status == kFlight only
+  // The status's name: the flight method's own for it ("evaluated", ...),
+  // ToString(status) for the others.
+  std::string StatusName() const;
   std::string reason;             // one line with numbers
   int num_points = 0;
   bool has_fit = false;           // slope and roughness are meaningful
@@ -182,7 +199,7 @@ std::vector<MethodRoi> RoisOfReconstruction(const PairReconstruction& recon,
 // The fit every reference method's ROI gets (see the file comment). camera
 // centres in the local frame; points in the local frame.
 struct RoiFit {
-  std::string status;  // "ok", "too few points", "degenerate"
+  MethodRoiStatus status = MethodRoiStatus::kTooFewPoints;  // kOk, kTooFewPoints or kDegenerate
   int num_points = 0;
   double slope_deg = 0.0;
   double roughness_rms_m = 0.0;

@@ -41,7 +41,7 @@ Json AccuracyJson(const PointAccuracy& a) {
 
 Json MethodRoiJson(const MethodRoi& r) {
   Json j;
-  j["status"] = r.status;
+  j["status"] = r.StatusName();
   j["reason"] = r.reason;
   j["num_points"] = r.num_points;
   j["slope_deg"] = r.has_fit ? Number(r.slope_deg) : Json(nullptr);
@@ -65,8 +65,8 @@ double SlopeError(const CompareRun& run, size_t m, size_t i) {
 
 std::string StatsText(const ErrorStats& s, int digits) {
   if (s.count == 0) return "-";
-  return util::FixedText(s.median, digits) + " / " + util::FixedText(s.p90, digits) + " / " +
-         util::FixedText(s.max, digits) + " (" + std::to_string(s.count) + ")";
+  return util::FixedCell(s.median, digits) + " / " + util::FixedCell(s.p90, digits) + " / " +
+         util::FixedCell(s.max, digits) + " (" + std::to_string(s.count) + ")";
 }
 
 std::string MarkdownRow(const std::vector<std::string>& cells) {
@@ -164,7 +164,7 @@ std::string CompareRoisCsv(const CompareRun& run) {
     const RoiTruthValue* t = TruthOf(run, i);
     for (size_t m = 0; m < run.methods.size(); ++m) {
       const MethodRoi& r = run.rois[m][i];
-      out << run.flight.result.rois[i].id << "," << run.methods[m] << "," << quoted(r.status) << ","
+      out << run.flight.result.rois[i].id << "," << run.methods[m] << "," << quoted(r.StatusName()) << ","
           << r.num_points << "," << (r.has_fit ? util::CsvNumber(r.slope_deg) : "") << ","
           << (r.has_fit && r.has_sigma ? util::CsvNumber(r.slope_sigma_deg) : "") << ","
           << (t != nullptr ? util::CsvNumber(t->slope_deg) : "") << "," << util::CsvNumber(SlopeError(run, m, i))
@@ -182,8 +182,8 @@ std::string CompareMarkdown(const CompareRun& run) {
   std::ostringstream out;
   const FlightRun& f = run.flight;
   out << "# Comparison: " << f.dataset_name << ", frames " << f.frame1 << "," << f.frame2
-      << "\n\nBaseline " << util::FixedText(f.baseline_m, 2) << " m, LRF range "
-      << util::FixedText(f.lrf_range_m, 1) << " m, " << f.result.rois.size() << " ROIs. "
+      << "\n\nBaseline " << util::FixedCell(f.baseline_m, 2) << " m, LRF range "
+      << util::FixedCell(f.lrf_range_m, 1) << " m, " << f.result.rois.size() << " ROIs. "
       << f.result.Summary() << "\n\n";
   out << "## Slope per ROI (degrees, number of points in brackets)\n\n";
   std::vector<std::string> header = {"ROI"};
@@ -195,14 +195,14 @@ std::string CompareMarkdown(const CompareRun& run) {
     std::vector<std::string> row = {std::to_string(f.result.rois[i].id)};
     if (run.any_truth) {
       const RoiTruthValue* t = TruthOf(run, i);
-      row.push_back(t != nullptr ? util::FixedText(t->slope_deg, 2) : "-");
+      row.push_back(t != nullptr ? util::FixedCell(t->slope_deg, 2) : "-");
     }
     for (size_t m = 0; m < run.methods.size(); ++m) {
       const MethodRoi& r = run.rois[m][i];
-      std::string cell = r.has_fit ? util::FixedText(r.slope_deg, 2) + " (" + std::to_string(r.num_points) + ")"
-                                   : "- (" + r.status + ")";
-      if (r.has_fit && run.methods[m] == kMethodFlight && r.status != "evaluated") {
-        cell += " " + r.status;
+      std::string cell = r.has_fit ? util::FixedCell(r.slope_deg, 2) + " (" + std::to_string(r.num_points) + ")"
+                                   : "- (" + r.StatusName() + ")";
+      if (r.has_fit && run.methods[m] == kMethodFlight && r.flight_status != hda::RoiStatus::kEvaluated) {
+        cell += " " + r.StatusName();
       }
       row.push_back(cell);
     }
@@ -217,18 +217,18 @@ std::string CompareMarkdown(const CompareRun& run) {
   out << MarkdownRow(std::vector<std::string>(9, "---"));
   for (const MethodSummary& s : run.summaries) {
     const std::string accuracy =
-        s.accuracy.available ? util::FixedText(100 * s.accuracy.within_0_1_m, 0) + " / " +
-                                   util::FixedText(100 * s.accuracy.within_0_3_m, 0) + " / " +
-                                   util::FixedText(100 * s.accuracy.within_1_m, 0) + " % (" +
+        s.accuracy.available ? util::FixedCell(100 * s.accuracy.within_0_1_m, 0) + " / " +
+                                   util::FixedCell(100 * s.accuracy.within_0_3_m, 0) + " / " +
+                                   util::FixedCell(100 * s.accuracy.within_1_m, 0) + " % (" +
                                    std::to_string(s.accuracy.num_points) + ")"
                              : "-";
-    const std::string pose = s.has_pose_error ? util::FixedText(s.rotation_error_deg, 3) + " / " +
-                                                    util::FixedText(s.translation_direction_error_deg, 2)
+    const std::string pose = s.has_pose_error ? util::FixedCell(s.rotation_error_deg, 3) + " / " +
+                                                    util::FixedCell(s.translation_direction_error_deg, 2)
                                               : "-";
     out << MarkdownRow({s.method + (s.ok ? "" : " (failed)"), std::to_string(s.rois_with_fit),
                         StatsText(s.slope_vs_truth_deg, 2), StatsText(s.roughness_vs_truth_m, 3),
                         StatsText(s.slope_vs_colmap_nav_deg, 2), accuracy, pose,
-                        util::FixedText(s.wall_s, 3), util::FixedText(s.time_ratio_to_flight, 1)});
+                        util::FixedCell(s.wall_s, 3), util::FixedCell(s.time_ratio_to_flight, 1)});
   }
   bool any_note = false;
   for (const MethodSummary& s : run.summaries) {

@@ -30,7 +30,6 @@ using Json = nlohmann::ordered_json;
 
 // A double as JSON, null when it is not finite (JSON has no NaN or infinity).
 Json Number(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
-std::string Fixed(double value, int digits) { return util::FixedText(value, digits); }
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // hda::RoiStatus values are 0 .. kNotEvaluated.
 constexpr size_t kNumStatuses = static_cast<size_t>(hda::RoiStatus::kNotEvaluated) + 1;
@@ -528,7 +527,7 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run) {
 std::string FlightReport(const FlightRun& run) {
   std::ostringstream out;
   out << run.result.Summary() << "; frames " << run.frame1 << "," << run.frame2 << ", baseline "
-      << Fixed(run.baseline_m, 2) << " m, LRF range " << Fixed(run.lrf_range_m, 1) << " m\n";
+      << util::FixedCell(run.baseline_m, 2) << " m, LRF range " << util::FixedCell(run.lrf_range_m, 1) << " m\n";
   if (run.result.rois.empty()) return out.str();
   const bool truth = run.AnyTruth();
   std::vector<std::vector<std::string>> rows;
@@ -540,14 +539,14 @@ std::string FlightReport(const FlightRun& run) {
   }
   for (size_t i = 0; i < run.result.rois.size(); ++i) {
     const hda::RoiResult& roi = run.result.rois[i];
-    const auto fit = [&](double value, int digits) { return roi.has_fit ? Fixed(value, digits) : "-"; };
+    const auto fit = [&](double value, int digits) { return roi.has_fit ? util::FixedCell(value, digits) : "-"; };
     const RoiTruthValue* t = TruthOf(run, i);
     std::vector<std::string> row = {std::to_string(roi.id), hda::ToString(roi.status)};
-    if (truth) row.push_back(t != nullptr ? Fixed(t->slope_deg, 2) : "-");
+    if (truth) row.push_back(t != nullptr ? util::FixedCell(t->slope_deg, 2) : "-");
     row.push_back(fit(roi.slope_deg, 2));
     row.push_back(fit(roi.slope_sigma_deg, 2));
     row.push_back(std::to_string(roi.counts.depth_inliers));
-    if (truth) row.push_back(t != nullptr ? Fixed(t->roughness_rms_m, 3) : "-");
+    if (truth) row.push_back(t != nullptr ? util::FixedCell(t->roughness_rms_m, 3) : "-");
     row.push_back(fit(roi.roughness_excess_m, 3));
     rows.push_back(row);
   }
@@ -560,9 +559,9 @@ std::string FlightReport(const FlightRun& run) {
     out << "slope error: no ROI has a fit, truth and >= " << kMinPointsForSlopeStats << " points\n";
   } else {
     out << "slope error over " << stats.count << " ROI(s) with a fit, truth and >= "
-        << kMinPointsForSlopeStats << " points: median |error| " << Fixed(stats.median_abs_deg, 2)
-        << " deg, 90th percentile " << Fixed(stats.p90_abs_deg, 2) << " deg, "
-        << Fixed(100.0 * stats.within_two_sigma_fraction, 0) << " % within 2 predicted sigmas\n";
+        << kMinPointsForSlopeStats << " points: median |error| " << util::FixedCell(stats.median_abs_deg, 2)
+        << " deg, 90th percentile " << util::FixedCell(stats.p90_abs_deg, 2) << " deg, "
+        << util::FixedCell(100.0 * stats.within_two_sigma_fraction, 0) << " % within 2 predicted sigmas\n";
   }
   return out.str();
 }
@@ -642,7 +641,7 @@ cv::Mat RoiPairFigure(const cv::Mat& image1, const cv::Mat& image2, const hda::R
   std::string title = "ROI " + std::to_string(roi.id) + ": " + hda::ToString(roi.status) + ", " +
                       std::to_string(roi.points1_px.size()) + " matches";
   if (roi.has_fit) {
-    title += ", slope " + Fixed(roi.slope_deg, 2) + " +- " + Fixed(roi.slope_sigma_deg, 2) + " deg";
+    title += ", slope " + util::FixedCell(roi.slope_deg, 2) + " +- " + util::FixedCell(roi.slope_sigma_deg, 2) + " deg";
   }
   cv::Mat figure;
   cv::vconcat(TitleStrip(width, {title, "left: image 1 ROI; right: image 2 search box"}, 0.5),

@@ -111,7 +111,7 @@ bool FlightHasSlope(const std::string& status) {
   return status == "evaluated" || status == "unsafe slope" || status == "unsafe roughness";
 }
 
-std::string FormatValue(double value) { return util::FixedText(value, 3); }
+std::string FormatValue(double value) { return util::FixedCell(value, 3); }
 
 // ---------------------------------------------------------------------------
 // Running entries
@@ -665,9 +665,7 @@ std::vector<std::string> GateRunOptions::Validate() const {
 
 std::vector<GateEntryOutcome> RunGateSuite(const GateSuite& suite, const GateRunOptions& options,
                                            const GateProgress& progress) {
-  if (const std::vector<std::string> errors = options.Validate(); !errors.empty()) {
-    throw InputError(errors.front());
-  }
+  ThrowIfInvalid("", options.Validate());
   fs::create_directories(fs::path(options.out_dir) / "entries");
   // Leftovers of an interrupted run are never trusted.
   for (const fs::path& folder : {fs::path(options.out_dir) / "entries", fs::path(options.out_dir) / "datasets"}) {
@@ -692,7 +690,7 @@ std::vector<GateEntryOutcome> RunGateSuite(const GateSuite& suite, const GateRun
     std::ostringstream line;
     line << "[" << done << "/" << total << "] " << o.name << ": "
          << (o.reused ? "complete from an earlier run"
-                      : o.ok ? "done in " + util::FixedText(o.wall_s, 1) + " s" : "FAILED: " + o.error);
+                      : o.ok ? "done in " + util::FixedCell(o.wall_s, 1) + " s" : "FAILED: " + o.error);
     const std::lock_guard<std::mutex> lock(say_mutex);
     progress(line.str());
   });

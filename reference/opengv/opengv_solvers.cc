@@ -25,6 +25,7 @@
 #include "tools/util/options_check.h"
 #include "reference/opengv/opengv_adapter.h"
 #include "tools/util/angles.h"
+#include "tools/util/text.h"
 
 namespace hdabench::reference {
 
@@ -54,20 +55,8 @@ double AngleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
-std::string Fixed(double value, int decimals) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(decimals) << value;
-  return out.str();
-}
-
 void ThrowIfInvalid(const char* function, const std::vector<std::string>& errors) {
-  if (errors.empty()) return;
-  std::string message = std::string(function) + ": invalid OpenGvOptions: ";
-  for (size_t i = 0; i < errors.size(); ++i) {
-    if (i > 0) message += "; ";
-    message += errors[i];
-  }
-  throw InputError(message);
+  hdabench::ThrowIfInvalid(std::string(function) + ": invalid OpenGvOptions: ", errors);
 }
 
 void CheckInputs(const char* function, const std::vector<Eigen::Vector3d>& bearings1,
@@ -701,21 +690,21 @@ ConfigurationReport ClassifyConfiguration(const std::vector<Eigen::Vector3d>& be
   }
 
   const std::string numbers =
-      "median parallax " + Fixed(report.median_parallax_deg, 3) + " deg, eigenvalue ratio " +
-      Fixed(report.eigenvalue_ratio, 4) + ", homography residual " +
-      Fixed(report.homography_residual_px, 3) + " px, " + std::to_string(report.num_matches) +
-      " matches, nav baseline " + Fixed(report.nav_baseline_m, 3) + " m";
+      "median parallax " + util::FixedText(report.median_parallax_deg, 3) + " deg, eigenvalue ratio " +
+      util::FixedText(report.eigenvalue_ratio, 4) + ", homography residual " +
+      util::FixedText(report.homography_residual_px, 3) + " px, " + std::to_string(report.num_matches) +
+      " matches, nav baseline " + util::FixedText(report.nav_baseline_m, 3) + " m";
   if (report.nav_baseline_m < kMinBaselineM ||
       report.median_parallax_deg < options.low_parallax_deg) {
     report.type = ConfigurationType::kLowParallax;
-    report.reason = numbers + " (low parallax below " + Fixed(options.low_parallax_deg, 3) +
+    report.reason = numbers + " (low parallax below " + util::FixedText(options.low_parallax_deg, 3) +
                     " deg)";
   } else if (report.eigenvalue_ratio < options.planar_eigenvalue_ratio ||
              report.homography_residual_px < options.planar_residual_px) {
     report.type = ConfigurationType::kPlanar;
     report.reason = numbers + " (planar: eigenvalue ratio below " +
-                    Fixed(options.planar_eigenvalue_ratio, 4) + " or homography residual below " +
-                    Fixed(options.planar_residual_px, 3) + " px)";
+                    util::FixedText(options.planar_eigenvalue_ratio, 4) + " or homography residual below " +
+                    util::FixedText(options.planar_residual_px, 3) + " px)";
   } else {
     report.type = ConfigurationType::kWellConditioned;
     report.reason = numbers;
@@ -746,7 +735,7 @@ RelativePoseResult SolveRelativePose(const std::vector<Eigen::Vector3d>& bearing
   const double baseline_m = nav_cam2_from_cam1.translation.norm();
   if (!(baseline_m >= kMinBaselineM)) {
     return Finish(false,
-                  "the nav baseline is " + Fixed(baseline_m, 9) +
+                  "the nav baseline is " + util::FixedText(baseline_m, 9) +
                       " m: no scale for the translation, nothing to triangulate",
                   start, &result);
   }

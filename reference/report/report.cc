@@ -98,7 +98,7 @@ const Json& Required(const Json& json, const char* key, const fs::path& path, co
 
 bool IsNumber(const Json& j) { return j.is_number() && std::isfinite(j.get<double>()); }
 std::string Fixed(const Json& j, int digits) {
-  return IsNumber(j) ? util::FixedText(j.get<double>(), digits) : "-";
+  return IsNumber(j) ? util::FixedCell(j.get<double>(), digits) : "-";
 }
 std::string Text(const Json& j) {
   if (j.is_string()) return j.get<std::string>();
@@ -206,7 +206,7 @@ std::string StatsText(const Json& stats, int digits) {
 }
 
 std::string Percent(const Json& fraction) {
-  return IsNumber(fraction) ? util::FixedText(100.0 * fraction.get<double>(), 0) : "-";
+  return IsNumber(fraction) ? util::FixedCell(100.0 * fraction.get<double>(), 0) : "-";
 }
 
 // ---------------------------------------------------------------- run folders
@@ -287,9 +287,9 @@ void FillRunPage(const fs::path& dir, Page* page) {
     page->summary_lines.push_back(
         "Slope error over " + std::to_string(errors.size()) + " ROI(s) with a fit, truth and at least " +
         std::to_string(kMinPointsForSlopeStats) + " points: median |error| " +
-        util::FixedText(util::Quantile(errors, 0.5), 2) + " deg, 90th percentile " +
-        util::FixedText(util::Quantile(errors, 0.9), 2) + " deg, " +
-        util::FixedText(100.0 * within_two_sigma / static_cast<double>(errors.size()), 0) +
+        util::FixedCell(util::Quantile(errors, 0.5), 2) + " deg, 90th percentile " +
+        util::FixedCell(util::Quantile(errors, 0.9), 2) + " deg, " +
+        util::FixedCell(100.0 * within_two_sigma / static_cast<double>(errors.size()), 0) +
         " % within 2 predicted sigmas.");
   }
 }
@@ -307,7 +307,7 @@ std::string TimingLine(const fs::path& timings_path, std::vector<std::string>* n
   std::string line = "Flight method time on this machine: " + Fixed(total, 3) + " s of a " +
                      Fixed(budget, 2) + " s budget";
   if (IsNumber(total) && IsNumber(budget) && budget.get<double>() > 0.0) {
-    line += " (" + util::FixedText(100.0 * total.get<double>() / budget.get<double>(), 0) + " %)";
+    line += " (" + util::FixedCell(100.0 * total.get<double>() / budget.get<double>(), 0) + " %)";
   }
   if (Member(timings, "budget_exhausted") == true) line += "; the budget ran out";
   return line + ".";
@@ -377,7 +377,7 @@ void FillComparePage(const fs::path& dir, Page* page) {
         {accuracy_text, "", ""},
         {IsNumber(rotation) || IsNumber(direction) ? Fixed(rotation, 3) + " / " + Fixed(direction, 2) : "-",
          "", ""},
-        {time == seconds.end() ? "-" : util::FixedText(time->second, 3), "", ""},
+        {time == seconds.end() ? "-" : util::FixedCell(time->second, 3), "", ""},
     });
   }
   page->summary_lines.push_back(
@@ -787,9 +787,7 @@ std::vector<std::string> ReportOptions::Validate() const {
 }
 
 ReportResult WriteReport(const std::string& run_dir, const ReportOptions& options) {
-  if (const std::vector<std::string> errors = options.Validate(); !errors.empty()) {
-    throw InputError(errors.front());
-  }
+  ThrowIfInvalid("", options.Validate());
   std::error_code ec;
   const fs::path dir(run_dir);
   if (!fs::exists(dir, ec)) throw InputError(run_dir + ": no such folder");

@@ -15,6 +15,7 @@
 #include "datasets/dataset.h"
 #include "datasets/example.h"
 #include "datasets/navigation.h"
+#include "tests/support/constructed_pair.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::datasets {
@@ -254,34 +255,18 @@ TEST(TrueCam2FromCam1, MatchesConstructedTruth) {
   const std::uint64_t seed = CurrentTestSeed();
   SCOPED_TRACE("seed " + std::to_string(seed));
   std::mt19937_64 rng(seed);
-  auto random_rotation = [&] { return testing_support::RandomRotation(&rng); };
-  auto random_vector = [&](double scale) { return testing_support::RandomVector(&rng, scale); };
-  auto random_pose = [&](double scale) { return Rigid3d(random_rotation(), random_vector(scale)); };
   for (int trial = 0; trial < 50; ++trial) {
     SCOPED_TRACE("trial " + std::to_string(trial));
-    const Rigid3d cam_from_body = random_pose(1.0);
-    const Rigid3d cam1_from_local = random_pose(600.0);
-    const Rigid3d cam2_from_cam1 = random_pose(40.0);
-    const Rigid3d cam2_from_local = cam2_from_cam1 * cam1_from_local;
-
-    Dataset dataset(
-        calib::CameraModel("LENSMODEL_PINHOLE", {500.0, 500.0, 127.5, 127.5}, 256, 256));
-    dataset.cam_from_body = cam_from_body;
-    const double t1 = 1.25;
-    const double t2 = 3.5;
-    dataset.truth.navigation = {
-        PoseSample(0.0, random_pose(600.0)),
-        PoseSample(t1, cam1_from_local.Inverse() * cam_from_body),
-        PoseSample(t2, cam2_from_local.Inverse() * cam_from_body),
-        PoseSample(4.0, random_pose(600.0))};
-    dataset.nav = {PoseSample(0.0, random_pose(600.0)), PoseSample(4.0, random_pose(600.0))};
-    FrameRecord frame1;
-    frame1.index = 0;
-    frame1.time_s = t1;
-    FrameRecord frame2 = frame1;
-    frame2.index = 1;
-    frame2.time_s = t2;
-    dataset.frames = {frame1, frame2};
+    const testing_support::ConstructedPair pair = testing_support::DrawConstructedPair(&rng);
+    const Rigid3d& cam1_from_local = pair.cam1_from_local;
+    const Rigid3d& cam2_from_cam1 = pair.cam2_from_cam1;
+    Dataset dataset = testing_support::TwoFrameDataset(pair);
+    dataset.truth.navigation = pair.Navigation();
+    // The measured navigation: other, random poses.
+    const auto random_pose = [&] {
+      return Rigid3d(testing_support::RandomRotation(&rng), testing_support::RandomVector(&rng, 600.0));
+    };
+    dataset.nav = {PoseSample(0.0, random_pose()), PoseSample(4.0, random_pose())};
 
     const Rigid3d estimate = dataset.TrueCam2FromCam1(0, 1);
     EXPECT_LT(RotationAngleRad(estimate.rotation * cam2_from_cam1.rotation.conjugate()), 1e-12);

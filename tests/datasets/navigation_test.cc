@@ -11,6 +11,7 @@
 #include "datasets/dataset.h"
 #include "datasets/example.h"
 #include "datasets/navigation.h"
+#include "tests/support/constructed_pair.h"
 #include "tests/support/test_support.h"
 #include "tools/util/angles.h"
 
@@ -138,32 +139,12 @@ TEST(Cam2FromCam1, MatchesConstructedTruth) {
   const std::uint64_t seed = CurrentTestSeed();
   SCOPED_TRACE("seed " + std::to_string(seed));
   std::mt19937_64 rng(seed);
-  auto random_rotation = [&] { return testing_support::RandomRotation(&rng); };
-  auto random_vector = [&](double scale) { return testing_support::RandomVector(&rng, scale); };
   for (int trial = 0; trial < 50; ++trial) {
     SCOPED_TRACE("trial " + std::to_string(trial));
-    const Rigid3d cam_from_body(random_rotation(), random_vector(1.0));
-    const Rigid3d cam1_from_local(random_rotation(), random_vector(600.0));
-    const Rigid3d cam2_from_cam1(random_rotation(), random_vector(40.0));
-    const Rigid3d cam2_from_local = cam2_from_cam1 * cam1_from_local;
-
-    Dataset dataset = EmptyDataset();
-    dataset.cam_from_body = cam_from_body;
-    const double t1 = 1.25;
-    const double t2 = 3.5;
-    dataset.nav = {Sample(0.0, random_rotation(), random_vector(600.0)),
-                   Sample(t1, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero()),
-                   Sample(t2, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero()),
-                   Sample(4.0, random_rotation(), random_vector(600.0))};
-    dataset.nav[1].local_from_body = cam1_from_local.Inverse() * cam_from_body;
-    dataset.nav[2].local_from_body = cam2_from_local.Inverse() * cam_from_body;
-    FrameRecord frame1;
-    frame1.index = 0;
-    frame1.time_s = t1;
-    FrameRecord frame2 = frame1;
-    frame2.index = 1;
-    frame2.time_s = t2;
-    dataset.frames = {frame1, frame2};
+    const testing_support::ConstructedPair pair = testing_support::DrawConstructedPair(&rng);
+    const Rigid3d& cam2_from_cam1 = pair.cam2_from_cam1;
+    Dataset dataset = testing_support::TwoFrameDataset(pair);
+    dataset.nav = pair.Navigation();
 
     const Rigid3d estimate = dataset.Cam2FromCam1(0, 1);
     EXPECT_LT(AngleBetween(estimate.rotation, cam2_from_cam1.rotation), 1e-12);

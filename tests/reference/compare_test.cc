@@ -123,7 +123,7 @@ TEST(FitRoiPoints, RecoversTheSlopeOfANoisyTwoViewCloud) {
                      across * noise(rng) * range * sigma_rad + los.cross(across) * noise(rng) * range * sigma_rad);
   }
   const RoiFit fit = FitRoiPoints(points, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10);
-  ASSERT_EQ(fit.status, "ok");
+  ASSERT_EQ(fit.status, MethodRoiStatus::kOk);
   EXPECT_EQ(fit.num_points, 400);
   // Predicted 1-sigma at 400 points is about 0.6 deg (hda::PredictSlopeSigmaDeg
   // geometry); 3 sigma.
@@ -132,10 +132,10 @@ TEST(FitRoiPoints, RecoversTheSlopeOfANoisyTwoViewCloud) {
   const hda::PlaneFitResult tls = hda::FitPlane(points, Eigen::Vector3d(0, 0, -1.62), 10);
   EXPECT_GT(std::abs(tls.slope_deg - slope_deg), std::abs(fit.slope_deg - slope_deg));
 
-  EXPECT_EQ(FitRoiPoints({}, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10).status, "too few points");
+  EXPECT_EQ(FitRoiPoints({}, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10).status, MethodRoiStatus::kTooFewPoints);
   std::vector<Eigen::Vector3d> line;
   for (int i = 0; i < 20; ++i) line.emplace_back(i, 0.0, 0.0);
-  EXPECT_EQ(FitRoiPoints(line, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10).status, "degenerate");
+  EXPECT_EQ(FitRoiPoints(line, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10).status, MethodRoiStatus::kDegenerate);
 }
 
 // A dataset with one ROI box and a reconstruction with points in only part of
@@ -165,11 +165,11 @@ TEST(RoisOfReconstruction, AnRoiWithoutPointsAndAFailedMethodGetClearStatuses) {
   std::vector<MethodRoi> rois =
       RoisOfReconstruction(recon, flight, dataset, local_from_cam1, local_from_cam2, 10);
   ASSERT_EQ(rois.size(), 2u);
-  EXPECT_EQ(rois[0].status, "ok");
+  EXPECT_EQ(rois[0].status, MethodRoiStatus::kOk);
   EXPECT_EQ(rois[0].num_points, 30);
   EXPECT_TRUE(rois[0].has_fit);
   EXPECT_NEAR(rois[0].slope_deg, 0.0, 1e-6);
-  EXPECT_EQ(rois[1].status, "too few points");
+  EXPECT_EQ(rois[1].status, MethodRoiStatus::kTooFewPoints);
   EXPECT_EQ(rois[1].num_points, 0);
   EXPECT_FALSE(rois[1].has_fit);
 
@@ -177,7 +177,7 @@ TEST(RoisOfReconstruction, AnRoiWithoutPointsAndAFailedMethodGetClearStatuses) {
   recon.failure = "mapper exited with code 1 (log: colmap/logs/04-mapper.log)";
   rois = RoisOfReconstruction(recon, flight, dataset, local_from_cam1, local_from_cam2, 10);
   for (const MethodRoi& roi : rois) {
-    EXPECT_EQ(roi.status, "failed");
+    EXPECT_EQ(roi.status, MethodRoiStatus::kFailed);
     EXPECT_EQ(roi.reason, recon.failure);
     EXPECT_FALSE(roi.has_fit);
   }
@@ -268,9 +268,9 @@ TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirG
   // confident slope from a degenerate geometry.
   for (size_t m = 4; m < run.methods.size(); ++m) {
     for (const MethodRoi& roi : run.rois[m]) {
-      if (roi.status == "planar" || roi.status == "low parallax") {
+      if (roi.status == MethodRoiStatus::kPlanar || roi.status == MethodRoiStatus::kLowParallax) {
         EXPECT_FALSE(roi.has_fit) << run.methods[m];
-        EXPECT_EQ(roi.configuration, roi.status);
+        EXPECT_EQ(roi.configuration, roi.StatusName());
       }
     }
   }

@@ -17,6 +17,7 @@
 #include "tools/cli/command_line.h"
 #include "tools/cli/commands.h"
 #include "tools/cli/exit_codes.h"
+#include "tools/util/text.h"
 
 namespace hdabench::tools {
 
@@ -32,12 +33,6 @@ bool ParseBoardSize(const std::string& text, int* width, int* height) {
   *width = w;
   *height = h;
   return true;
-}
-
-std::string Fixed(double value, int decimals) {
-  char text[64];
-  std::snprintf(text, sizeof(text), "%.*f", decimals, value);
-  return text;
 }
 
 // Runs `work`, mapping the library's errors to exit codes with one line on err.
@@ -108,8 +103,8 @@ int RunCalibrate(const CalibrateCommandOptions& options, std::ostream& out, std:
     const calib::CalibrateResult result = calib::Calibrate(calibrate);
     out << calib::CalibrationSummaryMarkdown(calibrate, result);
     out << "\nwrote " << result.model_paths.size() << " model(s) and the summary to "
-        << options.out_dir << " (detection " << Fixed(result.detection_s, 1) << " s, mrcal "
-        << Fixed(result.mrcal_s, 1) << " s, analysis " << Fixed(result.analysis_s, 1)
+        << options.out_dir << " (detection " << util::FixedText(result.detection_s, 1) << " s, mrcal "
+        << util::FixedText(result.mrcal_s, 1) << " s, analysis " << util::FixedText(result.analysis_s, 1)
         << " s)\n";
   });
 }
@@ -142,15 +137,15 @@ int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std:
     out << "projection difference " << options.model_a << " -> " << options.model_b << " ("
         << a.LensModelName() << " -> " << b.LensModelName() << ", " << a.WidthPx() << " x "
         << a.HeightPx() << " px, " << result.points << " grid points, implied rotation "
-        << Fixed(result.rotation_deg, 4) << " deg taken out):\n"
-        << "  median " << Fixed(result.median_px, 3) << " px, p90 " << Fixed(result.p90_px, 3)
-        << " px, max " << Fixed(result.max_px, 3) << " px\n";
+        << util::FixedText(result.rotation_deg, 4) << " deg taken out):\n"
+        << "  median " << util::FixedText(result.median_px, 3) << " px, p90 " << util::FixedText(result.p90_px, 3)
+        << " px, max " << util::FixedText(result.max_px, 3) << " px\n";
     if (result.uncertainty_of_a) {
       const calib::DiffUncertainty& u = *result.uncertainty_of_a;
-      out << "  A's projection uncertainty (1 sigma): median " << Fixed(u.median_px, 3) << " px, max "
-          << Fixed(u.max_px, 3) << " px; difference within 1/2/3 sigma at "
-          << Fixed(100 * u.within_1_sigma, 0) << " / " << Fixed(100 * u.within_2_sigma, 0) << " / "
-          << Fixed(100 * u.within_3_sigma, 0) << " % of the grid\n";
+      out << "  A's projection uncertainty (1 sigma): median " << util::FixedText(u.median_px, 3) << " px, max "
+          << util::FixedText(u.max_px, 3) << " px; difference within 1/2/3 sigma at "
+          << util::FixedText(100 * u.within_1_sigma, 0) << " / " << util::FixedText(100 * u.within_2_sigma, 0) << " / "
+          << util::FixedText(100 * u.within_3_sigma, 0) << " % of the grid\n";
     }
     out << "wrote " << result.json_path << " and " << result.heatmap_png << "\n";
   });

@@ -18,6 +18,7 @@
 #include "tools/cli/command_support.h"
 #include "tools/cli/commands.h"
 #include "tools/cli/exit_codes.h"
+#include "tools/util/text.h"
 
 namespace hdabench::tools {
 
@@ -26,13 +27,6 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr double kRadToDeg = 57.295779513082320876798;
-
-// Fixed-point text with `digits` decimals, for the human-readable summary.
-std::string Fixed(double value, int digits) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", digits, value);
-  return buffer;
-}
 
 void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int frame1, int frame2,
                   std::ostream& out) {
@@ -44,27 +38,27 @@ void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int 
   if (!dataset.description.empty()) out << "  description: " << dataset.description << "\n";
   out << "  camera:      " << camera.LensModelName() << ", " << camera.WidthPx() << " x "
       << camera.HeightPx() << " px (" << dataset.camera_model_file << ")\n";
-  out << "  frames:      " << dataset.frames.size() << ", " << Fixed(first.time_s, 3) << " .. "
-      << Fixed(last.time_s, 3) << " s (" << Fixed(last.time_s - first.time_s, 3) << " s)\n";
-  out << "  navigation:  " << dataset.nav.size() << " samples, " << Fixed(dataset.nav.front().time_s, 3)
-      << " .. " << Fixed(dataset.nav.back().time_s, 3) << " s"
+  out << "  frames:      " << dataset.frames.size() << ", " << util::FixedText(first.time_s, 3) << " .. "
+      << util::FixedText(last.time_s, 3) << " s (" << util::FixedText(last.time_s - first.time_s, 3) << " s)\n";
+  out << "  navigation:  " << dataset.nav.size() << " samples, " << util::FixedText(dataset.nav.front().time_s, 3)
+      << " .. " << util::FixedText(dataset.nav.back().time_s, 3) << " s"
       << (dataset.nav_has_velocity ? ", velocity" : "") << (dataset.nav_has_sigmas ? ", sigmas" : "")
       << "\n";
-  out << "  lrf:         " << dataset.lrf.size() << " samples, " << Fixed(dataset.lrf.front().time_s, 3)
-      << " .. " << Fixed(dataset.lrf.back().time_s, 3) << " s\n";
+  out << "  lrf:         " << dataset.lrf.size() << " samples, " << util::FixedText(dataset.lrf.front().time_s, 3)
+      << " .. " << util::FixedText(dataset.lrf.back().time_s, 3) << " s\n";
   const datasets::FrameRecord& a = dataset.frames[static_cast<size_t>(frame1)];
   const datasets::FrameRecord& b = dataset.frames[static_cast<size_t>(frame2)];
   const Rigid3d cam2_from_cam1 = dataset.Cam2FromCam1(frame1, frame2);
   const double rotation_deg = datasets::RotationAngleRad(cam2_from_cam1.rotation) * kRadToDeg;
-  out << "  frames " << frame1 << " -> " << frame2 << ": dt " << Fixed(b.time_s - a.time_s, 3)
-      << " s, baseline " << Fixed(dataset.BaselineM(frame1, frame2), 3) << " m, rotation "
-      << Fixed(rotation_deg, 4) << " deg\n";
-  out << "  lrf range:   " << Fixed(dataset.LrfRangeAt(a.time_s), 3) << " m at frame " << frame1
-      << ", " << Fixed(dataset.LrfRangeAt(b.time_s), 3) << " m at frame " << frame2 << "\n";
+  out << "  frames " << frame1 << " -> " << frame2 << ": dt " << util::FixedText(b.time_s - a.time_s, 3)
+      << " s, baseline " << util::FixedText(dataset.BaselineM(frame1, frame2), 3) << " m, rotation "
+      << util::FixedText(rotation_deg, 4) << " deg\n";
+  out << "  lrf range:   " << util::FixedText(dataset.LrfRangeAt(a.time_s), 3) << " m at frame " << frame1
+      << ", " << util::FixedText(dataset.LrfRangeAt(b.time_s), 3) << " m at frame " << frame2 << "\n";
   const Eigen::Vector3d& g = dataset.gravity_in_local_mps2;
-  out << "  gravity:     (" << Fixed(g.x(), 4) << ", " << Fixed(g.y(), 4) << ", " << Fixed(g.z(), 4)
-      << ") m/s^2; ILS (" << Fixed(dataset.ils_in_local_m.x(), 3) << ", "
-      << Fixed(dataset.ils_in_local_m.y(), 3) << ", " << Fixed(dataset.ils_in_local_m.z(), 3)
+  out << "  gravity:     (" << util::FixedText(g.x(), 4) << ", " << util::FixedText(g.y(), 4) << ", " << util::FixedText(g.z(), 4)
+      << ") m/s^2; ILS (" << util::FixedText(dataset.ils_in_local_m.x(), 3) << ", "
+      << util::FixedText(dataset.ils_in_local_m.y(), 3) << ", " << util::FixedText(dataset.ils_in_local_m.z(), 3)
       << ") m\n";
   out << "  truth:       ";
   if (dataset.truth.Empty()) {
@@ -75,7 +69,7 @@ void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int 
     if (dataset.truth.dem.has_value()) {
       const datasets::TruthDem& dem = *dataset.truth.dem;
       out << "; DEM " << dem.width_cells << " x " << dem.height_cells << " cells of "
-          << Fixed(dem.spacing_m, 3) << " m";
+          << util::FixedText(dem.spacing_m, 3) << " m";
     }
     if (!dataset.truth.navigation_file.empty()) {
       out << "; true navigation (" << dataset.truth.navigation.size() << " samples)";

@@ -1,5 +1,5 @@
-// Error types shared by every module. calib is the lowest layer of hdabench,
-// so the types that cross module boundaries live here.
+// Error types shared by every module (util is the lowest layer), so the types
+// that cross module boundaries live here.
 #pragma once
 
 #include <stdexcept>

@@ -107,12 +107,7 @@ std::string ErrnoText(int error) { return std::strerror(error); }
 // options, a working folder that is not there.
 void CheckRunRequest(const std::vector<std::string>& argv, const ProcessOptions& options) {
   if (argv.empty()) throw InputError("RunProcess: empty argument vector: expected a program name");
-  const std::vector<std::string> errors = options.Validate();
-  if (!errors.empty()) {
-    std::string message = "RunProcess: invalid ProcessOptions: ";
-    for (size_t i = 0; i < errors.size(); ++i) message += (i > 0 ? "; " : "") + errors[i];
-    throw InputError(message);
-  }
+  ThrowIfInvalid("RunProcess: invalid ProcessOptions: ", options.Validate());
   if (!options.working_dir.empty() && !fs::is_directory(options.working_dir)) {
     throw InputError(options.working_dir + ": working folder of " + argv[0] +
                      " does not exist or is not a folder");

@@ -3,6 +3,7 @@
 #include <system_error>
 
 #include "tools/util/error.h"
+#include "tools/util/options_check.h"
 
 namespace hdabench::util {
 
@@ -20,8 +21,16 @@ PythonScript::PythonScript(const std::string& purpose, const std::string& file_n
   WriteFileAtomically(script_, text);
 }
 
+std::vector<std::string> PythonScriptOptions::Validate() const {
+  std::vector<std::string> errors;
+  if (python.empty()) errors.push_back("python is empty: expected an interpreter such as /usr/bin/python3");
+  RequireOption(true, "timeout_s", timeout_s, "a finite number of seconds (<= 0: none)", &errors);
+  return errors;
+}
+
 ProcessResult PythonScript::Run(const std::vector<std::string>& arguments,
                                 const PythonScriptOptions& options) const {
+  ThrowIfInvalid("PythonScript: invalid PythonScriptOptions: ", options.Validate());
   if (!options.log_file.empty()) {
     // A fresh log per run, so that its last line is this run's.
     std::error_code ec;

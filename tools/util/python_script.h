@@ -19,6 +19,9 @@ struct PythonScriptOptions {
   // One thread for NumPy's linear algebra (OpenBLAS, OpenMP, MKL), so sums
   // are done in the same order on every run.
   bool single_threaded_math = false;
+
+  // Every violated constraint, one message each ("field = value: expected ...").
+  std::vector<std::string> Validate() const;
 };
 
 // A script's text written as `file_name` into a fresh scratch folder (removed

@@ -31,10 +31,13 @@ std::string VectorText(const Eigen::VectorXd& values) {
 std::string CsvNumber(double value) { return std::isfinite(value) ? nlohmann::json(value).dump() : ""; }
 
 std::string FixedText(double value, int digits) {
-  if (!std::isfinite(value)) return "-";
-  char buffer[64];
+  char buffer[512];
   std::snprintf(buffer, sizeof(buffer), "%.*f", digits, value);
   return buffer;
+}
+
+std::string FixedCell(double value, int digits) {
+  return std::isfinite(value) ? FixedText(value, digits) : "-";
 }
 
 std::string FormatTextTable(const std::vector<std::vector<std::string>>& rows,

@@ -3,7 +3,9 @@
 //   files other programs read (dataset tables, COLMAP models, camera models);
 // - CsvNumber: a double as nlohmann's JSON writes it, for CSV tables that sit
 //   beside a JSON file with the same numbers;
-// - FixedText: a fixed number of decimals, for tables and messages people read;
+// - FixedCell: a fixed number of decimals for a table cell, "-" when there is
+//   no number;
+// - FixedText: a fixed number of decimals for messages and logs ("nan" as is);
 // - parsing of whole decimal numbers, trimming, aligned text tables and HTML
 //   escaping.
 // Locale-independent (std::to_chars / std::from_chars / "%.*f" in the C locale).
@@ -29,7 +31,12 @@ std::string VectorText(const Eigen::VectorXd& values);
 // when it is not finite.
 std::string CsvNumber(double value);
 
-// Fixed-point text with `digits` decimals ("%.*f"); "-" when not finite.
+// A table cell: fixed-point text with `digits` decimals ("%.*f"); "-" when
+// not finite.
+std::string FixedCell(double value, int digits);
+
+// Fixed-point text with `digits` decimals ("%.*f"), for messages: "nan",
+// "inf" and "-inf" as they are.
 std::string FixedText(double value, int digits);
 
 // Columns aligned to their widest cell; `left` columns are left-aligned, the

@@ -42,7 +42,6 @@ std::string ReadText(const fs::path& path, bool* ok) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-
 void CreateFolder(const fs::path& folder, const std::string& what) {
   std::error_code ec;
   fs::create_directories(folder, ec);
@@ -91,7 +90,6 @@ void RemoveScriptTemporaries(const fs::path& target, bool whole_folder) {
     }
   }
 }
-
 
 void RequireModelFile(const std::string& path) {
   std::error_code ec;

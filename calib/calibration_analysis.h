@@ -5,8 +5,8 @@
 //
 // The work is done by calib/calibration_analysis.py, compiled into the library
 // and run with Debian's /usr/bin/python3 (which sees python3-mrcal, numpy,
-// OpenCV and matplotlib) through util::RunProcess, with a time limit and a clean
-// matplotlib configuration. The script writes a JSON record (format
+// OpenCV and matplotlib) through util::PythonScript, with a time limit and a
+// clean matplotlib configuration. The script writes a JSON record (format
 // "hdabench-calibration-analysis" or "hdabench-calibration-diff", version 1)
 // that is read back here; the same inputs and options give the same bytes.
 //

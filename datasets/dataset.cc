@@ -1322,7 +1322,6 @@ class Loader {
   LoadContext context_;
 };
 
-
 // ------------------------------------------------------------------- writing
 
 std::string NavHeader(bool has_velocity, bool has_sigmas) {

@@ -18,7 +18,6 @@ namespace {
 
 using util::kPi;
 
-
 double DegToRad(double deg) { return deg * kPi / 180.0; }
 
 // Regolith-like albedo in [0, 1] at ground point (x, y): equally weighted

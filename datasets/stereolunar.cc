@@ -278,7 +278,7 @@ void DescribeDataset(const std::string& folder, int sun, const PairFrames& pair,
       "ground point of frame 0's centre pixel (up radial from the Moon's centre). Body = camera; "
       "navigation = truth. Truth points from half-precision depth (steps of about 16 m at 30 km): "
       "truth for slopes over hundreds of metres, not for metre-scale roughness. Pixel footprint "
-      "about " + util::ShortestText(std::round(centre_depth_m / fx)) + " m: use a site size of several hundred "
+      "about " + util::FixedText(std::round(centre_depth_m / fx), 0) + " m: use a site size of several hundred "
       "metres (docs/stereolunar.md).";
 }
 

@@ -430,7 +430,6 @@ double PixelsPerRadian(const calib::CameraModel& camera, const Eigen::Vector2d& 
   return std::max((pixels[0] - pixels[1]).norm(), (pixels[2] - pixels[3]).norm()) / (2.0 * kStepRad);
 }
 
-
 const char* ToString(RoiStatus status) {
   switch (status) {
     case RoiStatus::kEvaluated:

@@ -1,19 +1,10 @@
 #include "datasets/internal/files.h"
 
-#include <cerrno>
-#include <cstring>
-#include <fstream>
-#include <iterator>
 #include <system_error>
-
-#include <unistd.h>
-
-#include "tools/util/error.h"
 
 namespace hdabench::datasets::internal {
 
 namespace fs = std::filesystem;
-
 
 std::string CheckDatasetPath(const std::string& path) {
   if (path.empty()) return "is empty; expected a path relative to the dataset folder";
@@ -40,6 +31,5 @@ std::string CheckDatasetPath(const std::string& path) {
 std::string NormalDatasetPath(const std::string& path) {
   return fs::path(path).lexically_normal().generic_string();
 }
-
 
 }  // namespace hdabench::datasets::internal

@@ -2,12 +2,9 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
-#include <exception>
 #include <filesystem>
 #include <limits>
-#include <mutex>
 #include <stdexcept>
 #include <thread>
 
@@ -31,7 +28,6 @@ using util::kPi;
 using util::kDegToRad;
 
 namespace fs = std::filesystem;
-
 
 // Sample bearings: libmrcal unprojects a lattice of knots this far apart
 // (pixels); samples start from the bilinear blend of the four knots around
@@ -253,7 +249,6 @@ class BearingSolver {
   std::vector<unsigned char> knot_valid_;
   std::vector<Eigen::Matrix<double, 3, 2>> derivatives_;  // d(bearing)/d(pixel) per knot
 };
-
 
 // The randomly drawn part of a pose.
 struct PoseDraw {
@@ -842,7 +837,7 @@ void WriteChessboardViews(const std::vector<ChessboardView>& views, const std::s
     std::string text = std::to_string(v + 1);
     return std::string(digits - text.size(), '0') + text;
   };
-    std::string truth = "view,corner,x_px,y_px\n";
+  std::string truth = "view,corner,x_px,y_px\n";
   std::string poses = "view,image,qw,qx,qy,qz,tx_m,ty_m,tz_m,distance_m,tilt_deg\n";
   for (size_t v = 0; v < views.size(); ++v) {
     const ChessboardView& view = views[v];

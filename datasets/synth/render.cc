@@ -1,12 +1,9 @@
 #include "datasets/synth/render.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <sstream>
-#include <thread>
 
 #include "tools/util/error.h"
 #include "datasets/synth/noise.h"
@@ -21,7 +18,6 @@ namespace {
 
 using util::kPi;
 using util::kDegToRad;
-
 
 // A pair of independent standard normal deviates from two uniforms (Box-Muller).
 void GaussianPair(std::uint64_t seed, std::uint64_t index, double* n1, double* n2) {
@@ -234,7 +230,6 @@ Sample Shade(const FrameContext& frame, const Eigen::Vector3d& bearing_in_cam, b
   if (shade) sample.reflectance = direct + frame.ambient_reflectance * hit.albedo;
   return sample;
 }
-
 
 using FrameProgress = std::function<void(double fraction_done)>;
 
@@ -512,6 +507,5 @@ RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, c
   frame.stats.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return frame;
 }
-
 
 }  // namespace hdabench::datasets::synth

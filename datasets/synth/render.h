@@ -152,7 +152,8 @@ struct RenderedFrame {
 // the ambient term, times the exposure, then sensor noise seeded by
 // HashUniform(noise_seed, pixel index). Every pixel is a pure function of its
 // inputs, so the output is byte-identical for any options.threads. `progress`
-// is called from the calling thread only, with the fraction of rows done.
+// gets the fraction of rows done, rising, from one thread at a time (the one
+// that finished the row: util::ParallelFor's done callback).
 // Throws InputError when options.Validate() fails or the scene is not the
 // raycaster's.
 RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, const calib::CameraModel& camera,

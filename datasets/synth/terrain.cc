@@ -1,12 +1,10 @@
 #include "datasets/synth/terrain.h"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <climits>
 #include <cmath>
 #include <sstream>
-#include <thread>
 
 #include "tools/util/error.h"
 #include "datasets/synth/noise.h"
@@ -20,7 +18,6 @@ namespace hdabench::datasets::synth {
 namespace {
 
 using util::kDegToRad;
-
 
 // Sub-seeds of the scene seed, one per independent random stream.
 constexpr std::uint64_t kReliefStream = 0x52454c4945460001ULL;

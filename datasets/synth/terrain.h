@@ -152,7 +152,8 @@ struct TerrainSummary {
 // Generates the scene: heights = regional plane + fractal relief + craters
 // (law's, then extra_craters, each added to the surface in that fixed order),
 // then rocks placed on the finished terrain, and the albedo field.
-// Rows are computed in blocks by `threads` std::threads; each node's value is a
+// Rows are computed in blocks on `threads` threads (util::ParallelFor, the
+// caller being one of them); each node's value is a
 // pure function of the seed and its coordinates, so the result is bit-identical
 // for any thread count. Throws InputError listing every Validate() message
 // (joined by "; ") when the options are invalid, or when threads < 1.

@@ -26,8 +26,16 @@ namespace hdabench::reference {
 
 namespace {
 
-using util::kDegToRad;
+// A cost in the refinement's note, with 17 significant digits: the note goes
+// into compare.json and compare.md, which have always printed costs so.
+std::string CostText(double cost) {
+  std::ostringstream out;
+  out.precision(17);
+  out << cost;
+  return out.str();
+}
 
+using util::kDegToRad;
 
 // A unit quaternion is accepted within this of norm 1 (docs/conventions.md).
 constexpr double kUnitQuaternionTolerance = 1e-6;
@@ -410,8 +418,8 @@ CeresRefineResult FinishSolve(const ceres::Solver::Summary& summary, ceres::Prob
   if (!(final_cost.total <= result.initial_cost.total)) {
     result.final_cost = result.initial_cost;
     return Finish(run, run->initial, CeresRefineStatus::kCostIncreased,
-                  "cost increased from " + util::ShortestText(result.initial_cost.total) + " to " +
-                      util::ShortestText(final_cost.total) + " (initial state returned)");
+                  "cost increased from " + CostText(result.initial_cost.total) + " to " +
+                      CostText(final_cost.total) + " (initial state returned)");
   }
   result.final_cost = final_cost;
   if (summary.termination_type == ceres::NO_CONVERGENCE) {
@@ -419,7 +427,7 @@ CeresRefineResult FinishSolve(const ceres::Solver::Summary& summary, ceres::Prob
                   "not converged: Ceres stopped at the limit of " +
                       std::to_string(run->options.max_iterations) +
                       " iterations (refined state kept, cost " +
-                      util::ShortestText(result.initial_cost.total) + " -> " + util::ShortestText(final_cost.total) +
+                      CostText(result.initial_cost.total) + " -> " + CostText(final_cost.total) +
                       ")");
   }
   return Finish(run, run->state, CeresRefineStatus::kOk, "");

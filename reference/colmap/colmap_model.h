@@ -6,7 +6,7 @@
 // Values are kept in COLMAP's own conventions, exactly as in the files:
 // images hold cam_from_world as qvec (w, x, y, z) and tvec (metres of the
 // model), 2D points are COLMAP pixels (centre of the top-left pixel at
-// (0.5, 0.5)). reference/colmap_adapter.h converts poses and pixels to
+// (0.5, 0.5)). reference/colmap/colmap_adapter.h converts poses and pixels to
 // hdabench's conventions.
 //
 // Binary layout (little-endian):

@@ -3,7 +3,6 @@
 #include <sqlite3.h>
 
 #include <algorithm>
-#include <charconv>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -29,7 +28,6 @@
 #include "tools/util/text.h"
 
 namespace hdabench::reference {
-
 
 namespace {
 
@@ -505,7 +503,7 @@ bool MatchAllPairs(const std::string& database, const DatabaseIds& ids,
                    const SiftMatchOptions& match, double timeout_s, const fs::path& match_list,
                    std::ostream& log, std::string* error) {
   const Clock::time_point start = Clock::now();
-  log << "# exact SIFT matching of every image pair (reference/sift_matching.h): max_ratio "
+  log << "# exact SIFT matching of every image pair (reference/colmap/sift_matching.h): max_ratio "
       << util::ShortestText(match.max_ratio) << ", max_distance " << util::ShortestText(match.max_distance)
       << ", cross_check " << (match.cross_check ? 1 : 0) << ", max_num_matches "
       << match.max_num_matches << "\n";

@@ -6,7 +6,7 @@
 //                       given (never estimated), no GPU
 //   exact_matcher       not a COLMAP program: the bench reads the descriptors
 //                       from COLMAP's database and matches every image pair
-//                       exactly with COLMAP's rules (reference/sift_matching.h),
+//                       exactly with COLMAP's rules (reference/colmap/sift_matching.h),
 //                       in place of COLMAP's approximate exhaustive_matcher
 //   matches_importer    COLMAP's two-view geometric verification (RANSAC) of
 //                       those raw matches (--match_type raw), no GPU
@@ -26,7 +26,7 @@
 // are OpenCV's distortion, radial (1 + k1 r2 + k2 r4 + k3 r6) /
 // (1 + k4 r2 + k5 r4 + k6 r6) then tangential 2 p1 x y + p2 (r2 + 2 x2),
 // p1 (r2 + 2 y2) + 2 p2 x y. The principal point moves by +0.5 px (COLMAP's
-// pixel origin, reference/colmap_adapter.h). Every other lens model (splined,
+// pixel origin, reference/colmap/colmap_adapter.h). Every other lens model (splined,
 // CAHVOR, CAHVORE, OPENCV12, LATLON, LONLAT, STEREOGRAPHIC, ...) has no COLMAP
 // equivalent: the images are resampled to a pinhole camera of the same imager
 // size (fx fy cx cy of the model's core when it has one, else the focal length
@@ -57,7 +57,7 @@
 //    so COLMAP stores whatever its buffer held (zeros in one run, another
 //    vector in the next; seen on 1024 x 1024 frames). The exact matcher
 //    leaves every keypoint where that may happen out of the matching
-//    (SiftDescriptorMayBeUnset in reference/sift_matching.h; its log counts
+//    (SiftDescriptorMayBeUnset in reference/colmap/sift_matching.h; its log counts
 //    them per image: 0 to 4 of ~11000 per 1024 x 1024 frame, 1 or 2 of ~4100
 //    per 512 x 512 frame).
 //  * COLMAP's exhaustive_matcher is NOT, which is why the bench does not use

@@ -1,5 +1,5 @@
 // Exact SIFT descriptor matching for the COLMAP references
-// (reference/colmap_runner.h), in place of COLMAP 3.8's CPU matcher.
+// (reference/colmap/colmap_runner.h), in place of COLMAP 3.8's CPU matcher.
 //
 // COLMAP 3.8 matches on the CPU with FLANN's randomised kd-trees: an
 // approximate two-nearest-neighbour search seeded from the C library's global

@@ -664,7 +664,7 @@ struct WholePairMethods {
 
 // A whole-pair method's ROIs and summary from its reconstruction.
 void FillWholePairMethod(const std::string& method, const PairReconstruction& recon,
-                         const WholePairMethods& whole, const CompareRun& run,
+                         const std::string& refine_note, const CompareRun& run,
                          const std::vector<RoiBearings>& roi_matches,
                          const ConfigurationReport& pair_configuration,
                          const CompareOptions& options, const Context& ctx,
@@ -674,7 +674,7 @@ void FillWholePairMethod(const std::string& method, const PairReconstruction& re
   summary->ok = recon.ok;
   summary->failure = recon.failure;
   summary->wall_s = recon.wall_s;
-  if (method == kMethodFlightRefined) summary->note = whole.refine_note;
+  if (method == kMethodFlightRefined) summary->note = refine_note;
   if (!recon.log_dir.empty()) summary->note = "logs: " + recon.log_dir;
   if (method == kMethodColmapFree && !roi_matches.empty()) {
     summary->note += std::string(summary->note.empty() ? "" : "; ") + "pair configuration: " +
@@ -746,8 +746,8 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
     } else {
       for (const auto& [name, recon] : whole.reconstructions) {
         if (name != method) continue;
-        FillWholePairMethod(method, recon, whole, run, roi_matches, pair_configuration, options, ctx,
-                            &run.rois[m], &summary);
+        FillWholePairMethod(method, recon, whole.refine_note, run, roi_matches, pair_configuration,
+                            options, ctx, &run.rois[m], &summary);
       }
     }
   }

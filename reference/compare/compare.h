@@ -8,14 +8,14 @@
 //   flight              the flight method as it would fly (RunHda)
 //   flight-refined      the flight's points and the nav relative pose refined
 //                       together by a two-view bundle adjustment with the
-//                       nav pose as a prior (Ceres, reference/ceres_refine.h)
+//                       nav pose as a prior (Ceres, reference/ceres/ceres_refine.h)
 //   colmap-nav          COLMAP SIFT + point_triangulator, nav poses held fixed
 //   colmap-free         COLMAP SIFT + mapper, aligned to the local frame with
-//                       the nav poses (reference/colmap_runner.h)
+//                       the nav poses (reference/colmap/colmap_runner.h)
 //   opengv-<solver>     per ROI, the ROI's ORB matches (the flight matcher's
 //                       RANSAC inliers, before any use of navigation), relative
 //                       pose by OpenGV with that solver, scaled by the nav
-//                       baseline, triangulated (reference/opengv_solvers.h)
+//                       baseline, triangulated (reference/opengv/opengv_solvers.h)
 //
 // A reference method's points belong to an ROI through their observation in
 // image 1 (inside the ROI's image-1 box). Every method's ROI plane is fitted

@@ -11,7 +11,6 @@
 #include <mutex>
 #include <set>
 #include <sstream>
-#include <thread>
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
@@ -178,7 +177,6 @@ std::string EntrySettings(const GateEntry& e, const GateSuite& suite, const Gate
 }
 
 constexpr char kEntryRecord[] = "gate_entry.json";
-
 
 // The dataset folder of an entry: made if it is synthetic (under a temporary
 // name, renamed into place), found otherwise.
@@ -606,7 +604,6 @@ std::string GateTable(const std::vector<GateCheck>& checks) {
   }
   return out.str();
 }
-
 
 std::string GateHtml(const std::string& suite_file, const std::vector<GateCheck>& checks,
                      const std::vector<GateEntryOutcome>& outcomes) {

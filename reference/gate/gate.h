@@ -1,5 +1,5 @@
 // The merge gate (`hdabench gate`): a checked-in suite of datasets, the
-// comparison (reference/compare.h) on each, metrics per method pooled over the
+// comparison (reference/compare/compare.h) on each, metrics per method pooled over the
 // suite, checked against checked-in thresholds and, optionally, against the
 // stored metrics of main (a baseline). Formats and metric definitions:
 // docs/gate.md.

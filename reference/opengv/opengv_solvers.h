@@ -8,7 +8,7 @@
 // plane, and a free two-view solve is then close to degenerate.
 //
 // Poses are cam2_from_cam1 in metres (docs/conventions.md); the one conversion
-// from OpenGV's (R12, t12) lives in reference/opengv_adapter.h. Bearings are
+// from OpenGV's (R12, t12) lives in reference/opengv/opengv_adapter.h. Bearings are
 // unit vectors in the OpenCV camera frame (x right, y down, z forward), as
 // calib::CameraModel unprojection gives them.
 //

@@ -7,9 +7,9 @@
 // The plots (slope estimated against true, slope error histograms, error
 // against number of points and against predicted sigma, stage times against
 // the budget, time per method) are drawn by matplotlib: the script
-// reference/report_plots.py is compiled into the library (ReportPlotsScript)
-// and run with Debian's python3 through util::RunProcess, on a copy written to a
-// temporary folder. The figures `hdabench run` already wrote (quadtree, ROI
+// reference/report/report_plots.py is compiled into the library
+// (ReportPlotsScript) and run with Debian's python3 through util::PythonScript,
+// on a copy written to a temporary folder. The figures `hdabench run` already wrote (quadtree, ROI
 // pairs, matches) and the dataset's maps (elevation, slope, hazards) are
 // embedded as they are.
 #pragma once
@@ -63,7 +63,7 @@ struct ReportResult {
 // ReportResult::plots_ok.
 ReportResult WriteReport(const std::string& run_dir, const ReportOptions& options);
 
-// The text of reference/report_plots.py as built into the library.
+// The text of reference/report/report_plots.py as built into the library.
 const std::string& ReportPlotsScript();
 
 // Standard base64 (RFC 4648, with '=' padding, no line breaks).

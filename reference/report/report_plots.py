@@ -1,4 +1,4 @@
-# The plots of `hdabench report` (reference/report.h, docs/report.md), drawn
+# The plots of `hdabench report` (reference/report/report.h, docs/report.md), drawn
 # with matplotlib's Agg backend from the files of a run or compare folder.
 #
 #   report_plots.py run|compare RUN_DIR OUT_DIR

@@ -302,7 +302,7 @@ TEST_F(ColmapRunner, NavAndFreeReconstructTheSyntheticPair) {
 
 // The matching is exact and uses only what COLMAP's extraction reproduces
 // (the keypoints, the descriptors but those it may leave unset:
-// reference/sift_matching.h), and with one thread COLMAP's geometric
+// reference/colmap/sift_matching.h), and with one thread COLMAP's geometric
 // verification, point_triangulator and mapper are reproducible: two runs on
 // the same images give the same match list and byte-identical models.
 TEST_F(ColmapRunner, TwoRunsGiveTheSameBytes) {

@@ -321,7 +321,7 @@ TEST_F(CompareOnSyntheticScene, AMissingColmapFailsItsColumnsAndKeepsTheOthers) 
 }
 
 // Every method is deterministic: the same bytes on a second run, COLMAP's
-// included (exact matching and one thread; see reference/colmap_runner.h).
+// included (exact matching and one thread; see reference/colmap/colmap_runner.h).
 TEST_F(CompareOnSyntheticScene, EveryMethodGivesTheSameBytesTwice) {
   const datasets::Dataset dataset = Load();
   const fs::path dir = FreshTestDir();

@@ -1,4 +1,4 @@
-// The outputs of a flight run (reference/flight_outputs.h) on a hand-made
+// The outputs of a flight run (reference/flight/flight_outputs.h) on a hand-made
 // HdaResult: result.json's fields and nulls, rois.csv, the PLY clouds, the
 // figures and the report's table.
 #include <algorithm>

@@ -1,6 +1,5 @@
 // `hdabench calibrate` and `hdabench calib-diff` (calib/calibrate.h,
 // calib/calibration_analysis.h, docs/calibration.md).
-#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <memory>

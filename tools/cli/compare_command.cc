@@ -1,5 +1,5 @@
 // `hdabench compare`: load a dataset, run the flight method and the reference
-// methods on two of its frames, write the outputs (reference/compare_outputs.h,
+// methods on two of its frames, write the outputs (reference/compare/compare_outputs.h,
 // docs/compare-results.md) and print the Markdown table.
 #include <filesystem>
 #include <iostream>

@@ -1,7 +1,6 @@
 // `hdabench dataset check` and `hdabench dataset create`: load, call, print.
 // The checks themselves live in datasets/ (docs/dataset-format.md).
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -19,6 +18,7 @@
 #include "tools/cli/commands.h"
 #include "tools/cli/exit_codes.h"
 #include "tools/util/text.h"
+#include "tools/util/angles.h"
 
 namespace hdabench::tools {
 
@@ -26,7 +26,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr double kRadToDeg = 57.295779513082320876798;
+using util::kRadToDeg;
 
 void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int frame1, int frame2,
                   std::ostream& out) {

@@ -1,6 +1,6 @@
 // `hdabench gate`: run a suite of datasets through the comparison, compute the
 // metrics per method, check them against the thresholds (and a baseline), and
-// print the table (reference/gate.h, docs/gate.md).
+// print the table (reference/gate/gate.h, docs/gate.md).
 #include <filesystem>
 #include <iostream>
 #include <memory>

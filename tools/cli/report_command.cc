@@ -1,5 +1,5 @@
 // `hdabench report`: the HTML page and Markdown summary of a run or compare
-// folder (reference/report.h, docs/report.md); also written at the end of
+// folder (reference/report/report.h, docs/report.md); also written at the end of
 // `hdabench run` and `hdabench compare` unless --no-report.
 #include <iostream>
 #include <memory>

@@ -1,5 +1,5 @@
 // `hdabench run`: load a dataset, run the flight method on two of its frames,
-// write the outputs (reference/flight_outputs.h, docs/flight-results.md) and
+// write the outputs (reference/flight/flight_outputs.h, docs/flight-results.md) and
 // print the report.
 #include <iostream>
 #include <memory>

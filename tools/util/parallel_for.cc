@@ -6,7 +6,6 @@
 #include <exception>
 #include <mutex>
 #include <stdexcept>
-#include <system_error>
 #include <thread>
 #include <vector>
 
@@ -31,7 +30,7 @@ void ParallelFor(const std::string& name, int count, int threads,
   const bool inject = FaultInjected(name);
   std::atomic<int> next{0};
   std::atomic<bool> injected{false};          // the injected fault has been thrown
-  std::atomic<bool> caller_alone{workers == 1};  // no other thread runs: the fault is the caller's
+  bool caller_alone = workers == 1;  // no other thread runs: the fault is the caller's (read by the caller only)
   std::mutex mutex;  // guards items_done, failure and the done callback
   int items_done = 0;
   std::exception_ptr failure;
@@ -64,7 +63,7 @@ void ParallelFor(const std::string& name, int count, int threads,
   for (int t = 1; t < workers; ++t) {
     try {
       pool.emplace_back(work, false);
-    } catch (const std::system_error&) {
+    } catch (...) {
       break;  // no more threads to be had: those running (and the caller) do every item
     }
   }

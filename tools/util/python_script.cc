@@ -14,9 +14,9 @@ PythonScript::PythonScript(const std::string& purpose, const std::string& file_n
     : folder_(purpose), script_(folder_.path() / file_name), config_(folder_.path() / "matplotlib") {
   std::error_code ec;
   fs::create_directories(config_, ec);
-  if (ec) {
-    throw InputError(config_.string() + ": cannot create the matplotlib configuration folder (" +
-                     ec.message() + ")");
+  if (ec || !fs::is_directory(config_)) {
+    throw InputError(config_.string() + ": cannot create the matplotlib configuration folder" +
+                     (ec ? ": " + ec.message() : ""));
   }
   WriteFileAtomically(script_, text);
 }

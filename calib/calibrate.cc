@@ -312,13 +312,29 @@ void FindMrcalTools(const CalibrateOptions& options, std::string* python, std::s
   }
 }
 
+// mrcal-calibrate-cameras starts the distortion coefficients it does not seed
+// from small values drawn with numpy's global generator, unseeded: its model
+// then differs from run to run in the last bits. This runs the tool (argv[2],
+// its arguments after it, as if started directly) with that generator seeded
+// from argv[1], so the same inputs give the same model.
+constexpr char kSeededMrcalRun[] =
+    "import runpy, sys\n"
+    "import numpy\n"
+    "numpy.random.seed(int(sys.argv[1]) % 2**32)\n"
+    "sys.argv = sys.argv[2:]\n"
+    "runpy.run_path(sys.argv[0], run_name='__main__')\n";
+
 // The command line of mrcal-calibrate-cameras: the corners cache, the board,
-// the seeds, and one image glob per camera.
+// the seeds, and one image glob per camera; run through kSeededMrcalRun with
+// the calibration's seed.
 std::vector<std::string> MrcalArguments(const CalibrateOptions& options, const std::string& python,
                                         const std::string& tool, const fs::path& out,
                                         const fs::path& work, const std::string& focal_list,
                                         size_t num_cameras, const CalibrateResult& result) {
   std::vector<std::string> argv = {python,
+                                   "-c",
+                                   kSeededMrcalRun,
+                                   std::to_string(options.analysis.seed),
                                    tool,
                                    "--corners-cache",
                                    (out / "corners.vnl").string(),

@@ -42,7 +42,7 @@ const CsvSchema kNavSchema{
      {"sigma_x_m", "sigma_y_m", "sigma_z_m", "sigma_rx_rad", "sigma_ry_rad", "sigma_rz_rad"}}};
 const CsvSchema kLrfSchema{{"time_s", "range_m", "bx", "by", "bz"}, {}};
 const CsvSchema kRocksSchema{{"x_m", "y_m", "z_m", "diameter_m", "height_above_ground_m"}, {}};
-const std::vector<std::string> kTruthKeys = {"points_in_local", "dem", "navigation", "rocks"};
+const std::vector<std::string> kTruthKeys = {"points_in_local", "dem", "navigation", "rocks", "imaging"};
 
 const std::vector<std::string> kManifestKeys = {
     "format",         "format_version",        "name",           "description",
@@ -1177,6 +1177,7 @@ class TruthLoader {
     }
     LoadNavigation(*truth);
     LoadRocks(*truth);
+    LoadImaging(*truth);
   }
 
  private:
@@ -1215,6 +1216,48 @@ class TruthLoader {
     }
     context_->dataset.truth.navigation_file = file;
     context_->dataset.truth.navigation = std::move(samples);
+  }
+
+  // Reads 'truth.imaging' (the sun and the sensor noise of a synthetic
+  // dataset); kept only when every field is right.
+  void LoadImaging(const json& truth) {
+    const json* imaging = fields_.Member(truth, "imaging", "truth.imaging", "", false);
+    if (imaging == nullptr) return;
+    if (!imaging->is_object()) {
+      problems_->AddField("truth.imaging", "is " + Describe(*imaging) +
+                                               "; expected an object with sun_in_local, gain_electrons_per_dn "
+                                               "and read_noise_dn");
+      return;
+    }
+    fields_.CheckKeys(*imaging, {"sun_in_local", "gain_electrons_per_dn", "read_noise_dn"}, "truth.imaging.");
+    TruthImaging result;
+    bool ok = true;
+    Eigen::VectorXd sun;
+    if (fields_.ReadVector(*imaging, "sun_in_local", "truth.imaging.sun_in_local", 3,
+                           "a unit vector toward the sun in the local frame", true, &sun)) {
+      if (std::abs(sun.norm() - 1.0) > 1e-6) {
+        problems_->AddField("truth.imaging.sun_in_local",
+                            "has norm " + util::ShortestText(sun.norm()) + "; expected a unit vector");
+        ok = false;
+      } else {
+        result.sun_in_local = sun;
+      }
+    } else {
+      ok = false;
+    }
+    const auto read_positive = [&](const std::string& key, bool zero_allowed, double* value) {
+      const std::string field = "truth.imaging." + key;
+      const json* member = fields_.Member(*imaging, key, field, "a number", true);
+      if (member == nullptr || !fields_.ReadNumber(*member, field, value)) return false;
+      if (*value < 0.0 || (!zero_allowed && *value == 0.0)) {
+        problems_->AddField(field, "is " + util::ShortestText(*value) + (zero_allowed ? "; expected >= 0" : "; expected > 0"));
+        return false;
+      }
+      return true;
+    };
+    ok = read_positive("gain_electrons_per_dn", true, &result.gain_electrons_per_dn) && ok;
+    ok = read_positive("read_noise_dn", true, &result.read_noise_dn) && ok;
+    if (ok) context_->dataset.truth.imaging = result;
   }
 
   // Reads the truth rocks table named by 'truth.rocks'; rows with a problem are
@@ -1451,6 +1494,12 @@ std::string ManifestJson(const Dataset& dataset) {
       truth["navigation"] = dataset.truth.navigation_file;
     }
     if (!dataset.truth.rocks_file.empty()) truth["rocks"] = dataset.truth.rocks_file;
+    if (dataset.truth.imaging.has_value()) {
+      const TruthImaging& imaging = *dataset.truth.imaging;
+      truth["imaging"]["sun_in_local"] = JsonArray(imaging.sun_in_local);
+      truth["imaging"]["gain_electrons_per_dn"] = imaging.gain_electrons_per_dn;
+      truth["imaging"]["read_noise_dn"] = imaging.read_noise_dn;
+    }
     manifest["truth"] = truth;
   }
   return manifest.dump(2) + "\n";

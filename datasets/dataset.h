@@ -66,9 +66,19 @@ struct TruthRock {
   double height_above_ground_m = 0.0;  // > 0 and <= diameter_m
 };
 
+// How a synthetic dataset's images were made, for checks of the imagery
+// itself (hdabench imagery): the sun and the sensor noise. Absent from field
+// data.
+struct TruthImaging {
+  Eigen::Vector3d sun_in_local = Eigen::Vector3d::UnitZ();  // unit vector toward the sun, local frame
+  double gain_electrons_per_dn = 40.0;  // shot noise variance = DN / gain; 0 = no shot noise
+  double read_noise_dn = 0.0;           // >= 0: read noise, DN (1 sigma)
+};
+
 struct Truth {
   std::vector<TruthPoints> points;  // any subset of the frames, at most one each
   std::optional<TruthDem> dem;
+  std::optional<TruthImaging> imaging;
   // True body poses local_from_body (Dataset::nav holds the measured ones, with
   // their errors): same table schema and checks as the navigation table, and
   // its span covers every frame time. Present when navigation_file is not
@@ -83,7 +93,7 @@ struct Truth {
   std::vector<TruthRock> rocks;
 
   bool Empty() const {
-    return points.empty() && !dem.has_value() && navigation_file.empty() && navigation.empty() &&
+    return points.empty() && !dem.has_value() && !imaging.has_value() && navigation_file.empty() && navigation.empty() &&
            rocks_file.empty() && rocks.empty();
   }
 };

@@ -17,6 +17,7 @@ double HashUniform(std::uint64_t seed, std::uint64_t a, std::uint64_t b, std::ui
 }
 
 namespace {
+constexpr double kPiSquared = 9.869604401089358;  // pi^2
 // One mix of a linear key per lattice point: value noise evaluates four of
 // these per octave, so this is the hot path of albedo and relief. The odd
 // multipliers keep distinct (layer, i, j) within any realistic range apart.
@@ -46,17 +47,29 @@ double ValueNoise(std::uint64_t seed, int layer, double x, double y) {
 }
 
 double FractalNoise(std::uint64_t seed, double x, double y, double finest_wavelength,
-                    double coarsest_wavelength, double hurst) {
+                    double coarsest_wavelength, double hurst, double filter_sigma) {
   double sum = 0.0;
   double norm = 0.0;
   int layer = 0;
   // (wavelength / coarsest)^hurst, kept as a running product: one pow per call.
   const double amplitude_step = std::pow(0.5, hurst);
   double amplitude = 1.0;
+  // The Gaussian's transfer at the octave's frequency, exp(-2 pi^2 (sigma /
+  // wavelength)^2): each halving of the wavelength raises it to the 4th power.
+  double transfer = filter_sigma > 0.0 ? std::exp(-2.0 * kPiSquared * (filter_sigma / coarsest_wavelength) *
+                                                  (filter_sigma / coarsest_wavelength))
+                                       : 1.0;
   for (double wavelength = coarsest_wavelength; wavelength >= finest_wavelength * 0.999;
        wavelength *= 0.5, ++layer, amplitude *= amplitude_step) {
-    sum += amplitude * ValueNoise(seed, layer, x / wavelength, y / wavelength);
     norm += amplitude;
+    if (filter_sigma > 0.0) {
+      if (transfer < 1e-4) continue;  // and so is every finer octave
+      sum += amplitude * transfer * ValueNoise(seed, layer, x / wavelength, y / wavelength);
+      transfer *= transfer;
+      transfer *= transfer;
+      continue;
+    }
+    sum += amplitude * ValueNoise(seed, layer, x / wavelength, y / wavelength);
   }
   return norm > 0.0 ? sum / norm : 0.0;
 }

@@ -7,6 +7,8 @@
 
 #include "tools/util/error.h"
 #include "datasets/synth/noise.h"
+#include "datasets/synth/optics.h"
+#include "datasets/synth/render_internal.h"
 #include "tools/util/angles.h"
 #include "tools/util/parallel_for.h"
 #include "tools/util/text.h"
@@ -67,6 +69,23 @@ std::vector<std::string> RenderOptions::Validate() const {
     errors.push_back("samples_per_pixel_axis: " + std::to_string(samples_per_pixel_axis) +
                      "; expected 1 to 16");
   }
+  if (adaptive_samples_per_cell_axis < 1 || adaptive_samples_per_cell_axis > 16) {
+    errors.push_back("adaptive_samples_per_cell_axis: " + std::to_string(adaptive_samples_per_cell_axis) +
+                     "; expected 1 to 16");
+  }
+  if (!(std::isfinite(fill_factor) && fill_factor > 0.0 && fill_factor <= 1.0)) {
+    errors.push_back("fill_factor: " + util::ShortestText(fill_factor) + "; expected in (0, 1]");
+  }
+  const std::pair<const char*, double> optics[] = {
+      {"f_number", f_number}, {"wavelength_um", wavelength_um}, {"pixel_pitch_um", pixel_pitch_um}};
+  for (const auto& [name, value] : optics) {
+    if (!(std::isfinite(value) && value > 0.0)) {
+      errors.push_back(std::string(name) + ": " + util::ShortestText(value) + "; expected a finite value > 0");
+    }
+  }
+  if (!(std::isfinite(defocus_sigma_px) && defocus_sigma_px >= 0.0 && defocus_sigma_px <= 10.0)) {
+    errors.push_back("defocus_sigma_px: " + util::ShortestText(defocus_sigma_px) + "; expected 0 to 10");
+  }
   if (!std::isfinite(dn_per_reflectance)) {
     errors.push_back("dn_per_reflectance: " + util::ShortestText(dn_per_reflectance) +
                      " is not finite; expected > 0 (fixed exposure) or <= 0 (auto-exposure)");
@@ -96,6 +115,10 @@ std::vector<std::string> RenderOptions::Validate() const {
     errors.push_back("threads: " + std::to_string(threads) + "; expected >= 1");
   }
   return errors;
+}
+
+double RenderOptions::PsfSigmaPx() const {
+  return std::hypot(DiffractionSigmaPx(wavelength_um, f_number, pixel_pitch_um), defocus_sigma_px);
 }
 
 namespace {
@@ -145,14 +168,18 @@ CameraRays::CameraRays(const calib::CameraModel& camera, int threads)
 }
 
 Eigen::Vector3d CameraRays::SampleBearing(int row, int col, double dx_px, double dy_px) const {
-  // The 2 x 2 stencil of pixel centres around the sample, kept inside the
-  // imager (the weights then extrapolate by up to half a pixel).
-  const int c0 = std::clamp(dx_px < 0.0 ? col - 1 : col, 0, std::max(0, width_px_ - 2));
-  const int r0 = std::clamp(dy_px < 0.0 ? row - 1 : row, 0, std::max(0, height_px_ - 2));
+  double pixel_angle_rad = 0.0;
+  return BearingAt(col + dx_px, row + dy_px, &pixel_angle_rad);
+}
+
+Eigen::Vector3d CameraRays::BearingAt(double x_px, double y_px, double* pixel_angle_rad) const {
+  *pixel_angle_rad = 0.0;
+  const int c0 = std::clamp(static_cast<int>(std::floor(x_px)), 0, std::max(0, width_px_ - 2));
+  const int r0 = std::clamp(static_cast<int>(std::floor(y_px)), 0, std::max(0, height_px_ - 2));
   const int c1 = std::min(c0 + 1, width_px_ - 1);
   const int r1 = std::min(r0 + 1, height_px_ - 1);
-  const double fx = col + dx_px - c0;
-  const double fy = row + dy_px - r0;
+  const double fx = x_px - c0;
+  const double fy = y_px - r0;
   const Eigen::Vector3d& b00 = CentreBearing(r0, c0);
   const Eigen::Vector3d& b01 = CentreBearing(r0, c1);
   const Eigen::Vector3d& b10 = CentreBearing(r1, c0);
@@ -163,37 +190,16 @@ Eigen::Vector3d CameraRays::SampleBearing(int row, int col, double dx_px, double
   }
   const Eigen::Vector3d b = (1.0 - fy) * ((1.0 - fx) * b00 + fx * b01) + fy * ((1.0 - fx) * b10 + fx * b11);
   const double norm = b.norm();
-  return norm > 0.0 ? Eigen::Vector3d(b / norm) : Eigen::Vector3d::Zero();
+  if (!(norm > 0.0)) return Eigen::Vector3d::Zero();
+  // Unit bearings: the chord between neighbours is the angle to first order.
+  const double along_x = c1 != c0 ? (b01 - b00).norm() : 0.0;
+  const double along_y = r1 != r0 ? (b10 - b00).norm() : along_x;
+  *pixel_angle_rad = along_x > 0.0 && along_y > 0.0 ? std::sqrt(along_x * along_y) : std::max(along_x, along_y);
+  return b / norm;
 }
 
-namespace {
+namespace internal {
 
-// What one camera ray sees.
-struct Sample {
-  bool hit = false;
-  RayHit ray_hit;
-  double reflectance = 0.0;  // including the ambient term
-  unsigned char shadow = 0;  // 255 cast, 128 attached, 0 lit
-};
-
-struct FrameContext {
-  const SceneRaycaster* raycaster;
-  Eigen::Matrix3d local_from_cam;
-  Eigen::Vector3d camera_in_local;
-  Eigen::Vector3d sun_in_local;
-  double ambient_reflectance;
-};
-
-// How a sample learns whether the sun is blocked.
-enum class ShadowMode {
-  kTrace,           // cast a shadow ray
-  kAssumeLit,       // the surrounding pixel centres are all unblocked: no ray
-  kAssumeShadowed,  // the surrounding pixel centres are all in cast shadow: no ray
-};
-
-// Casts the camera ray of `bearing_in_cam`, then (by `shadow_mode`) its shadow
-// ray. Without `shade`, only the geometry and the shadow flag (no albedo, no
-// reflectance).
 Sample Shade(const FrameContext& frame, const Eigen::Vector3d& bearing_in_cam, bool shade,
              ShadowMode shadow_mode, std::int64_t* shadow_rays) {
   Sample sample;
@@ -231,9 +237,6 @@ Sample Shade(const FrameContext& frame, const Eigen::Vector3d& bearing_in_cam, b
   return sample;
 }
 
-using FrameProgress = std::function<void(double fraction_done)>;
-
-// The camera pose, sun and fill light of one frame, as Shade() reads them.
 FrameContext MakeFrameContext(const SceneRaycaster& raycaster, const Rigid3d& cam_from_local,
                               const RenderOptions& options) {
   const Rigid3d local_from_cam = cam_from_local.Inverse();
@@ -245,6 +248,62 @@ FrameContext MakeFrameContext(const SceneRaycaster& raycaster, const Rigid3d& ca
   context.ambient_reflectance = options.ambient_reflectance;
   return context;
 }
+
+void AllocateFrame(int width, int height, int bit_depth, RenderedFrame* frame) {
+  frame->image = cv::Mat(height, width, bit_depth == 8 ? CV_8UC1 : CV_16UC1);
+  frame->points_in_local_m = cv::Mat(height, width, CV_32FC3);
+  frame->shadow_mask = cv::Mat(height, width, CV_8UC1);
+  frame->rock_index = cv::Mat(height, width, CV_32SC1);
+}
+
+// Shadow mode of the samples of pixels rows [row0, row1] x cols [col0, col1]
+// (clipped to the imager): a shadow ray only where the pixel centres of the
+// box disagree about cast shadow (255), else the centres' common state.
+ShadowMode ShadowModeOfBox(const cv::Mat& shadow_mask, int row0, int row1, int col0, int col1) {
+  const int height = shadow_mask.rows;
+  const int width = shadow_mask.cols;
+  bool any_cast = false;
+  bool any_not_cast = false;
+  for (int r = std::max(0, row0); r <= std::min(height - 1, row1); ++r) {
+    const auto* mask = shadow_mask.ptr<unsigned char>(r);
+    for (int c = std::max(0, col0); c <= std::min(width - 1, col1); ++c) {
+      if (mask[c] == 255) {
+        any_cast = true;
+      } else {
+        any_not_cast = true;
+      }
+    }
+  }
+  if (any_cast == any_not_cast) return ShadowMode::kTrace;  // both, or an empty box
+  return any_cast ? ShadowMode::kAssumeShadowed : ShadowMode::kAssumeLit;
+}
+
+// The sensor: shot noise on the electrons, full-well clip, read noise,
+// rounding and clipping to [0, max_dn]; the noise is seeded per pixel.
+double SensorDn(const RenderOptions& options, double signal_dn, std::uint64_t noise_seed,
+                std::uint64_t pixel_index, double max_dn) {
+  double shot = 0.0, read = 0.0;
+  if (options.shot_noise || options.read_noise_dn > 0.0) GaussianPair(noise_seed, pixel_index, &shot, &read);
+  double electrons = signal_dn * options.gain_electrons_per_dn;
+  if (options.shot_noise) electrons += std::sqrt(std::max(electrons, 0.0)) * shot;
+  electrons = std::clamp(electrons, 0.0, options.full_well_electrons);
+  return std::clamp(std::round(electrons / options.gain_electrons_per_dn + options.read_noise_dn * read), 0.0,
+                    max_dn);
+}
+
+}  // namespace internal
+
+namespace {
+
+using internal::AllocateFrame;
+using internal::FrameContext;
+using internal::FrameProgress;
+using internal::MakeFrameContext;
+using internal::Sample;
+using internal::SensorDn;
+using internal::Shade;
+using internal::ShadowMode;
+using internal::ShadowModeOfBox;
 
 // The state the passes of one RenderFrame call share: the sampling plan, the
 // per-row ray counts (each row written by one worker only) and the
@@ -284,14 +343,6 @@ struct FramePasses {
   std::vector<double> corner_reflectance;  // per pixel corner, quincunx only
 };
 
-// Allocates the image and the per-pixel truth of a width x height frame.
-void AllocateFrame(int width, int height, int bit_depth, RenderedFrame* frame) {
-  frame->image = cv::Mat(height, width, bit_depth == 8 ? CV_8UC1 : CV_16UC1);
-  frame->points_in_local_m = cv::Mat(height, width, CV_32FC3);
-  frame->shadow_mask = cv::Mat(height, width, CV_8UC1);
-  frame->rock_index = cv::Mat(height, width, CV_32SC1);
-}
-
 // Pass 1, the truth: every pixel-centre ray with its own shadow ray, into the
 // frame's points, shadow mask and rock index (progress 0 to 0.2).
 void TraceCentres(FramePasses& passes, const FrameProgress& progress, RenderedFrame* frame) {
@@ -325,28 +376,6 @@ void TraceCentres(FramePasses& passes, const FrameProgress& progress, RenderedFr
   util::ParallelFor("render rows", height, passes.options.threads, trace_centres, [&](int rows_done) {
     if (progress && (rows_done % 16 == 0)) progress(0.2 * rows_done / height);
   });
-}
-
-// Shadow mode of the samples of pixels rows [row0, row1] x cols [col0, col1]
-// (clipped to the imager): a shadow ray only where the pixel centres of the
-// box disagree about cast shadow (255), else the centres' common state.
-ShadowMode ShadowModeOfBox(const cv::Mat& shadow_mask, int row0, int row1, int col0, int col1) {
-  const int height = shadow_mask.rows;
-  const int width = shadow_mask.cols;
-  bool any_cast = false;
-  bool any_not_cast = false;
-  for (int r = std::max(0, row0); r <= std::min(height - 1, row1); ++r) {
-    const auto* mask = shadow_mask.ptr<unsigned char>(r);
-    for (int c = std::max(0, col0); c <= std::min(width - 1, col1); ++c) {
-      if (mask[c] == 255) {
-        any_cast = true;
-      } else {
-        any_not_cast = true;
-      }
-    }
-  }
-  if (any_cast && any_not_cast) return ShadowMode::kTrace;
-  return any_cast ? ShadowMode::kAssumeShadowed : ShadowMode::kAssumeLit;
 }
 
 // Quincunx corners (progress 0.2 to 0.9): corner (r, c) is the pixel corner
@@ -409,19 +438,6 @@ double PixelReflectanceSum(const FramePasses& passes, int row, int col, ShadowMo
     ++*row_camera_rays;
   }
   return reflectance_sum;
-}
-
-// The sensor: shot noise on the electrons, full-well clip, read noise,
-// rounding and clipping to [0, max_dn]; the noise is seeded per pixel.
-double SensorDn(const RenderOptions& options, double signal_dn, std::uint64_t noise_seed,
-                std::uint64_t pixel_index, double max_dn) {
-  double shot = 0.0, read = 0.0;
-  if (options.shot_noise || options.read_noise_dn > 0.0) GaussianPair(noise_seed, pixel_index, &shot, &read);
-  double electrons = signal_dn * options.gain_electrons_per_dn;
-  if (options.shot_noise) electrons += std::sqrt(std::max(electrons, 0.0)) * shot;
-  electrons = std::clamp(electrons, 0.0, options.full_well_electrons);
-  return std::clamp(std::round(electrons / options.gain_electrons_per_dn + options.read_noise_dn * read), 0.0,
-                    max_dn);
 }
 
 // Pass 2, the image: the sub-pixel samples, then the sensor. Their shadow
@@ -494,16 +510,21 @@ RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, c
       options.dn_per_reflectance > 0.0
           ? options.dn_per_reflectance
           : ExposureFor(options, scene.albedo.mean, -(context.local_from_cam * Eigen::Vector3d::UnitZ()));
-  FramePasses passes(context, rays, options);
-  AllocateFrame(passes.width, passes.height, options.bit_depth, &frame);
-  TraceCentres(passes, progress, &frame);
-  if (passes.quincunx) TraceCorners(passes, frame.shadow_mask, progress);
-  RenderImage(passes, noise_seed, progress, &frame);
-  if (progress) progress(1.0);
-  for (int row = 0; row < passes.height; ++row) {
-    frame.stats.camera_rays += passes.camera_rays[static_cast<size_t>(row)];
-    frame.stats.shadow_rays += passes.shadow_rays[static_cast<size_t>(row)];
+  if (options.anti_aliasing == RenderOptions::AntiAliasing::kCamera) {
+    AllocateFrame(rays.WidthPx(), rays.HeightPx(), options.bit_depth, &frame);
+    internal::RenderCameraModel(context, scene, rays, options, noise_seed, progress, &frame);
+  } else {
+    FramePasses passes(context, rays, options);
+    AllocateFrame(passes.width, passes.height, options.bit_depth, &frame);
+    TraceCentres(passes, progress, &frame);
+    if (passes.quincunx) TraceCorners(passes, frame.shadow_mask, progress);
+    RenderImage(passes, noise_seed, progress, &frame);
+    for (int row = 0; row < passes.height; ++row) {
+      frame.stats.camera_rays += passes.camera_rays[static_cast<size_t>(row)];
+      frame.stats.shadow_rays += passes.shadow_rays[static_cast<size_t>(row)];
+    }
   }
+  if (progress) progress(1.0);
   frame.stats.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return frame;
 }

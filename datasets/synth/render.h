@@ -47,15 +47,41 @@ struct RenderOptions {
   // Sun. The default is a low sun as at a polar landing site.
   double sun_azimuth_deg = 90.0;         // from north, clockwise toward east, degrees
   double sun_elevation_deg = 9.0;        // above the local horizon, degrees, in (0, 90]
-  // Anti-aliasing. kQuincunx (default): each pixel is 1/2 its centre ray plus
-  // 1/8 of each of its four corner rays, corners shared with the neighbours:
-  // two rays per pixel, the centre one being the truth ray anyway. kGrid:
-  // n x n stratified sub-pixel rays per pixel (n = samples_per_pixel_axis), at
-  // offsets ((k + 0.5) / n - 0.5) px from the centre along each axis; n = 1 is
-  // no anti-aliasing. Sample positions are fixed (no jitter).
-  enum class AntiAliasing { kQuincunx, kGrid };
-  AntiAliasing anti_aliasing = AntiAliasing::kQuincunx;
+  // How a pixel is formed.
+  //  kCamera (default): the camera model. Each pixel integrates the scene over
+  //   its light-sensitive area (fill_factor), blurred by the optics' PSF
+  //   (PsfSigmaPx()). The scene is sampled on a lattice of
+  //   samples_per_pixel_axis^2 points per pixel (spacing 1 / n px, through the
+  //   pixel centres, so the centre ray is also the truth ray); each lattice
+  //   point stands for the scene averaged over its cell: the albedo texture
+  //   and the terrain normal are low-passed at the cell's ground footprint
+  //   (a Gaussian of the cell's variance), and where neighbouring points see a
+  //   different surface, shadow state, or radiances differing by more than
+  //   adaptive_contrast of the brighter, the cell is split into
+  //   adaptive_samples_per_cell_axis^2 rays with their own shadow rays. The
+  //   pixel is the cells' sum weighted by the pixel response over each cell
+  //   (optics.h), with the optics' Gaussian narrowed by the cell filter's
+  //   variance so that the rendered blur is the configured one.
+  //  kQuincunx: point sampling, 1/2 the centre ray plus 1/8 of each of its
+  //   four corner rays, corners shared with the neighbours: two rays per pixel.
+  //  kGrid: n x n point samples per pixel (n = samples_per_pixel_axis) at
+  //   offsets ((k + 0.5) / n - 0.5) px from the centre, averaged; n = 1 is no
+  //   anti-aliasing.
+  // kQuincunx and kGrid have no optics blur and no pixel response: they keep
+  // the datasets rendered before the camera model reproducible.
+  enum class AntiAliasing { kCamera, kQuincunx, kGrid };
+  AntiAliasing anti_aliasing = AntiAliasing::kCamera;
   int samples_per_pixel_axis = 2;
+  int adaptive_samples_per_cell_axis = 2;  // kCamera: rays per cell side where the scene is discontinuous; 1 = none
+  // Detector and optics (kCamera). Defaults: a machine-vision camera of 5.5 um
+  // pixels behind an f/5.6 lens; not the values of any flight camera.
+  double fill_factor = 1.0;                // light-sensitive share of the pixel area, (0, 1]
+  double f_number = 5.6;                   // diffraction: Airy core as a Gaussian of 0.42 lambda N / pitch
+  double wavelength_um = 0.6;              // effective wavelength of the passband, micrometres
+  double pixel_pitch_um = 5.5;             // pixel pitch, micrometres
+  double defocus_sigma_px = 0.4;           // defocus and aberrations: a Gaussian of this sigma, pixels
+  // The optics' PSF: a Gaussian of sigma = hypot(diffraction sigma, defocus_sigma_px), pixels.
+  double PsfSigmaPx() const;
   // Exposure, in DN per unit reflectance (I/F). > 0: used as is (the same
   // exposure for every frame). <= 0: auto-exposure from geometry, never from
   // image content: ExposureFor(options, scene albedo mean, -optical axis).
@@ -115,6 +141,11 @@ class CameraRays {
   // Bearing through pixel (col + dx_px, row + dy_px), |dx|, |dy| <= 0.5, by
   // interpolation as above; zero when a pixel of the stencil has none.
   Eigen::Vector3d SampleBearing(int row, int col, double dx_px, double dy_px) const;
+  // Bearing through any image point (x_px, y_px), extrapolated from the
+  // nearest 2 x 2 pixel centres outside the imager (the camera model's
+  // margin); *pixel_angle_rad receives the angle between neighbouring pixel
+  // centres there (geometric mean of the two axes). Zero bearing as above.
+  Eigen::Vector3d BearingAt(double x_px, double y_px, double* pixel_angle_rad) const;
 
  private:
   int width_px_ = 0;
@@ -125,6 +156,7 @@ class CameraRays {
 struct RenderStats {
   std::int64_t camera_rays = 0;  // rays cast from the camera (pixel centres + sub-pixel samples)
   std::int64_t shadow_rays = 0;  // rays cast toward the sun
+  std::int64_t split_cells = 0;  // kCamera: lattice cells split for discontinuities
   double wall_s = 0.0;          // wall-clock time of RenderFrame (incl. CameraRays if built there)
 };
 

@@ -53,9 +53,55 @@ bool Heightfield::NormalAt(double x_m, double y_m, Eigen::Vector3d* normal) cons
   return true;
 }
 
-double AlbedoField::At(double x_m, double y_m) const {
-  const double variation =
-      FractalNoise(seed, x_m, y_m, finest_wavelength_m, coarsest_wavelength_m, 0.5);  // [-1, 1]
+namespace {
+
+// The triangulated surface's height at column coordinate u and row
+// coordinate v (in node units): the same surface as HeightAt, interpolated
+// within the cell's triangle (cheaper, equal to rounding). False outside.
+bool SurfaceHeight(const Heightfield& dem, double u, double v, double* z_m) {
+  if (!(u >= 0.0 && v >= 0.0 && u <= dem.width - 1 && v <= dem.height - 1)) return false;
+  const int c = std::min(static_cast<int>(u), dem.width - 2);
+  const int r = std::min(static_cast<int>(v), dem.height - 2);
+  const double fu = u - c;
+  const double fv = v - r;
+  const double z00 = dem.At(r, c);
+  const double z11 = dem.At(r + 1, c + 1);
+  if (fu >= fv) {
+    const double z01 = dem.At(r, c + 1);
+    *z_m = z00 + fu * (z01 - z00) + fv * (z11 - z01);
+  } else {
+    const double z10 = dem.At(r + 1, c);
+    *z_m = z00 + fv * (z10 - z00) + fu * (z11 - z10);
+  }
+  return true;
+}
+
+}  // namespace
+
+bool Heightfield::MeanNormalAt(double x_m, double y_m, double half_width_m, Eigen::Vector3d* normal) const {
+  double east = 0.0, west = 0.0, north = 0.0, south = 0.0;
+  const double u = (x_m - origin_x_m) / spacing_m;
+  const double v = (origin_y_m - y_m) / spacing_m;
+  const double h = half_width_m / spacing_m;
+  if (width < 2 || height < 2 || !(h > 0.0) || !SurfaceHeight(*this, u + h, v, &east) ||
+      !SurfaceHeight(*this, u - h, v, &west) || !SurfaceHeight(*this, u, v - h, &north) ||
+      !SurfaceHeight(*this, u, v + h, &south)) {
+    return NormalAt(x_m, y_m, normal);
+  }
+  const double dz_dx = (east - west) / (2.0 * half_width_m);
+  const double dz_dy = (north - south) / (2.0 * half_width_m);
+  *normal = Eigen::Vector3d(-dz_dx, -dz_dy, 1.0).normalized();
+  return true;
+}
+
+double AlbedoField::At(double x_m, double y_m, double filter_sigma_m) const {
+  double variation = 0.0;  // [-1, 1]
+  if (edge) {
+    const double d = edge_normal.dot(Eigen::Vector2d(x_m, y_m)) - edge_offset_m;
+    variation = filter_sigma_m > 0.0 ? std::erf(d / (std::sqrt(2.0) * filter_sigma_m)) : (d > 0.0 ? 1.0 : -1.0);
+  } else {
+    variation = FractalNoise(seed, x_m, y_m, finest_wavelength_m, coarsest_wavelength_m, 0.5, filter_sigma_m);
+  }
   return std::clamp(mean * (1.0 + relative_variation * variation), 1e-3, 1.0);
 }
 

@@ -29,6 +29,11 @@ struct Heightfield {
   bool HeightAt(double x_m, double y_m, double* z_m) const;
   // Upward unit normal of the triangle under (x, y); false outside the grid.
   bool NormalAt(double x_m, double y_m, Eigen::Vector3d* normal) const;
+  // Upward unit normal of the surface averaged over a square of side
+  // 2 * half_width_m centred on (x, y): from the mean slopes along x and y,
+  // (HeightAt(x + h) - HeightAt(x - h)) / 2h and the same along y. The facet
+  // normal (NormalAt) when half_width_m <= 0 or a lookup leaves the grid.
+  bool MeanNormalAt(double x_m, double y_m, double half_width_m, Eigen::Vector3d* normal) const;
   double MinXM() const { return origin_x_m; }
   double MaxXM() const { return origin_x_m + (width - 1) * spacing_m; }
   double MinYM() const { return origin_y_m - (height - 1) * spacing_m; }
@@ -52,8 +57,18 @@ struct AlbedoField {
   double finest_wavelength_m = 0.5;  // smallest feature of the texture, metres
   double coarsest_wavelength_m = 64.0;
   std::uint64_t seed = 1;
-  // Albedo at (x, y) in the local frame; always in (0, 1].
-  double At(double x_m, double y_m) const;
+  // A straight albedo edge instead of the texture (the edge-spread check of
+  // the renderer): mean * (1 + relative_variation) where
+  // edge_normal . (x, y) > edge_offset_m, mean * (1 - relative_variation)
+  // on the other side.
+  bool edge = false;
+  Eigen::Vector2d edge_normal = Eigen::Vector2d::UnitX();  // unit
+  double edge_offset_m = 0.0;
+  // Albedo at (x, y) in the local frame; always in (0, 1]. filter_sigma_m >
+  // 0: the albedo seen through a Gaussian low-pass of that standard deviation
+  // on the ground (the renderer's prefilter; FractalNoise's filter for the
+  // texture, the exact Gaussian-blurred step for the edge).
+  double At(double x_m, double y_m, double filter_sigma_m = 0.0) const;
 };
 
 struct Crater {

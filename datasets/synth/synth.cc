@@ -228,6 +228,7 @@ void ScaleTerrain(double scale, TerrainOptions* t) {
   t->rock_d_min_m *= scale;
   t->rock_d_max_m *= scale;
   t->rock_k *= std::pow(scale, -t->rock_exponent - 2.0);
+  t->rock_q_per_m /= scale;  // the exponential-area law: F(D) = k exp(-q D) keeps its shape
   t->albedo_finest_wavelength_m *= scale;
   t->albedo_coarsest_wavelength_m *= scale;
 }
@@ -285,6 +286,8 @@ void ApplyOverride(const std::string& key, const std::string& value, SynthOption
       {"terrain.crater_ejecta_extent_radii", &t->crater_ejecta_extent_radii},
       {"terrain.rock_k", &t->rock_k},
       {"terrain.rock_exponent", &t->rock_exponent},
+      {"terrain.rock_area_fraction", &t->rock_area_fraction},
+      {"terrain.rock_q_per_m", &t->rock_q_per_m},
       {"terrain.rock_d_min_m", &t->rock_d_min_m},
       {"terrain.rock_d_max_m", &t->rock_d_max_m},
       {"terrain.rock_protrusion_min", &t->rock_protrusion_min},
@@ -304,18 +307,34 @@ void ApplyOverride(const std::string& key, const std::string& value, SynthOption
                   {"render.gain_electrons_per_dn", &r.gain_electrons_per_dn},
                   {"render.full_well_electrons", &r.full_well_electrons},
                   {"render.read_noise_dn", &r.read_noise_dn},
-                  {"render.ambient_reflectance", &r.ambient_reflectance}});
+                  {"render.ambient_reflectance", &r.ambient_reflectance},
+                  {"render.fill_factor", &r.fill_factor},
+                  {"render.f_number", &r.f_number},
+                  {"render.wavelength_um", &r.wavelength_um},
+                  {"render.pixel_pitch_um", &r.pixel_pitch_um},
+                  {"render.defocus_sigma_px", &r.defocus_sigma_px}});
   std::map<std::string, int*> ints = {{"image_size_px", &o->image_size_px},
                                       {"threads", &o->threads},
                                       {"render.samples_per_pixel_axis", &r.samples_per_pixel_axis},
+                                      {"render.adaptive_samples_per_cell_axis", &r.adaptive_samples_per_cell_axis},
                                       {"render.bit_depth", &r.bit_depth}};
+  if (key == "terrain.rock_law") {
+    ApplyRockLaw(value, t);
+    return;
+  }
+  if (key == "terrain.rock_k" || key == "terrain.rock_exponent" || key == "terrain.rock_area_fraction" ||
+      key == "terrain.rock_q_per_m") {
+    t->rock_law = "custom";
+  }
   if (key == "render.anti_aliasing") {
-    if (value == "quincunx") {
+    if (value == "camera") {
+      r.anti_aliasing = RenderOptions::AntiAliasing::kCamera;
+    } else if (value == "quincunx") {
       r.anti_aliasing = RenderOptions::AntiAliasing::kQuincunx;
     } else if (value == "grid") {
       r.anti_aliasing = RenderOptions::AntiAliasing::kGrid;
     } else {
-      throw InputError("--set render.anti_aliasing=" + value + ": expected quincunx or grid");
+      throw InputError("--set render.anti_aliasing=" + value + ": expected camera, quincunx or grid");
     }
     return;
   }
@@ -655,6 +674,11 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
   AddNavigation(options, seed, frames.times_s.front(), t0, t1, &dataset);
   AddLrf(options, seed, raycaster, t0, t1, &dataset);
   AddTruthDemAndRocks(scene, &dataset);
+  TruthImaging imaging;
+  imaging.sun_in_local = SunDirectionInLocal(render.sun_azimuth_deg, render.sun_elevation_deg);
+  imaging.gain_electrons_per_dn = render.shot_noise ? render.gain_electrons_per_dn : 0.0;
+  imaging.read_noise_dn = render.read_noise_dn;
+  dataset.truth.imaging = imaging;
 
   if (summary != nullptr) {
     summary->frames = static_cast<int>(frames.times_s.size());

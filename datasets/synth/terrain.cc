@@ -101,6 +101,11 @@ double ExpectedCount(double k, double exponent, double d_min_m, double d_max_m, 
   return k * (std::pow(d_min_m, exponent) - std::pow(d_max_m, exponent)) * area_m2;
 }
 
+// Expected number of rocks of the options' law in [rock_d_min_m, rock_d_max_m] over area_m2.
+double ExpectedRockCount(const TerrainOptions& o, double area_m2) {
+  return (CumulativeRocksPerM2(o, o.rock_d_min_m) - CumulativeRocksPerM2(o, o.rock_d_max_m)) * area_m2;
+}
+
 // floor(lambda), plus one with probability frac(lambda).
 std::int64_t StochasticCount(double lambda, std::uint64_t stream_seed) {
   const double whole = std::floor(lambda);
@@ -114,6 +119,29 @@ double SampleDiameter(double u, double exponent, double d_min_m, double d_max_m)
   const double a = std::pow(d_min_m, exponent);
   const double b = std::pow(d_max_m, exponent);
   return std::clamp(std::pow(a - u * (a - b), 1.0 / exponent), d_min_m, d_max_m);
+}
+
+// Inverse CDF of the options' rock law truncated to [d_min, d_max]: the power
+// law in closed form, the exponential-area law by bisection on log D (N is
+// decreasing in D).
+double SampleRockDiameter(double u, const TerrainOptions& o) {
+  if (o.rock_law_kind == TerrainOptions::RockLawKind::kPower) {
+    return SampleDiameter(u, o.rock_exponent, o.rock_d_min_m, o.rock_d_max_m);
+  }
+  const double n_min = CumulativeRocksPerM2(o, o.rock_d_min_m);
+  const double n_max = CumulativeRocksPerM2(o, o.rock_d_max_m);
+  const double target = n_min - u * (n_min - n_max);
+  double lo = std::log(o.rock_d_min_m);
+  double hi = std::log(o.rock_d_max_m);
+  for (int i = 0; i < 60; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    if (CumulativeRocksPerM2(o, std::exp(mid)) > target) {
+      lo = mid;
+    } else {
+      hi = mid;
+    }
+  }
+  return std::clamp(std::exp(0.5 * (lo + hi)), o.rock_d_min_m, o.rock_d_max_m);
 }
 
 // A crater ready to be carved: centre, radius, depth, rim height, reach (m).
@@ -283,8 +311,13 @@ void ValidateExtraCraters(const TerrainOptions& o, Checker& check) {
 
 // Rocks: the law, protrusion and albedo ranges, the count cap over the extent.
 void ValidateRockLaw(const TerrainOptions& o, bool extent_ok, Checker& check) {
-  bool rock_law_ok =
-      check.NonNegative("rock_k", o.rock_k) & check.Negative("rock_exponent", o.rock_exponent);
+  bool rock_law_ok = true;
+  if (o.rock_law_kind == TerrainOptions::RockLawKind::kPower) {
+    rock_law_ok = check.NonNegative("rock_k", o.rock_k) & check.Negative("rock_exponent", o.rock_exponent);
+  } else {
+    rock_law_ok = check.InHalfOpen("rock_area_fraction", o.rock_area_fraction, 0.0, 1.0) &
+                  check.Positive("rock_q_per_m", o.rock_q_per_m);
+  }
   const bool rock_d_ok =
       check.Positive("rock_d_min_m", o.rock_d_min_m) & check.Positive("rock_d_max_m", o.rock_d_max_m);
   rock_law_ok = rock_law_ok && rock_d_ok &&
@@ -308,11 +341,14 @@ void ValidateRockLaw(const TerrainOptions& o, bool extent_ok, Checker& check) {
   const bool max_rocks_ok =
       check.Check(o.max_rocks >= 0, "max_rocks", static_cast<double>(o.max_rocks), "a value >= 0");
   if (rock_law_ok && extent_ok && max_rocks_ok) {
-    const double expected =
-        ExpectedCount(o.rock_k, o.rock_exponent, o.rock_d_min_m, o.rock_d_max_m, ExtentAreaM2(o));
+    const double expected = ExpectedRockCount(o, ExtentAreaM2(o));
     if (std::ceil(expected) > static_cast<double>(o.max_rocks)) {
       check.Fail("rock law gives " + util::ShortestText(expected) + " rocks over " + util::ShortestText(ExtentAreaM2(o)) +
-                 " m^2 (rock_k = " + util::ShortestText(o.rock_k) + ", rock_exponent = " + util::ShortestText(o.rock_exponent) +
+                 " m^2 (" +
+                 (o.rock_law_kind == TerrainOptions::RockLawKind::kPower
+                      ? "rock_k = " + util::ShortestText(o.rock_k) + ", rock_exponent = " + util::ShortestText(o.rock_exponent)
+                      : "rock_area_fraction = " + util::ShortestText(o.rock_area_fraction) +
+                            ", rock_q_per_m = " + util::ShortestText(o.rock_q_per_m)) +
                  ", rock_d_min_m = " + util::ShortestText(o.rock_d_min_m) + ", rock_d_max_m = " +
                  util::ShortestText(o.rock_d_max_m) + "): expected at most max_rocks = " +
                  std::to_string(o.max_rocks) + "; raise rock_d_min_m or max_rocks, or lower rock_k");
@@ -500,8 +536,7 @@ void ComputeHeights(const TerrainOptions& o, const Grid& grid, const SurfaceMode
 void PlaceRocks(const TerrainOptions& o, std::uint64_t seed, Scene* scene, TerrainSummary* stats) {
   const Heightfield& dem = scene->dem;
   const std::uint64_t rock_seed = Stream(seed, kRockStream);
-  stats->expected_rock_count = ExpectedCount(o.rock_k, o.rock_exponent, o.rock_d_min_m,
-                                             o.rock_d_max_m, ExtentAreaM2(o));
+  stats->expected_rock_count = ExpectedRockCount(o, ExtentAreaM2(o));
   stats->rocks_drawn = StochasticCount(stats->expected_rock_count, rock_seed);
   scene->rocks.reserve(static_cast<size_t>(stats->rocks_drawn) + o.extra_rocks.size());
   const auto place = [&](Rock rock) {
@@ -513,8 +548,7 @@ void PlaceRocks(const TerrainOptions& o, std::uint64_t seed, Scene* scene, Terra
   for (std::int64_t i = 0; i < stats->rocks_drawn; ++i) {
     const auto index = static_cast<std::uint64_t>(i);
     Rock rock;
-    const double diameter_m = SampleDiameter(HashUniform(rock_seed, index, 0), o.rock_exponent,
-                                             o.rock_d_min_m, o.rock_d_max_m);
+    const double diameter_m = SampleRockDiameter(HashUniform(rock_seed, index, 0), o);
     rock.radius_m = 0.5 * diameter_m;
     rock.center_in_local_m.x() =
         o.min_x_m + (o.max_x_m - o.min_x_m) * HashUniform(rock_seed, index, 1);
@@ -560,6 +594,53 @@ std::vector<std::string> TerrainOptions::Validate() const {
   return errors;
 }
 
+std::vector<std::string> RockLawNames() {
+  return {"surveyor-1", "viper", "intercrater", "haworth", "exponential-golombek", "exponential-pydem"};
+}
+
+void ApplyRockLaw(const std::string& name, TerrainOptions* options) {
+  struct PowerLaw {
+    const char* name;
+    double k;
+    double exponent;
+  };
+  static const PowerLaw kPowerLaws[] = {
+      {"surveyor-1", 0.00234, -2.11}, {"viper", 3e-4, -2.482}, {"intercrater", 1e-4, -1.75457}, {"haworth", 2e-3, -2.6607}};
+  for (const PowerLaw& law : kPowerLaws) {
+    if (name != law.name) continue;
+    options->rock_law_kind = TerrainOptions::RockLawKind::kPower;
+    options->rock_law = name;
+    options->rock_k = law.k;
+    options->rock_exponent = law.exponent;
+    return;
+  }
+  if (name == "exponential-golombek" || name == "exponential-pydem") {
+    const double k = options->rock_area_fraction;
+    if (!(k > 0.0 && k < 1.0)) {
+      throw InputError("rock law " + name + " needs rock_area_fraction (the total fraction of area covered by "
+                       "rocks) in (0, 1), got " + util::ShortestText(k) + "; set terrain.rock_area_fraction first");
+    }
+    options->rock_law_kind = TerrainOptions::RockLawKind::kExponentialArea;
+    options->rock_law = name;
+    options->rock_q_per_m = name == "exponential-golombek" ? 1.79 + 0.152 / k : 1.863 + 0.153 / k;
+    return;
+  }
+  std::string valid;
+  for (const std::string& law : RockLawNames()) valid += (valid.empty() ? "" : ", ") + law;
+  throw InputError("unknown rock law \"" + name + "\": expected one of " + valid);
+}
+
+double CumulativeRocksPerM2(const TerrainOptions& o, double d_m) {
+  if (o.rock_law_kind == TerrainOptions::RockLawKind::kPower) return o.rock_k * std::pow(d_m, o.rock_exponent);
+  // dF = -(pi D^2 / 4) dN: N(>=D) = integral over x >= D of (4 k q / pi) exp(-q x) / x^2 dx,
+  // and integral exp(-q x) / x^2 = exp(-q D) / D - q E1(q D), E1(z) = -Ei(-z).
+  const double k = o.rock_area_fraction;
+  const double q = o.rock_q_per_m;
+  const double qd = q * d_m;
+  const double e1 = -std::expint(-qd);
+  return 4.0 * k * q / util::kPi * (std::exp(-qd) / d_m - q * e1);
+}
+
 std::vector<std::string> TerrainPresetNames() { return {"mare", "cratered", "rocky"}; }
 
 TerrainOptions TerrainPreset(const std::string& name) {
@@ -568,7 +649,7 @@ TerrainOptions TerrainPreset(const std::string& name) {
     // Smooth mature mare: low relief, a sparse crater population, few rocks.
     options.relief_rms_m = 0.2;
     options.crater_k = 0.01;
-    options.rock_k = 0.0005;
+    ApplyRockLaw("intercrater", &options);  // the sparsest of the named laws
   } else if (name == "cratered") {
     // Craters at the empirical equilibrium density N(>=D) = 10^-1.1 D^-2 (after
     // Gault 1970; not verified here), many of them degraded (shallower).
@@ -576,13 +657,12 @@ TerrainOptions TerrainPreset(const std::string& name) {
     options.crater_k = 0.08;
     options.crater_depth_to_diameter = 0.12;
     options.crater_depth_to_diameter_spread = 0.07;
-    options.rock_k = 0.0015;
+    ApplyRockLaw("viper", &options);
   } else if (name == "rocky") {
-    // A blocky surface such as the surroundings of a fresh crater: rocks of
-    // 1-10 m cover about 3% of the ground.
+    // A blocky surface such as the surroundings of a fresh crater.
     options.relief_rms_m = 0.3;
     options.crater_k = 0.03;
-    options.rock_k = 0.01;
+    ApplyRockLaw("surveyor-1", &options);  // the rockiest of the named laws at 0.2-10 m
   } else {
     std::string valid;
     for (const std::string& preset : TerrainPresetNames()) {

@@ -86,13 +86,22 @@ struct TerrainOptions {
   std::vector<Crater> extra_craters;
 
   // ---- Rocks: spheres partly buried, uniform over the extent (they may
-  // overlap each other). Default law: exponent -2.11, the slope of the
-  // Surveyor-era cumulative rock counts (after Shoemaker & Morris 1969/1970;
-  // value not verified here); k = 0.0015 makes rocks of 1-10 m cover about
-  // 0.5% of the surface, a typical mare rock abundance (after Bandfield et al.
-  // 2011, Diviner; not verified here). The lead verifies both.
-  double rock_k = 0.0015;         // k of N(>=D) = k D^exponent, rocks per m^2 (D in m); 0 = off
-  double rock_exponent = -2.11;   // exponent of the cumulative law, < 0
+  // overlap each other), with diameters from a size-frequency law
+  // (docs/synthetic-scenes.md "Rocks"; the named laws: RockLawNames()).
+  //  kPower: the cumulative number per m^2 with diameter >= D (m) is
+  //   N(>=D) = rock_k D^rock_exponent.
+  //  kExponentialArea: the cumulative fractional area covered by rocks of
+  //   diameter >= D is F(D) = rock_area_fraction exp(-rock_q_per_m D)
+  //   (Golombek-type), so N(>=D) = (4 k q / pi) (exp(-q D) / D - q E1(q D)).
+  // Default: the VIPER specification's power law (rock_law "viper").
+  enum class RockLawKind { kPower, kExponentialArea };
+  RockLawKind rock_law_kind = RockLawKind::kPower;
+  std::string rock_law = "viper";  // the named law ApplyRockLaw last set (for the record); `--set`
+                                   // of a rock law number makes it "custom"
+  double rock_k = 3e-4;           // kPower: k of N(>=D) = k D^exponent, rocks per m^2 (D in m); 0 = off
+  double rock_exponent = -2.482;  // kPower: exponent of the cumulative law, < 0
+  double rock_area_fraction = 0.0;  // kExponentialArea: k, the total fraction of area covered, [0, 1)
+  double rock_q_per_m = 0.0;        // kExponentialArea: q, per metre, > 0
   double rock_d_min_m = 0.2;      // smallest rock diameter, metres
   double rock_d_max_m = 10.0;     // largest rock diameter, metres
   // Each rock's cap protrudes a fraction of its diameter drawn uniformly in
@@ -124,6 +133,22 @@ struct TerrainOptions {
   // <what>". Empty when the options are usable.
   std::vector<std::string> Validate() const;
 };
+
+// The named rock laws, ApplyRockLaw's names.
+std::vector<std::string> RockLawNames();
+// Sets the rock law fields of `options` to a named law (RockLawNames()):
+//  "surveyor-1"   N(>=D) = 0.00234 D^-2.11 (Surveyor I site, Flamsteed, mare)
+//  "viper"        N(>=D) = 3e-4 D^-2.482 (VIPER-MSE-SPEC-001)
+//  "intercrater"  N(>=D) = 1e-4 D^-1.75457
+//  "haworth"      N(>=D) = 2e-3 D^-2.6607
+//  "exponential-golombek"  F(D) = k exp(-(1.79 + 0.152 / k) D)
+//  "exponential-pydem"     F(D) = k exp(-(1.863 + 0.153 / k) D)
+// For the exponential laws k is options->rock_area_fraction (set it first;
+// 0 is refused). Throws InputError for an unknown name (listing the names)
+// or an exponential law without k in (0, 1).
+void ApplyRockLaw(const std::string& name, TerrainOptions* options);
+// The law's cumulative number of rocks per m^2 with diameter >= d_m.
+double CumulativeRocksPerM2(const TerrainOptions& options, double d_m);
 
 // Named presets; the caller sets the extent afterwards. "mare": smooth, few
 // craters and rocks; "cratered": craters at the empirical equilibrium density;

@@ -92,9 +92,12 @@ const BenchScene& GetBenchScene() {
 }
 
 // One frame, bearings built beforehand (as for a sequence); Arg = threads.
-void BM_RenderFrame1024(benchmark::State& state) {
+// The default pixel formation (the camera model), and point sampling
+// (quincunx) for comparison.
+void RenderFrame1024(benchmark::State& state, RenderOptions::AntiAliasing anti_aliasing) {
   const BenchScene& bench = GetBenchScene();
   RenderOptions options;
+  options.anti_aliasing = anti_aliasing;
   options.threads = static_cast<int>(state.range(0));
   const CameraRays rays(*bench.camera, options.threads);
   std::uint64_t seed = 0;
@@ -107,8 +110,14 @@ void BM_RenderFrame1024(benchmark::State& state) {
   }
   state.counters["camera_rays"] = static_cast<double>(stats.camera_rays);
   state.counters["shadow_rays"] = static_cast<double>(stats.shadow_rays);
+  state.counters["split_cells"] = static_cast<double>(stats.split_cells);
+}
+void BM_RenderFrame1024(benchmark::State& state) { RenderFrame1024(state, RenderOptions::AntiAliasing::kCamera); }
+void BM_RenderFrame1024Quincunx(benchmark::State& state) {
+  RenderFrame1024(state, RenderOptions::AntiAliasing::kQuincunx);
 }
 BENCHMARK(BM_RenderFrame1024)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_RenderFrame1024Quincunx)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // Building the bearings of a 1024 x 1024 camera (1 M libmrcal
 // unprojections), once per camera; Arg = threads.

@@ -585,6 +585,22 @@ std::vector<Defect> Catalogue() {
          EditManifest(dir, [](json& m) { m["truth"]["dem"]["spacing_m"] = 0; });
          return Problem{Manifest("truth.dem.spacing_m"), "is 0; expected a cell size > 0 m"};
        }},
+      {"ImagingSunNotUnit",
+       [](const fs::path& dir) {
+         EditManifest(dir, [](json& m) {
+           m["truth"]["imaging"] = {{"sun_in_local", {0.0, 0.0, 2.0}}, {"gain_electrons_per_dn", 40.0},
+                                    {"read_noise_dn", 0.5}};
+         });
+         return Problem{Manifest("truth.imaging.sun_in_local"), "has norm 2; expected a unit vector"};
+       }},
+      {"ImagingNegativeReadNoise",
+       [](const fs::path& dir) {
+         EditManifest(dir, [](json& m) {
+           m["truth"]["imaging"] = {{"sun_in_local", {0.0, 0.6, 0.8}}, {"gain_electrons_per_dn", 40.0},
+                                    {"read_noise_dn", -1.0}};
+         });
+         return Problem{Manifest("truth.imaging.read_noise_dn"), "is -1; expected >= 0"};
+       }},
       {"DemNanHeight",
        [](const fs::path& dir) {
          const fs::path path = dir / "truth/dem.npy";
@@ -607,7 +623,7 @@ std::vector<Defect> Catalogue() {
          EditManifest(dir, [](json& m) { m["truth"]["rock"] = "truth/rocks.csv"; });
          return Problem{Manifest("truth.rock"),
                         "is not a field of format_version 1; expected in truth only "
-                        "points_in_local, dem, navigation, rocks"};
+                        "points_in_local, dem, navigation, rocks, imaging"};
        }},
       {"TruthNavigationMissing",
        [](const fs::path& dir) {

@@ -152,6 +152,11 @@ Dataset ExampleWithTruthNavigationAndRocks(std::uint64_t seed) {
     rock.height_above_ground_m = rock.diameter_m * (0.1 + 0.9 * unit(rng));
     dataset.truth.rocks.push_back(rock);
   }
+  TruthImaging imaging;
+  imaging.sun_in_local = Eigen::Vector3d(0.3, -1.0 / 3.0, 0.5).normalized();
+  imaging.gain_electrons_per_dn = 40.0 / 3.0;
+  imaging.read_noise_dn = 0.1;
+  dataset.truth.imaging = imaging;
   return dataset;
 }
 
@@ -189,6 +194,10 @@ TEST(WriteDataset, TruthNavigationAndRocksLoadIdentical) {
     EXPECT_EQ(read.truth.rocks[i].height_above_ground_m,
               written.truth.rocks[i].height_above_ground_m);
   }
+  ASSERT_TRUE(read.truth.imaging.has_value());
+  EXPECT_EQ(read.truth.imaging->sun_in_local, written.truth.imaging->sun_in_local);
+  EXPECT_EQ(read.truth.imaging->gain_electrons_per_dn, written.truth.imaging->gain_electrons_per_dn);
+  EXPECT_EQ(read.truth.imaging->read_noise_dn, written.truth.imaging->read_noise_dn);
   // True poses derived from the loaded values are the same bits, and differ
   // from the measured ones.
   for (int frame = 0; frame < 6; ++frame) {

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/support/test_support.h"
+#include "tests/tools/small_dataset.h"
 
 namespace {
 
@@ -21,30 +22,10 @@ using hdabench::testing_support::FreshTestDir;
 using hdabench::testing_support::ReadText;
 using hdabench::testing_support::SplitLines;
 
-// The small synthetic dataset every test runs on: 256 x 256 px with a 15 deg
-// field of view, so that a 10 m site is about 17 px and the quadtree finds a
-// few dozen ROIs of every kind (a few seconds to generate). CTest runs each
-// test in its own process: the first one generates it into a staging folder
-// renamed into place, the others reuse it. The folder name carries the
-// binary's time stamp, so a rebuilt generator makes a new dataset.
-const fs::path& Dataset() {
-  static const fs::path dir = hdabench::testing_support::CachedDataset(
-      HDABENCH_TEST_TMP, "run_dataset", [](const fs::path& out) {
-        const CommandResult synth = hdabench::testing_support::RunHdabench(
-            {"synth", "--out", out.string(), "--image-size", "256", "--seed", "3", "--set",
-             "horizontal_fov_deg=15", "--quiet"},
-            out.parent_path());
-        EXPECT_EQ(synth.exit_code, 0) << synth.out << synth.err;
-      });
-  return dir;
-}
+const fs::path& Dataset() { return hdabench::testing_support::SmallSyntheticDataset(); }
 
-// Runs `hdabench ARGS` with its output files in the test's own folder.
 CommandResult Hdabench(const std::vector<std::string>& args) {
-  const fs::path scratch =
-      fs::path(HDABENCH_TEST_TMP) / (hdabench::testing_support::CurrentTestName() + ".run");
-  fs::create_directories(scratch);
-  return hdabench::testing_support::RunHdabench(args, scratch);
+  return hdabench::testing_support::RunInOwnFolder(args);
 }
 
 TEST(RunCommand, WritesEveryFileAndTheSameResultOnEveryRun) {

@@ -22,6 +22,8 @@ struct Command {
 std::vector<Command> AddDatasetCommands(CLI::App& app);
 // synth, truth (synth_commands.cc).
 std::vector<Command> AddSynthCommands(CLI::App& app);
+// imagery pair, imagery edge (imagery_command.cc).
+std::vector<Command> AddImageryCommands(CLI::App& app);
 // run (run_command.cc).
 Command AddRunCommand(CLI::App& app);
 // compare (compare_command.cc).

@@ -37,6 +37,7 @@ std::vector<Command> AddCommands(CLI::App& app) {
   commands.push_back(AddVersionCommand(app));
   Append(commands, AddDatasetCommands(app));
   Append(commands, AddSynthCommands(app));
+  Append(commands, AddImageryCommands(app));
   commands.push_back(AddRunCommand(app));
   commands.push_back(AddCompareCommand(app));
   commands.push_back(AddReportCommand(app));

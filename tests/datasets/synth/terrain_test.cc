@@ -60,6 +60,71 @@ struct RockLawCase {
   double half_width_m;
 };
 
+TEST(RockLaw, NamedLawsHaveTheCitedValues) {
+  TerrainOptions o;
+  const struct {
+    const char* name;
+    double k;
+    double exponent;
+  } laws[] = {{"surveyor-1", 0.00234, -2.11}, {"viper", 3e-4, -2.482}, {"intercrater", 1e-4, -1.75457},
+              {"haworth", 2e-3, -2.6607}};
+  for (const auto& law : laws) {
+    ApplyRockLaw(law.name, &o);
+    EXPECT_EQ(o.rock_law, law.name);
+    EXPECT_NEAR(CumulativeRocksPerM2(o, 1.0), law.k, 1e-15) << law.name;
+    EXPECT_NEAR(CumulativeRocksPerM2(o, 0.5), law.k * std::pow(0.5, law.exponent), 1e-12) << law.name;
+  }
+  // The default terrain (cratered) is the VIPER specification's law.
+  EXPECT_EQ(TerrainPreset("cratered").rock_law, "viper");
+  // Exponential area laws: q(k) as cited.
+  o.rock_area_fraction = 0.1;
+  ApplyRockLaw("exponential-golombek", &o);
+  EXPECT_NEAR(o.rock_q_per_m, 1.79 + 0.152 / 0.1, 1e-12);
+  ApplyRockLaw("exponential-pydem", &o);
+  EXPECT_NEAR(o.rock_q_per_m, 1.863 + 0.153 / 0.1, 1e-12);
+  // N(>=D) of the exponential law against the numerical integral of
+  // dN = (4 / (pi x^2)) k q exp(-q x) dx.
+  for (const double d_m : {0.1, 0.5, 2.0}) {
+    double sum = 0.0;
+    const double step = 1e-4;
+    for (double x = d_m + step / 2; x < d_m + 30.0; x += step) {
+      sum += 4.0 / (kPi * x * x) * o.rock_area_fraction * o.rock_q_per_m * std::exp(-o.rock_q_per_m * x) * step;
+    }
+    EXPECT_NEAR(CumulativeRocksPerM2(o, d_m), sum, 1e-6 * sum) << d_m;
+  }
+  // An exponential law needs k; an unknown name lists the known ones.
+  o.rock_area_fraction = 0.0;
+  EXPECT_THROW(ApplyRockLaw("exponential-golombek", &o), InputError);
+  try {
+    ApplyRockLaw("surveyor", &o);
+    FAIL() << "no exception";
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "unknown rock law \"surveyor\": expected one of surveyor-1, viper, intercrater, haworth, "
+                           "exponential-golombek, exponential-pydem");
+  }
+}
+
+TEST(GenerateScene, ExponentialAreaLawCoversTheFractionItStates) {
+  TerrainOptions options = FlatOptions(150.0, 1.0);
+  options.rock_area_fraction = 0.1;
+  ApplyRockLaw("exponential-golombek", &options);
+  options.rock_d_min_m = 0.1;
+  options.rock_d_max_m = 10.0;
+  TerrainSummary summary;
+  const Scene scene = GenerateScene(options, CurrentTestSeed(), 1, &summary);
+  const double area_m2 = 300.0 * 300.0;
+  // The fraction of the area covered by rocks of D >= d (circles of D) against
+  // F(d) = k exp(-q d), for d where thousands of rocks carry it.
+  for (const double d_m : {0.1, 0.3, 0.6}) {
+    double covered = 0.0;
+    for (const Rock& rock : scene.rocks) {
+      if (2.0 * rock.radius_m >= d_m) covered += kPi * rock.radius_m * rock.radius_m;
+    }
+    const double expected = 0.1 * std::exp(-options.rock_q_per_m * d_m);
+    EXPECT_NEAR(covered / area_m2, expected, 0.05 * expected) << "d " << d_m;
+  }
+}
+
 TEST(GenerateScene, RockPopulationFollowsConfiguredLaw) {
   // d_max is chosen where the law's tail above it, k * d_max^r * area, is
   // below one rock, so truncation does not bend the fitted range.
@@ -432,7 +497,12 @@ TEST(TerrainPreset, KnownNamesAreValid) {
     EXPECT_TRUE(options.Validate().empty()) << name;
   }
   EXPECT_LT(TerrainPreset("mare").crater_k, TerrainPreset("cratered").crater_k);
-  EXPECT_LT(TerrainPreset("mare").rock_k, TerrainPreset("rocky").rock_k);
+  for (const double d_m : {0.2, 0.5, 1.0, 3.0}) {
+    EXPECT_LT(CumulativeRocksPerM2(TerrainPreset("mare"), d_m), CumulativeRocksPerM2(TerrainPreset("cratered"), d_m))
+        << d_m;
+    EXPECT_LT(CumulativeRocksPerM2(TerrainPreset("cratered"), d_m), CumulativeRocksPerM2(TerrainPreset("rocky"), d_m))
+        << d_m;
+  }
 }
 
 TEST(TerrainPreset, UnknownNameThrowsListingValidOnes) {

@@ -60,6 +60,15 @@ class ColmapRunner : public ::testing::Test {
     options.image_size_px = 512;
     options.collection_s = 2.4;
     options.frame_rate_hz = 1.0 / 2.4;
+    // Point-sampled images (the renderer before its camera model). On this
+    // near-planar pair (relief of metres at 565 m) the mapper's free
+    // relative pose depends on the imagery: with the camera model's images
+    // SIFT matches are more precise (nav points 0.82 m from truth against
+    // 1.29 m) yet the mapper starts from the planar (homography) branch and
+    // keeps 3 points, 4.4 deg of rotation error (measured 2026-11-24). This
+    // test checks the runner; the planar degeneracy of free solves is the
+    // references' own limit (docs/compare-results.md).
+    options.render.anti_aliasing = datasets::synth::RenderOptions::AntiAliasing::kQuincunx;
     const datasets::synth::TerrainOptions terrain = testing_support::TerrainOf(options);
     auto scene = std::make_unique<Scene>();
     scene->dataset = std::make_unique<datasets::Dataset>(

@@ -97,14 +97,15 @@ bool CastShadow(const FrameContext& frame, const RayHit& hit, ShadowMode shadow_
   return frame.raycaster->Occluded(start, frame.sun_in_local, std::numeric_limits<double>::infinity());
 }
 
-// Casts the ray of `bearing_in_cam` (unit, or zero: nothing) standing for a
-// square cell of cell_px pixels. Terrain: the albedo texture and the surface
-// normal low-passed over the cell's ground footprint (a Gaussian and a box of
-// the same variance as the cell); rocks keep their own normal and albedo.
-CellSample ShadeCell(const FrameContext& frame, const Scene& scene, const Eigen::Vector3d& bearing_in_cam,
-                     double pixel_angle_rad, double cell_px, ShadowMode shadow_mode, std::int64_t* shadow_rays) {
-  CellSample sample;
-  if (!CastCameraRay(frame, bearing_in_cam, &sample)) return sample;
+// Shades the hit of `sample` (cast by CastCameraRay along `bearing_in_cam`)
+// as the scene averaged over a square cell of cell_px pixels. Terrain: the
+// albedo texture and the surface normal low-passed over the cell's ground
+// footprint (a Gaussian and a box of the same variance as the cell); rocks
+// keep their own normal and albedo.
+void ShadeHit(const FrameContext& frame, const Scene& scene, const Eigen::Vector3d& bearing_in_cam,
+              double pixel_angle_rad, double cell_px, ShadowMode shadow_mode, std::int64_t* shadow_rays,
+              CellSample* sample_out) {
+  CellSample& sample = *sample_out;
   const RayHit& hit = sample.ray_hit;
   const Eigen::Vector3d to_camera = -(frame.local_from_cam * bearing_in_cam).normalized();
   // The cell's footprint: cell_px * angle * distance across the ray,
@@ -134,6 +135,16 @@ CellSample ShadeCell(const FrameContext& frame, const Scene& scene, const Eigen:
   }
   sample.ambient = frame.ambient_reflectance * albedo;
   sample.reflectance = (cast ? 0.0 : sample.lit_direct) + sample.ambient;
+}
+
+// Casts the ray of `bearing_in_cam` (unit, or zero: nothing) and shades it
+// for its cell (ShadeHit).
+CellSample ShadeCell(const FrameContext& frame, const Scene& scene, const Eigen::Vector3d& bearing_in_cam,
+                     double pixel_angle_rad, double cell_px, ShadowMode shadow_mode, std::int64_t* shadow_rays) {
+  CellSample sample;
+  if (CastCameraRay(frame, bearing_in_cam, &sample)) {
+    ShadeHit(frame, scene, bearing_in_cam, pixel_angle_rad, cell_px, shadow_mode, shadow_rays, &sample);
+  }
   return sample;
 }
 
@@ -313,16 +324,16 @@ void SplitCells(const FrameContext& context, const Scene& scene, const CameraRay
         const Eigen::Vector3d bearing = rays.BearingAt(x, y, &pixel_angle_rad);
         const ShadowMode shadow_mode = ShadowModeAt(shadow_mask, x, y);
         ++*camera_rays;
-        if (sub->surface[index] == kTerrain) {
-          CellSample sample;
-          if (CastCameraRay(context, bearing, &sample) && sample.ray_hit.rock_index < 0) {
-            const double lit_direct = sub->lit_direct[index];
-            const bool cast = lit_direct > 0.0 && CastShadow(context, sample.ray_hit, shadow_mode, shadow_rays);
-            sum += (cast ? 0.0 : lit_direct) + double{sub->ambient[index]};
-            continue;
-          }
+        CellSample sample;
+        if (!CastCameraRay(context, bearing, &sample)) continue;  // nothing: no light
+        if (sub->surface[index] == kTerrain && sample.ray_hit.rock_index < 0) {
+          const double lit_direct = sub->lit_direct[index];
+          const bool cast = lit_direct > 0.0 && CastShadow(context, sample.ray_hit, shadow_mode, shadow_rays);
+          sum += (cast ? 0.0 : lit_direct) + double{sub->ambient[index]};
+          continue;
         }
-        sum += ShadeCell(context, scene, bearing, pixel_angle_rad, sub_cell_px, shadow_mode, shadow_rays).reflectance;
+        ShadeHit(context, scene, bearing, pixel_angle_rad, sub_cell_px, shadow_mode, shadow_rays, &sample);
+        sum += sample.reflectance;
       }
       sub->radiance[index] = static_cast<float>(sum / (m * m));
     }

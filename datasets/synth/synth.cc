@@ -249,6 +249,50 @@ double ParseDoubleValue(const std::string& key, const std::string& text) {
   return value;
 }
 
+// The overrides whose values are names or flags (motion, terrain,
+// terrain.rock_law, render.anti_aliasing, render.shot_noise); false for any
+// other key.
+bool ApplyNamedOverride(const std::string& key, const std::string& value, SynthOptions* o, TerrainOptions* t) {
+  RenderOptions& r = o->render;
+  if (key == "terrain.rock_law") {
+    ApplyRockLaw(value, t);
+    return true;
+  }
+  if (key == "render.anti_aliasing") {
+    if (value == "camera") {
+      r.anti_aliasing = RenderOptions::AntiAliasing::kCamera;
+    } else if (value == "quincunx") {
+      r.anti_aliasing = RenderOptions::AntiAliasing::kQuincunx;
+    } else if (value == "grid") {
+      r.anti_aliasing = RenderOptions::AntiAliasing::kGrid;
+    } else {
+      throw InputError("--set render.anti_aliasing=" + value + ": expected camera, quincunx or grid");
+    }
+    return true;
+  }
+  if (key == "render.shot_noise") {
+    if (value != "0" && value != "1") throw InputError("--set render.shot_noise=" + value + ": expected 0 or 1");
+    r.shot_noise = value == "1";
+    return true;
+  }
+  if (key == "motion") {
+    if (value == "lateral") {
+      o->motion = Motion::kLateral;
+    } else if (value == "boresight") {
+      o->motion = Motion::kBoresight;
+    } else {
+      throw InputError("--set motion=" + value + ": expected lateral or boresight");
+    }
+    return true;
+  }
+  if (key == "terrain") {
+    o->terrain = value;
+    *t = TerrainPreset(value);
+    return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 void ApplyOverride(const std::string& key, const std::string& value, SynthOptions* o,
@@ -318,31 +362,11 @@ void ApplyOverride(const std::string& key, const std::string& value, SynthOption
                                       {"render.samples_per_pixel_axis", &r.samples_per_pixel_axis},
                                       {"render.adaptive_samples_per_cell_axis", &r.adaptive_samples_per_cell_axis},
                                       {"render.bit_depth", &r.bit_depth}};
-  if (key == "terrain.rock_law") {
-    ApplyRockLaw(value, t);
-    return;
-  }
   if (key == "terrain.rock_k" || key == "terrain.rock_exponent" || key == "terrain.rock_area_fraction" ||
       key == "terrain.rock_q_per_m") {
     t->rock_law = "custom";
   }
-  if (key == "render.anti_aliasing") {
-    if (value == "camera") {
-      r.anti_aliasing = RenderOptions::AntiAliasing::kCamera;
-    } else if (value == "quincunx") {
-      r.anti_aliasing = RenderOptions::AntiAliasing::kQuincunx;
-    } else if (value == "grid") {
-      r.anti_aliasing = RenderOptions::AntiAliasing::kGrid;
-    } else {
-      throw InputError("--set render.anti_aliasing=" + value + ": expected camera, quincunx or grid");
-    }
-    return;
-  }
-  if (key == "render.shot_noise") {
-    if (value != "0" && value != "1") throw InputError("--set render.shot_noise=" + value + ": expected 0 or 1");
-    r.shot_noise = value == "1";
-    return;
-  }
+  if (ApplyNamedOverride(key, value, o, t)) return;
   if (const auto it = doubles.find(key); it != doubles.end()) {
     *it->second = ParseDoubleValue(key, value);
     return;
@@ -353,21 +377,6 @@ void ApplyOverride(const std::string& key, const std::string& value, SynthOption
       throw InputError("--set " + key + "=" + value + ": expected a whole number");
     }
     *it->second = static_cast<int>(v);
-    return;
-  }
-  if (key == "motion") {
-    if (value == "lateral") {
-      o->motion = Motion::kLateral;
-    } else if (value == "boresight") {
-      o->motion = Motion::kBoresight;
-    } else {
-      throw InputError("--set motion=" + value + ": expected lateral or boresight");
-    }
-    return;
-  }
-  if (key == "terrain") {
-    o->terrain = value;
-    *t = TerrainPreset(value);
     return;
   }
   std::string known;

@@ -458,7 +458,9 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
         const bool has_slope = !r.at("slope_deg").is_null() &&
                                (item.key() == kMethodFlight ? FlightHasSlope(status) : status == "ok");
         if (has_slope) ++pool.rois_with_slope;
-        if (r.at("slope_deg").is_null() || truth.is_null() || r.at("slope_error_deg").is_null() ||
+        // Only slopes the method stands by: a degenerate ROI's plane is a
+        // diagnostic (the method says the slope is not observable).
+        if (!has_slope || truth.is_null() || r.at("slope_error_deg").is_null() ||
             r.at("num_points").get<int>() < kMinPointsForSlopeStats) {
           continue;
         }

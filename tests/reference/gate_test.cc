@@ -118,6 +118,13 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
                           {"slope_sigma_deg", 1.0}, {"slope_error_deg", errors[i]},
                           {"roughness_rms_m", 0.3}}}}}});
     }
+    // A ROI the method calls degenerate: its plane (a large error) is a
+    // diagnostic, not a slope, and stays out of the error statistics.
+    rois.push_back({{"id", 98},
+                    {"truth", {{"slope_deg", 2.0}, {"roughness_rms_m", 0.1}}},
+                    {"methods", {{"flight", {{"status", "degenerate"}, {"num_points", 21}, {"slope_deg", 40.0},
+                                             {"slope_sigma_deg", nullptr}, {"slope_error_deg", 38.0},
+                                             {"roughness_rms_m", 0.6}}}}}});
     // One ROI without a slope, and one with too few points.
     rois.push_back({{"id", 99}, {"truth", nullptr},
                     {"methods", {{"flight", {{"status", "too few points"}, {"num_points", 3},
@@ -143,7 +150,7 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
   EXPECT_DOUBLE_EQ(value("slope_error_p90_deg"), 3.6);       // 3 + 0.6 * (4 - 3)
   EXPECT_DOUBLE_EQ(value("slope_error_max_deg"), 4.0);
   EXPECT_DOUBLE_EQ(value("roughness_error_median_m"), 0.2);
-  EXPECT_DOUBLE_EQ(value("rois_with_slope_share"), 5.0 / 7.0);
+  EXPECT_DOUBLE_EQ(value("rois_with_slope_share"), 5.0 / 9.0);
   EXPECT_DOUBLE_EQ(value("within_two_sigma_share"), 2.0 / 5.0);  // |error| <= 2 sigma = 2: 0.5 and 1
   EXPECT_DOUBLE_EQ(value("flight_seconds_per_pair"), 4.0);     // 0.4 s / 0.1
   EXPECT_DOUBLE_EQ(value("failed_entries"), 0.0);

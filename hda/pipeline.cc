@@ -430,6 +430,11 @@ double PixelsPerRadian(const calib::CameraModel& camera, const Eigen::Vector2d& 
   return std::max((pixels[0] - pixels[1]).norm(), (pixels[2] - pixels[3]).norm()) / (2.0 * kStepRad);
 }
 
+bool HasSlope(RoiStatus status) {
+  return status == RoiStatus::kEvaluated || status == RoiStatus::kUnsafeSlope ||
+         status == RoiStatus::kUnsafeRoughness;
+}
+
 const char* ToString(RoiStatus status) {
   switch (status) {
     case RoiStatus::kEvaluated:

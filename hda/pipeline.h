@@ -56,6 +56,10 @@ enum class RoiStatus {
   kNotEvaluated,     // the time budget ran out before this ROI
 };
 const char* ToString(RoiStatus status);  // "evaluated", "unsafe slope", ...
+// Whether an ROI of this status carries a slope the method stands by:
+// evaluated, unsafe slope or unsafe roughness. A degenerate ROI's plane is a
+// diagnostic only (its slope is not observable).
+bool HasSlope(RoiStatus status);
 
 // Counts of one ROI at each stage.
 struct RoiCounts {

@@ -76,6 +76,7 @@ void FillFromPoints(const std::vector<Eigen::Vector3d>& points, const Eigen::Vec
   if (fit.status == MethodRoiStatus::kOk) {
     roi->has_fit = true;
     roi->slope_deg = fit.slope_deg;
+    roi->normal_in_local = fit.normal_in_local;
     roi->roughness_rms_m = fit.roughness_rms_m;
     roi->roughness_max_m = fit.roughness_max_m;
     roi->reason = std::to_string(points.size()) + " points";
@@ -102,6 +103,7 @@ std::vector<MethodRoi> FlightRois(const FlightRun& flight, const Context& ctx) {
     roi.points_in_local_m = r.points_in_local_m;
     roi.has_fit = r.has_fit;
     roi.slope_deg = r.slope_deg;
+    roi.normal_in_local = r.normal_in_local;
     roi.roughness_rms_m = r.roughness_rms_m;
     roi.roughness_max_m = r.roughness_max_m;
     roi.has_sigma = r.has_fit && std::isfinite(r.slope_sigma_deg);
@@ -226,54 +228,31 @@ std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOpti
   return all;
 }
 
+// Whether a solver's pose can be trusted in a configuration. The free solvers
+// (rotation and translation from the matches) need relief a plane-induced
+// homography does not explain; the 2-point solver holds the nav rotation, and
+// a plane is no degeneracy for its translation: only low parallax and too few
+// matches are.
+bool SolverTrustsConfiguration(OpenGvSolver solver, ConfigurationType type) {
+  if (type == ConfigurationType::kWellConditioned) return true;
+  return solver == OpenGvSolver::kTwoPointKnownRotation && type == ConfigurationType::kPlanar;
+}
+
+// OpenGV on the whole pair: one relative pose from every ROI's matches
+// pooled, its configuration judged for the pair; each ROI is then
+// triangulated with that pose (scaled to the nav baseline) from its own
+// matches among the pose's inliers.
 std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBearings>& matches,
                                   const CompareOptions& options, const Context& ctx,
                                   MethodSummary* summary) {
   std::vector<MethodRoi> rois(matches.size());
   const Rigid3d* truth = ctx.has_true_pose ? &ctx.true_cam2_from_cam1 : nullptr;
-  const Eigen::Vector3d centre1 = ctx.local_from_cam1.translation;
-  for (size_t i = 0; i < matches.size(); ++i) {
-    MethodRoi& roi = rois[i];
-    if (!matches[i].has_box) {
-      roi.status = MethodRoiStatus::kNoSearchBox;
-      roi.reason = "the ROI was not predicted in image 2";
-      continue;
-    }
-    const RelativePoseResult pose =
-        SolveRelativePose(matches[i].bearings1, matches[i].bearings2, solver,
-                          ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv, truth);
-    roi.wall_s = pose.wall_s;
-    summary->wall_s += pose.wall_s;
-    roi.configuration = ToString(pose.configuration.type);
-    if (pose.has_truth_errors) {
-      roi.has_pose_error = true;
-      roi.rotation_error_deg = pose.rotation_error_deg;
-      roi.translation_direction_error_deg = pose.translation_direction_error_deg;
-    }
-    if (pose.configuration.type != ConfigurationType::kWellConditioned) {
-      // No confident slope from a configuration that cannot give one.
-      roi.status = StatusOfConfiguration(pose.configuration.type);
-      roi.reason = pose.configuration.reason;
-      roi.num_points = pose.configuration.num_matches;
-      continue;
-    }
-    if (!pose.ok) {
-      roi.status = MethodRoiStatus::kPoseFailed;
-      roi.reason = pose.message;
-      continue;
-    }
-    std::vector<Eigen::Vector3d> points;
-    for (const TriangulatedMatch& m : pose.points) {
-      points.push_back(ctx.local_from_cam1 * m.point_in_cam1_m);
-    }
-    const Eigen::Vector3d centre2 = (ctx.local_from_cam1 * pose.cam2_from_cam1.Inverse()).translation;
-    FillFromPoints(points, centre1, centre2, *ctx.dataset, options.min_points, &roi);
-  }
-  // The whole pair: every ROI's matches pooled.
   std::vector<Eigen::Vector3d> b1, b2;
-  for (const RoiBearings& m : matches) {
-    b1.insert(b1.end(), m.bearings1.begin(), m.bearings1.end());
-    b2.insert(b2.end(), m.bearings2.begin(), m.bearings2.end());
+  std::vector<size_t> first(matches.size() + 1, 0);  // ROI i's matches: [first[i], first[i + 1])
+  for (size_t i = 0; i < matches.size(); ++i) {
+    b1.insert(b1.end(), matches[i].bearings1.begin(), matches[i].bearings1.end());
+    b2.insert(b2.end(), matches[i].bearings2.begin(), matches[i].bearings2.end());
+    first[i + 1] = b1.size();
   }
   const RelativePoseResult pair =
       SolveRelativePose(b1, b2, solver, ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv, truth);
@@ -282,6 +261,47 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBear
     summary->has_pose_error = true;
     summary->rotation_error_deg = pair.rotation_error_deg;
     summary->translation_direction_error_deg = pair.translation_direction_error_deg;
+  }
+  const ConfigurationReport& configuration = pair.configuration;
+  const bool trusted = SolverTrustsConfiguration(solver, configuration.type);
+  summary->note = std::string("pair: ") + ToString(configuration.type) + " (" + configuration.reason + ")" +
+                  (pair.ok ? "; " + std::to_string(pair.num_inliers) + " of " + std::to_string(b1.size()) +
+                                 " matches inliers"
+                           : "; " + pair.message);
+  // The pair's triangulated inliers, by ROI.
+  std::vector<std::vector<Eigen::Vector3d>> points(matches.size());
+  if (trusted && pair.ok) {
+    for (const TriangulatedMatch& m : pair.points) {
+      const size_t index = static_cast<size_t>(m.match_index);
+      const size_t roi = static_cast<size_t>(std::upper_bound(first.begin(), first.end(), index) - first.begin()) - 1;
+      points[roi].push_back(ctx.local_from_cam1 * m.point_in_cam1_m);
+    }
+  }
+  const Eigen::Vector3d centre1 = ctx.local_from_cam1.translation;
+  const Eigen::Vector3d centre2 =
+      pair.ok ? (ctx.local_from_cam1 * pair.cam2_from_cam1.Inverse()).translation : Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < matches.size(); ++i) {
+    MethodRoi& roi = rois[i];
+    roi.configuration = ToString(configuration.type);
+    if (!matches[i].has_box) {
+      roi.status = MethodRoiStatus::kNoSearchBox;
+      roi.reason = "the ROI was not predicted in image 2";
+      continue;
+    }
+    if (!trusted) {
+      // No confident slope from a pose the pair's configuration cannot give.
+      roi.status = StatusOfConfiguration(configuration.type);
+      roi.reason = "pair " + std::string(ToString(configuration.type)) + ": " + configuration.reason;
+      roi.num_points = static_cast<int>(matches[i].bearings1.size());
+      continue;
+    }
+    if (!pair.ok) {
+      roi.status = MethodRoiStatus::kPoseFailed;
+      roi.reason = pair.message;
+      continue;
+    }
+    FillFromPoints(points[i], centre1, centre2, *ctx.dataset, options.min_points, &roi);
+    roi.reason += " (of " + std::to_string(matches[i].bearings1.size()) + " matches; the pair's pose)";
   }
   return rois;
 }
@@ -322,13 +342,14 @@ void PoseErrorAgainstTruth(const PairReconstruction& recon, const Context& ctx,
 void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double flight_seconds,
                MethodSummary* s) {
   const std::vector<MethodRoi>& rois = run.rois[m];
-  std::vector<double> vs_truth, rough_vs_truth, vs_colmap;
+  std::vector<double> vs_truth, tilt_vs_truth, rough_vs_truth, vs_colmap;
+  double signed_sum = 0.0;
   PointAccuracy accuracy;
   int accuracy_points = 0;
   double median_sum = 0.0, within01 = 0.0, within03 = 0.0, within1 = 0.0;
   for (size_t i = 0; i < rois.size(); ++i) {
     const MethodRoi& roi = rois[i];
-    if (roi.has_fit) ++s->rois_with_fit;
+    if (roi.HasSlope()) ++s->rois_with_fit;
     if (roi.accuracy.available) {
       // Point-weighted means of the per-ROI shares; the median is the
       // point-weighted mean of the ROI medians (documented as such).
@@ -339,16 +360,18 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
       within03 += n * roi.accuracy.within_0_3_m;
       within1 += n * roi.accuracy.within_1_m;
     }
-    if (!roi.has_fit || roi.num_points < kMinPointsForSlopeStats) continue;
+    if (!roi.HasSlope() || roi.num_points < kMinPointsForSlopeStats) continue;
     const RoiTruthValue* truth =
         i < run.flight.truths.size() && run.flight.truths[i].available ? &run.flight.truths[i] : nullptr;
     if (truth != nullptr) {
       vs_truth.push_back(std::abs(roi.slope_deg - truth->slope_deg));
+      tilt_vs_truth.push_back(TiltErrorDeg(roi.normal_in_local, truth->normal_in_local));
+      signed_sum += roi.slope_deg - truth->slope_deg;
       rough_vs_truth.push_back(std::abs(roi.roughness_rms_m - truth->roughness_rms_m));
     }
     if (colmap_nav_index < run.rois.size() && colmap_nav_index != m) {
       const MethodRoi& ref = run.rois[colmap_nav_index][i];
-      if (ref.has_fit && ref.num_points >= kMinPointsForSlopeStats) {
+      if (ref.HasSlope() && ref.num_points >= kMinPointsForSlopeStats) {
         vs_colmap.push_back(std::abs(roi.slope_deg - ref.slope_deg));
       }
     }
@@ -363,6 +386,8 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
   }
   s->accuracy = accuracy;
   s->slope_vs_truth_deg = ComputeErrorStats(vs_truth);
+  s->tilt_vs_truth_deg = ComputeErrorStats(tilt_vs_truth);
+  s->slope_bias_deg = vs_truth.empty() ? 0.0 : signed_sum / static_cast<double>(vs_truth.size());
   s->roughness_vs_truth_m = ComputeErrorStats(rough_vs_truth);
   s->slope_vs_colmap_nav_deg = ComputeErrorStats(vs_colmap);
   s->time_ratio_to_flight = flight_seconds > 0.0 ? s->wall_s / flight_seconds : 0.0;
@@ -371,6 +396,10 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
 }  // namespace
 
 // ---------------------------------------------------------------------------
+
+bool MethodRoi::HasSlope() const {
+  return has_fit && (status != MethodRoiStatus::kFlight || hda::HasSlope(flight_status));
+}
 
 std::vector<std::string> AllMethodNames() {
   std::vector<std::string> names = {kMethodFlight, kMethodFlightRefined, kMethodColmapNav,
@@ -499,6 +528,7 @@ RoiFit FitRoiPoints(const std::vector<Eigen::Vector3d>& points_in_local,
     case hda::PlaneFitStatus::kOk:
       fit.status = MethodRoiStatus::kOk;
       fit.slope_deg = plane.slope_deg;
+      fit.normal_in_local = plane.normal_in_local;
       fit.roughness_rms_m = plane.roughness_rms_m;
       fit.roughness_max_m = plane.roughness_max_m;
       break;

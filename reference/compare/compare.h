@@ -122,8 +122,13 @@ struct MethodRoi {
   std::string StatusName() const;
   std::string reason;             // one line with numbers
   int num_points = 0;
-  bool has_fit = false;           // slope and roughness are meaningful
+  bool has_fit = false;           // a plane was fitted: slope, normal and roughness are meaningful
+  // Whether the slope counts in the statistics: has_fit, and for the flight
+  // method a status with a slope (hda::HasSlope; a degenerate ROI's plane is
+  // a diagnostic).
+  bool HasSlope() const;
   double slope_deg = 0.0;
+  Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();  // the fitted plane's unit normal, up
   double roughness_rms_m = 0.0;
   double roughness_max_m = 0.0;
   bool has_sigma = false;         // the method predicts its slope uncertainty (flight only)
@@ -150,8 +155,10 @@ struct MethodSummary {
   bool ok = true;               // false: the method failed for the run
   std::string failure;          // why, when not ok
   std::string note;             // one line about the run of the method (solver status, logs)
-  int rois_with_fit = 0;
-  ErrorStats slope_vs_truth_deg;    // |slope - truth| over ROIs with a fit, truth and >= kMinPointsForSlopeStats points
+  int rois_with_fit = 0;            // ROIs with a slope (MethodRoi::HasSlope)
+  ErrorStats slope_vs_truth_deg;    // |slope - truth| over ROIs with a slope, truth and >= kMinPointsForSlopeStats points
+  ErrorStats tilt_vs_truth_deg;     // TiltErrorDeg against the true plane, same ROIs
+  double slope_bias_deg = 0.0;      // mean of slope - truth (signed), same ROIs; 0 when there are none
   ErrorStats slope_vs_colmap_nav_deg;  // |slope - colmap-nav's| where both have a fit with enough points
   ErrorStats roughness_vs_truth_m; // |roughness rms - truth rms|, metres, same ROIs as slope_vs_truth
   PointAccuracy accuracy;       // over all the method's points inside ROIs
@@ -204,6 +211,7 @@ struct RoiFit {
   double slope_deg = 0.0;
   double roughness_rms_m = 0.0;
   double roughness_max_m = 0.0;
+  Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();  // kOk: the fitted plane's unit normal, up
 };
 RoiFit FitRoiPoints(const std::vector<Eigen::Vector3d>& points_in_local,
                     const Eigen::Vector3d& camera1_centre_in_local,

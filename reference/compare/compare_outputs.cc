@@ -63,6 +63,13 @@ double SlopeError(const CompareRun& run, size_t m, size_t i) {
   return r.slope_deg - t->slope_deg;
 }
 
+double TiltError(const CompareRun& run, size_t m, size_t i) {
+  const MethodRoi& r = run.rois[m][i];
+  const RoiTruthValue* t = TruthOf(run, i);
+  if (!r.has_fit || t == nullptr) return std::nan("");
+  return TiltErrorDeg(r.normal_in_local, t->normal_in_local);
+}
+
 std::string StatsText(const ErrorStats& s, int digits) {
   if (s.count == 0) return "-";
   return util::FixedCell(s.median, digits) + " / " + util::FixedCell(s.p90, digits) + " / " +
@@ -99,6 +106,8 @@ std::string CompareResultJson(const CompareRun& run) {
     mj["failure"] = s.ok ? Json(nullptr) : Json(s.failure);
     mj["rois_with_fit"] = s.rois_with_fit;
     mj["slope_error_vs_truth_deg"] = StatsJson(s.slope_vs_truth_deg);
+    mj["tilt_error_vs_truth_deg"] = StatsJson(s.tilt_vs_truth_deg);
+    mj["slope_bias_vs_truth_deg"] = s.slope_vs_truth_deg.count > 0 ? Number(s.slope_bias_deg) : Json(nullptr);
     mj["roughness_error_vs_truth_m"] = StatsJson(s.roughness_vs_truth_m);
     mj["slope_difference_vs_colmap_nav_deg"] = StatsJson(s.slope_vs_colmap_nav_deg);
     mj["point_accuracy"] = AccuracyJson(s.accuracy);
@@ -118,11 +127,15 @@ std::string CompareResultJson(const CompareRun& run) {
     rj["truth"] = t == nullptr ? Json(nullptr)
                                : Json({{"slope_deg", Number(t->slope_deg)},
                                        {"roughness_rms_m", Number(t->roughness_rms_m)},
-                                       {"roughness_max_m", Number(t->roughness_max_m)}});
+                                       {"roughness_max_m", Number(t->roughness_max_m)},
+                                       {"normal", Json::array({Number(t->normal_in_local.x()),
+                                                               Number(t->normal_in_local.y()),
+                                                               Number(t->normal_in_local.z())})}});
     Json per_method = Json::object();
     for (size_t m = 0; m < run.methods.size(); ++m) {
       Json mr = MethodRoiJson(run.rois[m][i]);
       mr["slope_error_deg"] = Number(SlopeError(run, m, i));
+      mr["tilt_error_deg"] = Number(TiltError(run, m, i));
       per_method[run.methods[m]] = mr;
     }
     rj["methods"] = per_method;
@@ -153,7 +166,7 @@ std::string CompareTimingsJson(const CompareRun& run) {
 std::string CompareRoisCsv(const CompareRun& run) {
   std::ostringstream out;
   out << "roi,method,status,num_points,slope_deg,slope_sigma_deg,truth_slope_deg,slope_error_deg,"
-         "roughness_rms_m,truth_roughness_rms_m,configuration,rotation_error_deg,"
+         "tilt_error_deg,roughness_rms_m,truth_roughness_rms_m,configuration,rotation_error_deg,"
          "translation_direction_error_deg,points_within_0_3_m\n";
   const auto quoted = [](const std::string& text) {
     std::string q = "\"";
@@ -168,7 +181,7 @@ std::string CompareRoisCsv(const CompareRun& run) {
           << r.num_points << "," << (r.has_fit ? util::CsvNumber(r.slope_deg) : "") << ","
           << (r.has_fit && r.has_sigma ? util::CsvNumber(r.slope_sigma_deg) : "") << ","
           << (t != nullptr ? util::CsvNumber(t->slope_deg) : "") << "," << util::CsvNumber(SlopeError(run, m, i))
-          << "," << (r.has_fit ? util::CsvNumber(r.roughness_rms_m) : "") << ","
+          << "," << util::CsvNumber(TiltError(run, m, i)) << "," << (r.has_fit ? util::CsvNumber(r.roughness_rms_m) : "") << ","
           << (t != nullptr ? util::CsvNumber(t->roughness_rms_m) : "") << "," << r.configuration << ","
           << (r.has_pose_error ? util::CsvNumber(r.rotation_error_deg) : "") << ","
           << (r.has_pose_error ? util::CsvNumber(r.translation_direction_error_deg) : "") << ","
@@ -208,13 +221,15 @@ std::string CompareMarkdown(const CompareRun& run) {
     }
     out << MarkdownRow(row);
   }
-  out << "\n## Per method\n\nErrors are median / 90th percentile / max (count) over ROIs with at least "
-      << kMinPointsForSlopeStats << " points.\n\n";
+  out << "\n## Per method\n\nErrors are median / 90th percentile / max (count) over ROIs with a slope and at "
+      << "least " << kMinPointsForSlopeStats << " points. The tilt error is the angle between the fitted and "
+      << "the true plane; the slope bias the mean of slope - truth.\n\n";
   out << MarkdownRow({"method", "ROIs with a slope", "slope error vs truth (deg)",
+                      "tilt error vs truth (deg)", "slope bias (deg)",
                       "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
                       "points within 0.1 / 0.3 / 1 m", "rotation / baseline-direction error (deg)",
                       "time (s)", "time / flight"});
-  out << MarkdownRow(std::vector<std::string>(9, "---"));
+  out << MarkdownRow(std::vector<std::string>(11, "---"));
   for (const MethodSummary& s : run.summaries) {
     const std::string accuracy =
         s.accuracy.available ? util::FixedCell(100 * s.accuracy.within_0_1_m, 0) + " / " +
@@ -226,7 +241,9 @@ std::string CompareMarkdown(const CompareRun& run) {
                                                     util::FixedCell(s.translation_direction_error_deg, 2)
                                               : "-";
     out << MarkdownRow({s.method + (s.ok ? "" : " (failed)"), std::to_string(s.rois_with_fit),
-                        StatsText(s.slope_vs_truth_deg, 2), StatsText(s.roughness_vs_truth_m, 3),
+                        StatsText(s.slope_vs_truth_deg, 2), StatsText(s.tilt_vs_truth_deg, 2),
+                        s.slope_vs_truth_deg.count > 0 ? util::SignedCell(s.slope_bias_deg, 2) : "-",
+                        StatsText(s.roughness_vs_truth_m, 3),
                         StatsText(s.slope_vs_colmap_nav_deg, 2), accuracy, pose,
                         util::FixedCell(s.wall_s, 3), util::FixedCell(s.time_ratio_to_flight, 1)});
   }

@@ -62,6 +62,15 @@ double SlopeErrorDeg(const FlightRun& run, size_t i) {
   return roi.slope_deg - truth->slope_deg;
 }
 
+// Tilt error against the truth (TiltErrorDeg), degrees; NaN without a fit or
+// truth.
+double TiltErrorOf(const FlightRun& run, size_t i) {
+  const hda::RoiResult& roi = run.result.rois[i];
+  const RoiTruthValue* truth = TruthOf(run, i);
+  if (!roi.has_fit || truth == nullptr) return kNaN;
+  return TiltErrorDeg(roi.normal_in_local, truth->normal_in_local);
+}
+
 bool IsRanked(const hda::RoiResult& roi) { return roi.status == hda::RoiStatus::kEvaluated; }
 
 std::string PlyName(const hda::RoiResult& roi) { return "points/" + RoiFileStem(roi.id) + ".ply"; }
@@ -146,6 +155,7 @@ Json TruthJson(const FlightRun& run, size_t i) {
             {"roughness_rms_m", Number(t->roughness_rms_m)},
             {"roughness_max_m", Number(t->roughness_max_m)},
             {"hazard_height_m", Number(t->hazard_height_m)},
+            {"normal", Vector3Json(t->normal_in_local)},
             {"num_points", t->num_points}};
   }
   const std::string why = i < run.truths.size() ? run.truths[i].why : "the run has no truth";
@@ -175,6 +185,7 @@ Json RoiJson(const FlightRun& run, size_t i) {
   j["rank"] = roi.rank > 0 ? Json(roi.rank) : Json(nullptr);
   j["truth"] = TruthJson(run, i);
   j["slope_error_deg"] = Number(SlopeErrorDeg(run, i));
+  j["tilt_error_deg"] = Number(TiltErrorOf(run, i));
   j["ply"] = roi.points_in_local_m.empty() ? Json(nullptr) : Json(PlyName(roi));
   return j;
 }
@@ -455,7 +466,7 @@ std::string FlightRoisCsv(const FlightRun& run) {
   std::ostringstream out;
   out << "id,status,x1,y1,w1,h1,x2,y2,w2,h2,order,keypoints1,keypoints2,matches,ransac_inliers,"
          "epipolar_inliers,triangulated,depth_inliers,slope_deg,slope_sigma_deg,roughness_rms_m,"
-         "roughness_excess_m,area_m2,score,rank,truth_slope_deg,slope_error_deg\n";
+         "roughness_excess_m,area_m2,score,rank,truth_slope_deg,slope_error_deg,tilt_error_deg\n";
   for (size_t i = 0; i < run.result.rois.size(); ++i) {
     const hda::RoiResult& roi = run.result.rois[i];
     const cv::Rect& b1 = roi.box1_px;
@@ -479,7 +490,7 @@ std::string FlightRoisCsv(const FlightRun& run) {
         << (roi.rank > 0 ? std::to_string(roi.rank) : "") << ",";
     const RoiTruthValue* truth = TruthOf(run, i);
     out << (truth != nullptr ? util::CsvNumber(truth->slope_deg) : "") << ","
-        << util::CsvNumber(SlopeErrorDeg(run, i)) << "\n";
+        << util::CsvNumber(SlopeErrorDeg(run, i)) << "," << util::CsvNumber(TiltErrorOf(run, i)) << "\n";
   }
   return out.str();
 }
@@ -505,22 +516,34 @@ std::string RoiPly(const hda::RoiResult& roi) {
 }
 
 SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run) {
-  std::vector<double> errors;
+  std::vector<double> errors, tilts;
+  double signed_sum = 0.0;
   int within = 0;
   for (size_t i = 0; i < run.result.rois.size(); ++i) {
     const hda::RoiResult& roi = run.result.rois[i];
-    const double error = std::abs(SlopeErrorDeg(run, i));
-    if (!std::isfinite(error) || roi.counts.depth_inliers < kMinPointsForSlopeStats) continue;
+    const double signed_error = SlopeErrorDeg(run, i);
+    const double tilt = TiltErrorOf(run, i);
+    if (!hda::HasSlope(roi.status) || !std::isfinite(signed_error) || !std::isfinite(tilt) ||
+        roi.counts.depth_inliers < kMinPointsForSlopeStats) {
+      continue;
+    }
+    const double error = std::abs(signed_error);
     errors.push_back(error);
+    tilts.push_back(tilt);
+    signed_sum += signed_error;
     if (error <= 2.0 * roi.slope_sigma_deg) ++within;
   }
   SlopeErrorStats stats;
   stats.count = static_cast<int>(errors.size());
   if (errors.empty()) return stats;
   std::sort(errors.begin(), errors.end());
+  std::sort(tilts.begin(), tilts.end());
   stats.median_abs_deg = util::Quantile(errors, 0.5);
   stats.p90_abs_deg = util::Quantile(errors, 0.9);
   stats.within_two_sigma_fraction = within / static_cast<double>(errors.size());
+  stats.median_tilt_deg = util::Quantile(tilts, 0.5);
+  stats.p90_tilt_deg = util::Quantile(tilts, 0.9);
+  stats.bias_deg = signed_sum / static_cast<double>(errors.size());
   return stats;
 }
 
@@ -556,12 +579,15 @@ std::string FlightReport(const FlightRun& run) {
   if (!truth) return out.str();
   const SlopeErrorStats stats = ComputeSlopeErrorStats(run);
   if (stats.count == 0) {
-    out << "slope error: no ROI has a fit, truth and >= " << kMinPointsForSlopeStats << " points\n";
+    out << "slope error: no ROI has a slope, truth and >= " << kMinPointsForSlopeStats << " points\n";
   } else {
-    out << "slope error over " << stats.count << " ROI(s) with a fit, truth and >= "
+    out << "slope error over " << stats.count << " ROI(s) with a slope, truth and >= "
         << kMinPointsForSlopeStats << " points: median |error| " << util::FixedCell(stats.median_abs_deg, 2)
         << " deg, 90th percentile " << util::FixedCell(stats.p90_abs_deg, 2) << " deg, "
-        << util::FixedCell(100.0 * stats.within_two_sigma_fraction, 0) << " % within 2 predicted sigmas\n";
+        << util::FixedCell(100.0 * stats.within_two_sigma_fraction, 0) << " % within 2 predicted sigmas\n"
+        << "tilt error (angle to the true plane) median " << util::FixedCell(stats.median_tilt_deg, 2)
+        << " deg, 90th percentile " << util::FixedCell(stats.p90_tilt_deg, 2) << " deg; slope bias (mean of "
+        << "estimated - true) " << util::SignedCell(stats.bias_deg, 2) << " deg\n";
   }
   return out.str();
 }

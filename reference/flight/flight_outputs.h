@@ -46,13 +46,17 @@ std::string RoiPly(const hda::RoiResult& roi);
 // "roi_007" style stem of an ROI's per-ROI files: the id zero-padded to 3 digits.
 std::string RoiFileStem(int id);
 
-// Slope error statistics over the ROIs with a fit, truth and at least
-// kMinPointsForSlopeStats points (depth inliers): |estimated - true| slope.
+// Slope error statistics over the ROIs with a slope (hda::HasSlope), truth
+// and at least kMinPointsForSlopeStats points (depth inliers): |estimated -
+// true| slope, the tilt error (TiltErrorDeg) and the bias.
 struct SlopeErrorStats {
   int count = 0;                        // ROIs used
   double median_abs_deg = 0.0;          // median |error|, degrees (0 when count is 0)
   double p90_abs_deg = 0.0;             // 90th percentile |error| (linear between order statistics)
   double within_two_sigma_fraction = 0.0;  // share with |error| <= 2 * predicted slope sigma
+  double median_tilt_deg = 0.0;         // median tilt error, degrees
+  double p90_tilt_deg = 0.0;            // 90th percentile tilt error
+  double bias_deg = 0.0;                // mean of estimated - true slope, degrees (signed)
 };
 SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run);
 

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 
+#include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "datasets/synth/truth.h"
 
@@ -86,6 +87,7 @@ std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int fra
       truth.roughness_rms_m = roi_truth.roughness_rms_m;
       truth.roughness_max_m = roi_truth.roughness_max_m;
       truth.hazard_height_m = roi_truth.hazard_height_m;
+      truth.normal_in_local = roi_truth.normal_in_local;
     } catch (const InputError& e) {
       truth.why = e.what();
     }
@@ -109,6 +111,13 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   run.result = hda::RunHda(input, dataset.camera, options);
   run.truths = TruthOfRois(dataset, frame1, run.result);
   return run;
+}
+
+double TiltErrorDeg(const Eigen::Vector3d& normal, const Eigen::Vector3d& true_normal) {
+  if (!normal.allFinite() || !true_normal.allFinite() || normal.norm() == 0.0 || true_normal.norm() == 0.0) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return std::atan2(normal.cross(true_normal).norm(), std::abs(normal.dot(true_normal))) * util::kRadToDeg;
 }
 
 bool FlightRun::AnyTruth() const {

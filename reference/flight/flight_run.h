@@ -8,6 +8,8 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "datasets/dataset.h"
 #include "hda/hda_options.h"
 #include "hda/pipeline.h"
@@ -41,7 +43,15 @@ struct RoiTruthValue {
   double roughness_rms_m = 0.0;
   double roughness_max_m = 0.0;
   double hazard_height_m = 0.0;
+  Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();  // unit, up: the true plane's normal
 };
+
+// The tilt error: the angle between an estimated plane and the true one
+// (between their normals, whichever way each points), degrees in [0, 90].
+// Unlike the difference of slope magnitudes it sees the direction of the
+// tilt, and it has no one-sided bias near a level site. NaN when either
+// normal is zero or not finite.
+double TiltErrorDeg(const Eigen::Vector3d& normal, const Eigen::Vector3d& true_normal);
 
 // The truth of every ROI of `result` (same order as result.rois), from the
 // dataset's truth points of frame1 (LoadOptions::keep_truth). Every ROI gets an

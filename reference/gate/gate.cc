@@ -95,6 +95,7 @@ bool ValidName(const std::string& name) {
 const std::vector<std::string>& MetricNames() {
   static const std::vector<std::string> names = {
       "slope_error_median_deg", "slope_error_p90_deg",   "slope_error_max_deg",
+      "tilt_error_median_deg",  "tilt_error_p90_deg",    "slope_bias_abs_deg",
       "roughness_error_median_m", "rois_with_slope_share", "within_two_sigma_share",
       "flight_seconds_per_pair", "failed_entries",        "slope_error_rois"};
   return names;
@@ -431,7 +432,8 @@ std::vector<std::string> GateMetricNames() { return MetricNames(); }
 std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
                                            double processor_scale) {
   struct Pool {
-    std::vector<double> slope_errors, roughness_errors;
+    std::vector<double> slope_errors, tilt_errors, roughness_errors;
+    double signed_slope_error_sum = 0.0;
     int within_two_sigma = 0, rois = 0, rois_with_slope = 0, failed = 0;
     double flight_seconds = -1.0;
     bool present = false;
@@ -464,8 +466,13 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
             r.at("num_points").get<int>() < kMinPointsForSlopeStats) {
           continue;
         }
-        const double error = std::abs(r.at("slope_error_deg").get<double>());
+        const double signed_error = r.at("slope_error_deg").get<double>();
+        const double error = std::abs(signed_error);
         pool.slope_errors.push_back(error);
+        pool.signed_slope_error_sum += signed_error;
+        if (r.contains("tilt_error_deg") && r.at("tilt_error_deg").is_number()) {
+          pool.tilt_errors.push_back(r.at("tilt_error_deg").get<double>());
+        }
         if (!r.at("roughness_rms_m").is_null() && !truth.at("roughness_rms_m").is_null()) {
           pool.roughness_errors.push_back(std::abs(r.at("roughness_rms_m").get<double>() -
                                                    truth.at("roughness_rms_m").get<double>()));
@@ -495,6 +502,14 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
       add("slope_error_median_deg", util::Quantile(sorted, 0.5));
       add("slope_error_p90_deg", util::Quantile(sorted, 0.9));
       add("slope_error_max_deg", sorted.back());
+      add("slope_bias_abs_deg",
+          std::abs(pool.signed_slope_error_sum / static_cast<double>(pool.slope_errors.size())));
+    }
+    if (!pool.tilt_errors.empty()) {
+      std::vector<double> sorted = pool.tilt_errors;
+      std::sort(sorted.begin(), sorted.end());
+      add("tilt_error_median_deg", util::Quantile(sorted, 0.5));
+      add("tilt_error_p90_deg", util::Quantile(sorted, 0.9));
     }
     if (!pool.roughness_errors.empty()) {
       std::vector<double> sorted = pool.roughness_errors;

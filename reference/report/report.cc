@@ -248,7 +248,8 @@ void FillRunPage(const fs::path& dir, Page* page) {
   table.id = "roi-table";
   table.header = {"ROI", "status", "truth slope (deg)", "est. slope (deg)", "sigma (deg)",
                   "# points", "truth rough. RMS (m)", "est. relief (m)", "score", "rank"};
-  std::vector<double> errors;
+  std::vector<double> errors, tilts;
+  double signed_sum = 0.0;
   int within_two_sigma = 0;
   for (const Json& roi : rois) {
     const Json& truth = Member(roi, "truth");
@@ -269,25 +270,35 @@ void FillRunPage(const fs::path& dir, Page* page) {
         {Member(roi, "rank").is_number() ? Text(Member(roi, "rank")) : "-", "", ""},
     });
     const Json& error = Member(roi, "slope_error_deg");
-    if (IsNumber(error) && points >= kMinPointsForSlopeStats) {
+    const Json& tilt = Member(roi, "tilt_error_deg");
+    const bool has_slope = status == "evaluated" || status == "unsafe slope" || status == "unsafe roughness";
+    if (has_slope && IsNumber(error) && IsNumber(tilt) && points >= kMinPointsForSlopeStats) {
       const double e = std::abs(error.get<double>());
       errors.push_back(e);
+      tilts.push_back(tilt.get<double>());
+      signed_sum += error.get<double>();
       const Json& sigma = Member(fit, "slope_sigma_deg");
       if (IsNumber(sigma) && e <= 2.0 * sigma.get<double>()) ++within_two_sigma;
     }
   }
   if (errors.empty()) {
-    page->summary_lines.push_back("Slope error: no ROI has a fit, truth and at least " +
+    page->summary_lines.push_back("Slope error: no ROI has a slope, truth and at least " +
                                   std::to_string(kMinPointsForSlopeStats) + " points.");
   } else {
     std::sort(errors.begin(), errors.end());
     page->summary_lines.push_back(
-        "Slope error over " + std::to_string(errors.size()) + " ROI(s) with a fit, truth and at least " +
+        "Slope error over " + std::to_string(errors.size()) + " ROI(s) with a slope, truth and at least " +
         std::to_string(kMinPointsForSlopeStats) + " points: median |error| " +
         util::FixedCell(util::Quantile(errors, 0.5), 2) + " deg, 90th percentile " +
         util::FixedCell(util::Quantile(errors, 0.9), 2) + " deg, " +
         util::FixedCell(100.0 * within_two_sigma / static_cast<double>(errors.size()), 0) +
         " % within 2 predicted sigmas.");
+    std::sort(tilts.begin(), tilts.end());
+    page->summary_lines.push_back(
+        "Tilt error (angle to the true plane): median " + util::FixedCell(util::Quantile(tilts, 0.5), 2) +
+        " deg, 90th percentile " + util::FixedCell(util::Quantile(tilts, 0.9), 2) +
+        " deg; slope bias (mean of estimated - true) " +
+        util::SignedCell(signed_sum / static_cast<double>(errors.size()), 2) + " deg.");
   }
 }
 
@@ -346,7 +357,7 @@ void FillComparePage(const fs::path& dir, Page* page) {
   Table& summary = page->summary;
   summary.id = "method-table";
   summary.header = {"method", "status", "ROIs with a slope", "slope error vs truth (deg)",
-                    "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
+                    "tilt error vs truth (deg)", "slope bias (deg)", "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
                     "points within 0.1 / 0.3 / 1 m (%)", "rotation / baseline-dir. error (deg)",
                     "time (s)"};
   for (const Json& m : methods) {
@@ -369,6 +380,11 @@ void FillComparePage(const fs::path& dir, Page* page) {
         {ok ? "ok" : "failed", ok ? "" : "st-failed", ok ? "" : Text(Member(m, "failure"))},
         {Text(Member(m, "rois_with_fit")), "", ""},
         {StatsText(Member(m, "slope_error_vs_truth_deg"), 2), "", ""},
+        {StatsText(Member(m, "tilt_error_vs_truth_deg"), 2), "", ""},
+        {IsNumber(Member(m, "slope_bias_vs_truth_deg"))
+             ? util::SignedCell(Member(m, "slope_bias_vs_truth_deg").get<double>(), 2)
+             : "-",
+         "", ""},
         {StatsText(Member(m, "roughness_error_vs_truth_m"), 3), "", ""},
         {StatsText(Member(m, "slope_difference_vs_colmap_nav_deg"), 2), "", ""},
         {accuracy_text, "", ""},
@@ -378,8 +394,10 @@ void FillComparePage(const fs::path& dir, Page* page) {
     });
   }
   page->summary_lines.push_back(
-      "Errors are median / 90th percentile / max (count) over ROIs with at least " +
-      Text(Member(compare, "min_points_for_stats")) + " points.");
+      "Errors are median / 90th percentile / max (count) over ROIs with a slope and at least " +
+      Text(Member(compare, "min_points_for_stats")) +
+      " points; the tilt error is the angle between the fitted and the true plane, the slope bias the "
+      "mean of slope - truth.");
 
   Table& table = page->rois;
   table.id = "roi-table";

@@ -264,16 +264,30 @@ TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirG
               counts[counts.size() / 2]);
   EXPECT_EQ(run.summaries[nav].slope_vs_truth_deg.count, stats.count);
 
-  // OpenGV on these near-planar ROIs: a configuration type, never a
-  // confident slope from a degenerate geometry.
+  // OpenGV on the whole pair, whose ground is nearly a plane seen from 566 m:
+  // the free solvers report the pair planar on every ROI, never a confident
+  // slope from a degenerate geometry, with their pose errors still given; the
+  // 2-point solver (nav rotation held) is not degenerate on a plane and gives
+  // a slope wherever the flight method has one.
+  int flight_slopes = 0, two_point_slopes = 0;
   for (size_t m = 4; m < run.methods.size(); ++m) {
-    for (const MethodRoi& roi : run.rois[m]) {
-      if (roi.status == MethodRoiStatus::kPlanar || roi.status == MethodRoiStatus::kLowParallax) {
+    const bool two_point = run.methods[m] == "opengv-two-point";
+    EXPECT_TRUE(run.summaries[m].has_pose_error) << run.methods[m];
+    for (size_t i = 0; i < run.rois[m].size(); ++i) {
+      const MethodRoi& roi = run.rois[m][i];
+      EXPECT_EQ(roi.configuration, "planar") << run.methods[m];
+      if (run.flight.result.rois[i].box2_px.area() <= 0) continue;
+      if (!two_point) {
+        EXPECT_EQ(roi.status, MethodRoiStatus::kPlanar) << run.methods[m];
         EXPECT_FALSE(roi.has_fit) << run.methods[m];
-        EXPECT_EQ(roi.configuration, roi.StatusName());
+        continue;
       }
+      if (!run.rois[0][i].HasSlope()) continue;
+      ++flight_slopes;
+      if (roi.HasSlope()) ++two_point_slopes;
     }
   }
+  EXPECT_GE(two_point_slopes, 0.8 * flight_slopes) << two_point_slopes << " of " << flight_slopes;
 
   // The outputs: the table has one column per method.
   const std::vector<std::string> written = WriteCompareOutputs(
@@ -287,6 +301,22 @@ TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirG
   EXPECT_EQ(json["format"], "hdabench-compare-result");
   EXPECT_EQ(json["methods"].size(), run.methods.size());
   EXPECT_EQ(json["rois"].size(), run.flight.result.rois.size());
+  // Every ROI with a flight plane and truth has a tilt error, at least the
+  // difference of the slope magnitudes (the angle between two planes is never
+  // less than the difference of their tilts), and the summary its statistics.
+  int tilts = 0;
+  for (const nlohmann::json& roi : json["rois"]) {
+    const nlohmann::json& flight = roi["methods"]["flight"];
+    if (flight["slope_error_deg"].is_null()) continue;
+    ASSERT_TRUE(flight["tilt_error_deg"].is_number()) << roi["id"];
+    EXPECT_GE(flight["tilt_error_deg"].get<double>() + 1e-9, std::abs(flight["slope_error_deg"].get<double>()))
+        << roi["id"];
+    EXPECT_EQ(roi["truth"]["normal"].size(), 3u);
+    ++tilts;
+  }
+  EXPECT_GT(tilts, 10);
+  EXPECT_GT(json["methods"][0]["tilt_error_vs_truth_deg"]["count"].get<int>(), 10);
+  EXPECT_TRUE(json["methods"][0]["slope_bias_vs_truth_deg"].is_number());
 }
 
 // COLMAP missing: both COLMAP columns fail with the reason, every other

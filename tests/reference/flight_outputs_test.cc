@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "reference/flight/flight_outputs.h"
 #include "tests/support/test_support.h"
@@ -114,6 +115,9 @@ RoiTruthValue Truth(double slope_deg, double rms_m) {
   truth.roughness_rms_m = rms_m;
   truth.roughness_max_m = 3.0 * rms_m;
   truth.hazard_height_m = 4.0 * rms_m;
+  // Tilted toward +y, as the ROIs of MakeRun are.
+  truth.normal_in_local = Eigen::Vector3d(0.0, std::sin(slope_deg * util::kDegToRad),
+                                          std::cos(slope_deg * util::kDegToRad));
   return truth;
 }
 
@@ -258,15 +262,37 @@ TEST(FlightOutputs, RoisCsvHasAHeaderAndOneRowPerRoi) {
   EXPECT_EQ(lines[0],
             "id,status,x1,y1,w1,h1,x2,y2,w2,h2,order,keypoints1,keypoints2,matches,ransac_inliers,"
             "epipolar_inliers,triangulated,depth_inliers,slope_deg,slope_sigma_deg,roughness_rms_m,"
-            "roughness_excess_m,area_m2,score,rank,truth_slope_deg,slope_error_deg");
+            "roughness_excess_m,area_m2,score,rank,truth_slope_deg,slope_error_deg,tilt_error_deg");
   for (const std::string& line : lines) {
-    EXPECT_EQ(std::count(line.begin(), line.end(), ','), 26) << line;
+    EXPECT_EQ(std::count(line.begin(), line.end(), ','), 27) << line;
   }
+  // ROI 1's normal (0, 0.0436, 0.999) is 2.499 deg from the vertical, toward
+  // the truth's tilt of 2 deg: a tilt error of 0.499 deg.
   EXPECT_EQ(lines[1], "1,evaluated,4,6,16,16,20,2,32,30,1,40,90,30,26,25,25,25,2.5,0.4,0.08,0.0625,"
-                      "110.0,0.75,1,2.0,0.5");
-  EXPECT_EQ(lines[2], "2,not in image 2,40,40,16,16,,,,,3,0,0,0,0,0,0,0,,,,,,,,,");
+                      "110.0,0.75,1,2.0,0.5,0.49901071024847216");
+  EXPECT_EQ(lines[2], "2,not in image 2,40,40,16,16,,,,,3,0,0,0,0,0,0,0,,,,,,,,,,");
   // The infinite sigma is an empty cell.
-  EXPECT_EQ(lines[3], "3,degenerate,40,4,16,16,30,0,30,28,2,0,0,3,3,0,0,3,26.5,,0.0,0.0,0.0,,,1.0,25.5");
+  EXPECT_EQ(lines[3], "3,degenerate,40,4,16,16,30,0,30,28,2,0,0,3,3,0,0,3,26.5,,0.0,0.0,0.0,,,1.0,25.5,1.0");
+}
+
+// The tilt error sees the direction of the tilt, which the difference of
+// slope magnitudes does not, and does not depend on which way a normal points.
+TEST(FlightOutputs, TiltErrorIsTheAngleBetweenThePlanes) {
+  const auto tilted = [](double slope_deg, double azimuth_deg) {
+    const double s = slope_deg * util::kDegToRad;
+    const double a = azimuth_deg * util::kDegToRad;
+    return Eigen::Vector3d(std::sin(s) * std::cos(a), std::sin(s) * std::sin(a), std::cos(s));
+  };
+  // The same 3 deg slope facing the other way: 0 deg of slope error, 6 deg of tilt.
+  EXPECT_NEAR(TiltErrorDeg(tilted(3.0, 0.0), tilted(3.0, 180.0)), 6.0, 1e-9);
+  // Facing 90 deg apart: the angle between the normals, acos(cos^2 3 deg).
+  EXPECT_NEAR(TiltErrorDeg(tilted(3.0, 0.0), tilted(3.0, 90.0)),
+              std::acos(std::pow(std::cos(3.0 * util::kDegToRad), 2)) * util::kRadToDeg, 1e-9);
+  EXPECT_NEAR(TiltErrorDeg(tilted(2.0, 45.0), tilted(5.0, 45.0)), 3.0, 1e-9);
+  EXPECT_NEAR(TiltErrorDeg(-tilted(2.0, 45.0), 4.0 * tilted(5.0, 45.0)), 3.0, 1e-9);  // sign, scale
+  EXPECT_NEAR(TiltErrorDeg(Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ()), 90.0, 1e-9);
+  EXPECT_TRUE(std::isnan(TiltErrorDeg(Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ())));
+  EXPECT_TRUE(std::isnan(TiltErrorDeg(Eigen::Vector3d(std::nan(""), 0.0, 1.0), Eigen::Vector3d::UnitZ())));
 }
 
 TEST(FlightOutputs, PlyHeaderCountsThePoints) {
@@ -288,7 +314,7 @@ TEST(FlightOutputs, PlyHeaderCountsThePoints) {
 TEST(FlightOutputs, ReportTableWithTruth) {
   const std::string report = FlightReport(MakeRun());
   const std::vector<std::string> lines = SplitLines(report);
-  ASSERT_EQ(lines.size(), 7u) << report;
+  ASSERT_EQ(lines.size(), 8u) << report;
   EXPECT_EQ(lines[0].rfind("hda: 3 ROIs, 1 evaluated", 0), 0u) << lines[0];
   EXPECT_NE(lines[0].find("frames 0,6, baseline 31.25 m"), std::string::npos) << lines[0];
   EXPECT_EQ(lines[1],
@@ -304,10 +330,14 @@ TEST(FlightOutputs, ReportTableWithTruth) {
   EXPECT_EQ(lines[5],
             "  3  degenerate                   1.00             26.50            -         3  "
             "               0.100            0.000");
-  // Only ROI 1 has >= 20 points: error 0.5 deg, within 2 sigma (0.8).
+  // Only ROI 1 has a slope and >= 20 points: error 0.5 deg, within 2 sigma
+  // (0.8), tilted the same way as the truth.
   EXPECT_EQ(lines[6],
-            "slope error over 1 ROI(s) with a fit, truth and >= 20 points: median |error| 0.50 deg, "
+            "slope error over 1 ROI(s) with a slope, truth and >= 20 points: median |error| 0.50 deg, "
             "90th percentile 0.50 deg, 100 % within 2 predicted sigmas");
+  EXPECT_EQ(lines[7],
+            "tilt error (angle to the true plane) median 0.50 deg, 90th percentile 0.50 deg; slope bias "
+            "(mean of estimated - true) +0.50 deg");
 }
 
 TEST(FlightOutputs, ReportTableWithoutTruthDropsTheTruthColumns) {

@@ -116,7 +116,7 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
                        {{"flight",
                          {{"status", "evaluated"}, {"num_points", 30}, {"slope_deg", 2.0 + errors[i]},
                           {"slope_sigma_deg", 1.0}, {"slope_error_deg", errors[i]},
-                          {"roughness_rms_m", 0.3}}}}}});
+                          {"tilt_error_deg", 2.0 * std::abs(errors[i])}, {"roughness_rms_m", 0.3}}}}}});
     }
     // A ROI the method calls degenerate: its plane (a large error) is a
     // diagnostic, not a slope, and stays out of the error statistics.
@@ -138,7 +138,7 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
     return (dir / name).string();
   };
   const std::vector<GateMetric> metrics =
-      ComputeGateMetrics({entry("a", {1.0, 3.0}, 0.2), entry("b", {0.5, 2.5, 4.0}, 0.4)}, 0.1);
+      ComputeGateMetrics({entry("a", {1.0, -3.0}, 0.2), entry("b", {0.5, 2.5, -4.0}, 0.4)}, 0.1);
   const auto value = [&](const std::string& metric) {
     for (const GateMetric& m : metrics) {
       if (m.method == "flight" && m.metric == metric) return m.value;
@@ -149,6 +149,9 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
   EXPECT_DOUBLE_EQ(value("slope_error_median_deg"), 2.5);    // of 0.5 1 2.5 3 4
   EXPECT_DOUBLE_EQ(value("slope_error_p90_deg"), 3.6);       // 3 + 0.6 * (4 - 3)
   EXPECT_DOUBLE_EQ(value("slope_error_max_deg"), 4.0);
+  EXPECT_DOUBLE_EQ(value("tilt_error_median_deg"), 5.0);     // twice the slope errors
+  EXPECT_DOUBLE_EQ(value("tilt_error_p90_deg"), 7.2);
+  EXPECT_DOUBLE_EQ(value("slope_bias_abs_deg"), 0.6);        // |(1 - 3 + 0.5 + 2.5 - 4) / 5|
   EXPECT_DOUBLE_EQ(value("roughness_error_median_m"), 0.2);
   EXPECT_DOUBLE_EQ(value("rois_with_slope_share"), 5.0 / 9.0);
   EXPECT_DOUBLE_EQ(value("within_two_sigma_share"), 2.0 / 5.0);  // |error| <= 2 sigma = 2: 0.5 and 1
@@ -238,26 +241,32 @@ TEST_F(GateCommand, PassesCleanAndFailsNamingTheMetricWhenTheFlightMethodIsMadeW
   EXPECT_NE(clean.out.find("| flight | slope_error_median_deg |"), std::string::npos) << clean.out;
   const double median = Metric(dir / "baseline.json", "slope_error_median_deg");
   const double p90 = Metric(dir / "baseline.json", "slope_error_p90_deg");
+  const double tilt = Metric(dir / "baseline.json", "tilt_error_median_deg");
+  const double share = Metric(dir / "baseline.json", "rois_with_slope_share");
   EXPECT_GT(Metric(dir / "baseline.json", "slope_error_rois"), 20.0);
 
   // Thresholds from the clean run plus a margin: the clean run passes them.
   const fs::path tight = WriteThresholds(
       dir, "tight.json",
       {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", median + 1.0}, {"tolerance", 0.3}},
-       {{"method", "flight"}, {"metric", "slope_error_p90_deg"}, {"max", p90 + 2.0}, {"tolerance", 0.5}}});
+       {{"method", "flight"}, {"metric", "slope_error_p90_deg"}, {"max", p90 + 2.0}, {"tolerance", 0.5}},
+       {{"method", "flight"}, {"metric", "tilt_error_median_deg"}, {"max", tilt + 1.0}, {"tolerance", 0.3}},
+       {{"method", "flight"}, {"metric", "rois_with_slope_share"}, {"min", share - 0.2}, {"tolerance", 0.1}}});
   clean = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", tight.string(), "--out",
                        (dir / "clean").string(), "--baseline", (dir / "baseline.json").string()},
                       dir);
   EXPECT_EQ(clean.exit_code, 0) << clean.err;
 
   // 0.6 px of noise on the flight method's matches (its own error is about
-  // 0.06 px): the slope errors grow several times.
+  // 0.06 px): the method finds most slopes unobservable (degenerate), and the
+  // few it keeps are tilted several times further from the truth.
   const CommandResult worse = RunHdabench(
       {"gate", "--suite", suite.string(), "--thresholds", tight.string(), "--out",
        (dir / "worse").string(), "--fault-match-noise-px", "0.6"},
       dir);
   EXPECT_EQ(worse.exit_code, 1) << worse.err;
-  EXPECT_NE(worse.err.find("FAILED flight slope_error_median_deg = "), std::string::npos) << worse.err;
+  EXPECT_NE(worse.err.find("FAILED flight rois_with_slope_share = "), std::string::npos) << worse.err;
+  EXPECT_NE(worse.err.find("FAILED flight tilt_error_median_deg = "), std::string::npos) << worse.err;
   // The page says so too, with the failing row marked and each entry linked to its report.
   const std::string page = ReadText(dir / "worse" / "gate.html");
   EXPECT_NE(page.find("FAIL: "), std::string::npos);

@@ -40,6 +40,11 @@ std::string FixedCell(double value, int digits) {
   return std::isfinite(value) ? FixedText(value, digits) : "-";
 }
 
+std::string SignedCell(double value, int digits) {
+  const std::string text = FixedCell(value, digits);
+  return std::isfinite(value) && text.front() != '-' ? "+" + text : text;
+}
+
 std::string FormatTextTable(const std::vector<std::vector<std::string>>& rows,
                             const std::vector<bool>& left) {
   std::vector<size_t> widths(left.size(), 0);

@@ -35,6 +35,10 @@ std::string CsvNumber(double value);
 // not finite.
 std::string FixedCell(double value, int digits);
 
+// A table cell for a signed value: FixedCell with a "+" before a value that
+// does not print as negative ("+0.87", "-0.12", "+0.00"); "-" when not finite.
+std::string SignedCell(double value, int digits);
+
 // Fixed-point text with `digits` decimals ("%.*f"), for messages: "nan",
 // "inf" and "-inf" as they are.
 std::string FixedText(double value, int digits);

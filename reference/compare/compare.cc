@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <set>
 #include <utility>
@@ -306,6 +307,74 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBear
   return rois;
 }
 
+// plane-nav: each ROI's plane by the direct photometric fit under the nav
+// pose (reference/direct/plane_direct.h), started from level ground at the
+// LRF's point (never from the flight method's fit, so that the reference owes
+// nothing to it), over the ROI's box grown by half the flight method's
+// warp-refinement window.
+std::vector<MethodRoi> PlaneNavRois(const FlightRun& flight, const CompareOptions& options, const Context& ctx,
+                                    MethodSummary* summary) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<MethodRoi> rois(flight.result.rois.size());
+  const DirectPlaneImages images = PrepareDirectPlaneImages(ctx.input.image1, ctx.input.image2);
+  const Rigid3d cam1_from_local = ctx.local_from_cam1.Inverse();
+  const Eigen::Vector3d up_in_cam1 =
+      (cam1_from_local.rotation * (-ctx.dataset->gravity_in_local_mps2)).normalized();
+  const Eigen::Vector3d lrf_point =
+      ctx.input.lrf_origin_in_cam1_m + ctx.input.lrf_range_m * ctx.input.lrf_beam_in_cam1.normalized();
+  const Eigen::Vector3d level = up_in_cam1 / up_in_cam1.dot(lrf_point);
+  // The pixels the flight method's matches of the ROI see: the box grown by
+  // half its warp-refinement window (a match at the box's edge reads that far
+  // out), so that the two methods judge the same ground with the same support.
+  const int margin = options.hda.matching.warp_refine_window_px / 2;
+  int converged = 0, fitted = 0;
+  for (size_t i = 0; i < rois.size(); ++i) {
+    const auto roi_start = std::chrono::steady_clock::now();
+    MethodRoi& roi = rois[i];
+    const cv::Rect grown = (flight.result.rois[i].box1_px + cv::Size(2 * margin, 2 * margin) - cv::Point(margin, margin)) &
+                           cv::Rect(0, 0, ctx.dataset->camera.WidthPx(), ctx.dataset->camera.HeightPx());
+    const DirectPlaneResult fit = FitPlaneDirect(images, ctx.dataset->camera, grown, ctx.input.cam2_from_cam1,
+                                                 level, up_in_cam1,
+                                                 options.direct_plane);
+    roi.reason = fit.reason;
+    roi.num_points = fit.pixels;
+    switch (fit.status) {
+      case DirectPlaneStatus::kOk: {
+        roi.status = MethodRoiStatus::kOk;
+        roi.has_fit = true;
+        roi.slope_deg = fit.slope_deg;
+        roi.normal_in_local = ctx.local_from_cam1.rotation * fit.up_normal_in_cam1;
+        roi.has_sigma = true;
+        roi.slope_sigma_deg = fit.slope_sigma_deg;
+        // A plane has no roughness of its own.
+        roi.roughness_rms_m = std::numeric_limits<double>::quiet_NaN();
+        roi.roughness_max_m = std::numeric_limits<double>::quiet_NaN();
+        for (const Eigen::Vector3d& p : fit.points_in_cam1) roi.points_in_local_m.push_back(ctx.local_from_cam1 * p);
+        if (ctx.dataset->truth.dem.has_value()) {
+          roi.accuracy = ComputePointAccuracy(roi.points_in_local_m, *ctx.dataset->truth.dem);
+        }
+        ++fitted;
+        if (fit.converged) ++converged;
+        break;
+      }
+      case DirectPlaneStatus::kOutsideOverlap:
+        roi.status = MethodRoiStatus::kOutsideOverlap;
+        break;
+      case DirectPlaneStatus::kNoTexture:
+        roi.status = MethodRoiStatus::kNoTexture;
+        break;
+      case DirectPlaneStatus::kDiverged:
+        roi.status = MethodRoiStatus::kDiverged;
+        break;
+    }
+    roi.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - roi_start).count();
+  }
+  summary->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary->note = std::to_string(fitted) + " planes, " + std::to_string(converged) + " converged within " +
+                  std::to_string(options.direct_plane.max_iterations) + " iterations";
+  return rois;
+}
+
 // A free reconstruction's ROIs when the pair's configuration cannot give a
 // confident relative pose: the configuration as status, no slope.
 void WithholdIllConditioned(const ConfigurationReport& configuration, std::vector<MethodRoi>* rois) {
@@ -367,7 +436,9 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
       vs_truth.push_back(std::abs(roi.slope_deg - truth->slope_deg));
       tilt_vs_truth.push_back(TiltErrorDeg(roi.normal_in_local, truth->normal_in_local));
       signed_sum += roi.slope_deg - truth->slope_deg;
-      rough_vs_truth.push_back(std::abs(roi.roughness_rms_m - truth->roughness_rms_m));
+      if (std::isfinite(roi.roughness_rms_m)) {
+        rough_vs_truth.push_back(std::abs(roi.roughness_rms_m - truth->roughness_rms_m));
+      }
     }
     if (colmap_nav_index < run.rois.size() && colmap_nav_index != m) {
       const MethodRoi& ref = run.rois[colmap_nav_index][i];
@@ -407,6 +478,7 @@ std::vector<std::string> AllMethodNames() {
   for (const OpenGvSolver solver : AllOpenGvSolvers()) {
     names.push_back(std::string(kOpenGvMethodPrefix) + ToString(solver));
   }
+  names.push_back(kMethodPlaneNav);
   return names;
 }
 
@@ -459,6 +531,7 @@ std::vector<std::string> CompareOptions::Validate() const {
   for (const std::string& e : hda.Validate()) errors.push_back("hda." + e);
   for (const std::string& e : colmap.Validate()) errors.push_back("colmap." + e);
   for (const std::string& e : opengv.Validate()) errors.push_back("opengv." + e);
+  for (const std::string& e : direct_plane.Validate()) errors.push_back("direct_plane." + e);
   for (const std::string& e : refine.Validate()) errors.push_back("refine." + e);
   if (!(fit_pixel_sigma_px > 0.0 && std::isfinite(fit_pixel_sigma_px))) {
     errors.push_back("fit_pixel_sigma_px = " + std::to_string(fit_pixel_sigma_px) +
@@ -480,6 +553,9 @@ const char* ToString(MethodRoiStatus status) {
     case MethodRoiStatus::kPlanar: return "planar";
     case MethodRoiStatus::kLowParallax: return "low parallax";
     case MethodRoiStatus::kPoseFailed: return "pose failed";
+    case MethodRoiStatus::kOutsideOverlap: return "outside overlap";
+    case MethodRoiStatus::kNoTexture: return "no texture";
+    case MethodRoiStatus::kDiverged: return "diverged";
     case MethodRoiStatus::kFlight: return "flight";
   }
   return "unknown";
@@ -768,6 +844,9 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
     if (method == kMethodFlight) {
       run.rois[m] = FlightRois(run.flight, ctx);
       summary.wall_s = flight_seconds;
+    } else if (method == kMethodPlaneNav) {
+      say("plane-nav: the direct plane of every ROI");
+      run.rois[m] = PlaneNavRois(run.flight, options, ctx, &summary);
     } else if (IsOpenGvMethod(method)) {
       say(method);
       const OpenGvSolver solver =

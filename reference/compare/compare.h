@@ -37,6 +37,7 @@
 #include "reference/colmap/colmap_runner.h"
 #include "reference/flight/flight_outputs.h"
 #include "reference/flight/flight_run.h"
+#include "reference/direct/plane_direct.h"
 #include "reference/opengv/opengv_solvers.h"
 #include "reference/reconstruction/reconstruction.h"
 
@@ -47,6 +48,7 @@ inline constexpr char kMethodFlightRefined[] = "flight-refined";
 inline constexpr char kMethodColmapNav[] = "colmap-nav";
 inline constexpr char kMethodColmapFree[] = "colmap-free";
 inline constexpr char kOpenGvMethodPrefix[] = "opengv-";
+inline constexpr char kMethodPlaneNav[] = "plane-nav";
 
 // Every method name, in the order of the tables.
 std::vector<std::string> AllMethodNames();
@@ -67,6 +69,7 @@ struct CompareOptions {
   ColmapOptions colmap;           // workspace: <out>/colmap
   OpenGvOptions opengv;
   CeresRefineOptions refine = DefaultRefineOptions();
+  DirectPlaneOptions direct_plane;  // plane-nav
   // The matches the OpenGV methods use: the flight matcher's ORB matches with
   // the flight's options (false), or denser ones over the same boxes (true:
   // 2000 ORB keypoints per box at a FAST threshold of 5, the rest as the
@@ -105,6 +108,9 @@ enum class MethodRoiStatus {
                   // configuration cannot give a confident free relative pose, so no slope
   kLowParallax,   // "low parallax": likewise
   kPoseFailed,    // "pose failed": OpenGV found no pose
+  kOutsideOverlap,  // "outside overlap": plane-nav: too few of the ROI's pixels are seen in image 2
+  kNoTexture,       // "no texture": plane-nav: the ROI's pixels do not constrain its plane
+  kDiverged,        // "diverged": plane-nav: the photometric fit did not give a plane
   kFlight,        // the flight method: its own status, MethodRoi::flight_status
 };
 const char* ToString(MethodRoiStatus status);  // the names above

@@ -31,7 +31,8 @@ using testing_support::RunHdabench;
 
 TEST(ParseMethodList, AllNamesAndFlightFirst) {
   const std::vector<std::string> all = AllMethodNames();
-  ASSERT_EQ(all.size(), 9u);
+  ASSERT_EQ(all.size(), 10u);
+  EXPECT_EQ(all.back(), "plane-nav");
   EXPECT_EQ(all.front(), "flight");
   EXPECT_EQ(ParseMethodList("all"), all);
   // Flight is added, and the order is the table's whatever the order given.
@@ -271,6 +272,7 @@ TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirG
   // a slope wherever the flight method has one.
   int flight_slopes = 0, two_point_slopes = 0;
   for (size_t m = 4; m < run.methods.size(); ++m) {
+    if (run.methods[m].rfind(kOpenGvMethodPrefix, 0) != 0) continue;
     const bool two_point = run.methods[m] == "opengv-two-point";
     EXPECT_TRUE(run.summaries[m].has_pose_error) << run.methods[m];
     for (size_t i = 0; i < run.rois[m].size(); ++i) {
@@ -288,6 +290,24 @@ TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirG
     }
   }
   EXPECT_GE(two_point_slopes, 0.8 * flight_slopes) << two_point_slopes << " of " << flight_slopes;
+
+  // plane-nav: a plane on every ROI the flight method has a slope for but a
+  // handful, each with its sigma and no roughness (a plane has none).
+  const size_t plane_nav = run.methods.size() - 1;
+  ASSERT_EQ(run.methods[plane_nav], "plane-nav");
+  int plane_slopes = 0;
+  for (size_t i = 0; i < run.rois[plane_nav].size(); ++i) {
+    const MethodRoi& roi = run.rois[plane_nav][i];
+    if (!roi.HasSlope()) {
+      EXPECT_FALSE(roi.reason.empty());
+      continue;
+    }
+    EXPECT_TRUE(roi.has_sigma);
+    EXPECT_GT(roi.slope_sigma_deg, 0.0);
+    EXPECT_TRUE(std::isnan(roi.roughness_rms_m));
+    if (run.rois[0][i].HasSlope()) ++plane_slopes;
+  }
+  EXPECT_GE(plane_slopes, 0.8 * flight_slopes) << plane_slopes << " of " << flight_slopes;
 
   // The outputs: the table has one column per method.
   const std::vector<std::string> written = WriteCompareOutputs(

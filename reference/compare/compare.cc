@@ -846,7 +846,16 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
       summary.wall_s = flight_seconds;
     } else if (method == kMethodPlaneNav) {
       say("plane-nav: the direct plane of every ROI");
-      run.rois[m] = PlaneNavRois(run.flight, options, ctx, &summary);
+      try {
+        run.rois[m] = PlaneNavRois(run.flight, options, ctx, &summary);
+      } catch (const InputError& e) {
+        // The pair cannot be read as the fit needs: the method fails, the
+        // others still run.
+        summary.ok = false;
+        summary.failure = e.what();
+        run.rois[m].assign(run.flight.result.rois.size(), MethodRoi());
+        for (MethodRoi& roi : run.rois[m]) roi.reason = e.what();
+      }
     } else if (IsOpenGvMethod(method)) {
       say(method);
       const OpenGvSolver solver =

@@ -224,7 +224,8 @@ Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraMode
     // residual's own noise. The interpolant's gradient at q shares that
     // noise, with a correlation that depends on the sub-pixel position,
     // which would bias the fit's fixed point as a tilt does.
-    const Eigen::RowVector2d g = roi.gradients1[k] * image1_from_image2;
+    // Image 2 is modelled as gain * image 1: its gradient is gain times image 1's.
+    const Eigen::RowVector2d g = gain * roi.gradients1[k] * image1_from_image2;
     const Eigen::Vector3d& b = roi.bearings[k];
     // X = b / (p . b): dX/dp = -X b^T / (p . b); p = scale * q.
     const Eigen::Matrix3d dx_dp = -in_cam1[k] * b.transpose() / p.dot(b);
@@ -294,12 +295,17 @@ double SearchScale(const DirectPlaneImages& images, const calib::CameraModel& ca
   if (!centre_in_image2(1.0 - ds, &a) || !centre_in_image2(1.0 + ds, &b)) return 1.0;
   const double px_per_scale = (b - a).norm() / (2 * ds);
   if (!(px_per_scale > 0.0)) return 1.0;
-  const int steps = std::min(400, static_cast<int>(std::ceil(options.search_fraction * px_per_scale /
-                                                             options.search_step_px)));
-  double best_scale = 1.0, best = -3.0;
+  const int steps = static_cast<int>(
+      std::min(400.0, std::ceil(options.search_fraction * px_per_scale / options.search_step_px)));
+  // A candidate must see as many pixels in image 2 as the fit needs; when
+  // none does, the start stays as it was.
+  const int min_pixels = std::max(
+      options.min_pixels,
+      static_cast<int>(std::ceil(options.min_overlap_fraction * static_cast<double>(roi.bearings.size()))));
+  double best_scale = 1.0, best = -2.0;
   for (int i = -steps; i <= steps; ++i) {
     const double s = 1.0 + options.search_fraction * i / std::max(steps, 1);
-    const double c = Correlation(images, camera, roi, cam2_from_cam1, s * p0, options.min_pixels);
+    const double c = Correlation(images, camera, roi, cam2_from_cam1, s * p0, min_pixels);
     if (c > best) {
       best = c;
       best_scale = s;
@@ -466,7 +472,8 @@ DirectPlaneResult FitPlaneDirect(const DirectPlaneImages& images, const calib::C
     double largest_move = 0.0;
     for (size_t c = 0; c < corners.size(); ++c) largest_move = std::max(largest_move, (moved[c] - corners[c]).norm());
     corners = moved;
-    if (largest_move < options.convergence_px) {
+    // A halved step moves little without having converged.
+    if (t == 1.0 && largest_move < options.convergence_px) {
       result.converged = true;
       break;
     }

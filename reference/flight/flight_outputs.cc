@@ -523,13 +523,13 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run) {
     const hda::RoiResult& roi = run.result.rois[i];
     const double signed_error = SlopeErrorDeg(run, i);
     const double tilt = TiltErrorOf(run, i);
-    if (!hda::HasSlope(roi.status) || !std::isfinite(signed_error) || !std::isfinite(tilt) ||
+    if (!hda::HasSlope(roi.status) || !std::isfinite(signed_error) ||
         roi.counts.depth_inliers < kMinPointsForSlopeStats) {
       continue;
     }
     const double error = std::abs(signed_error);
     errors.push_back(error);
-    tilts.push_back(tilt);
+    if (std::isfinite(tilt)) tilts.push_back(tilt);
     signed_sum += signed_error;
     if (error <= 2.0 * roi.slope_sigma_deg) ++within;
   }
@@ -538,11 +538,12 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run) {
   if (errors.empty()) return stats;
   std::sort(errors.begin(), errors.end());
   std::sort(tilts.begin(), tilts.end());
+  const double nan = std::numeric_limits<double>::quiet_NaN();
   stats.median_abs_deg = util::Quantile(errors, 0.5);
   stats.p90_abs_deg = util::Quantile(errors, 0.9);
   stats.within_two_sigma_fraction = within / static_cast<double>(errors.size());
-  stats.median_tilt_deg = util::Quantile(tilts, 0.5);
-  stats.p90_tilt_deg = util::Quantile(tilts, 0.9);
+  stats.median_tilt_deg = tilts.empty() ? nan : util::Quantile(tilts, 0.5);
+  stats.p90_tilt_deg = tilts.empty() ? nan : util::Quantile(tilts, 0.9);
   stats.bias_deg = signed_sum / static_cast<double>(errors.size());
   return stats;
 }

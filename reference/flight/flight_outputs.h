@@ -54,7 +54,7 @@ struct SlopeErrorStats {
   double median_abs_deg = 0.0;          // median |error|, degrees (0 when count is 0)
   double p90_abs_deg = 0.0;             // 90th percentile |error| (linear between order statistics)
   double within_two_sigma_fraction = 0.0;  // share with |error| <= 2 * predicted slope sigma
-  double median_tilt_deg = 0.0;         // median tilt error, degrees
+  double median_tilt_deg = 0.0;         // median tilt error, degrees (NaN when no ROI has one)
   double p90_tilt_deg = 0.0;            // 90th percentile tilt error
   double bias_deg = 0.0;                // mean of estimated - true slope, degrees (signed)
 };

@@ -272,10 +272,10 @@ void FillRunPage(const fs::path& dir, Page* page) {
     const Json& error = Member(roi, "slope_error_deg");
     const Json& tilt = Member(roi, "tilt_error_deg");
     const bool has_slope = status == "evaluated" || status == "unsafe slope" || status == "unsafe roughness";
-    if (has_slope && IsNumber(error) && IsNumber(tilt) && points >= kMinPointsForSlopeStats) {
+    if (has_slope && IsNumber(error) && points >= kMinPointsForSlopeStats) {
       const double e = std::abs(error.get<double>());
       errors.push_back(e);
-      tilts.push_back(tilt.get<double>());
+      if (IsNumber(tilt)) tilts.push_back(tilt.get<double>());  // runs written before the tilt error have none
       signed_sum += error.get<double>();
       const Json& sigma = Member(fit, "slope_sigma_deg");
       if (IsNumber(sigma) && e <= 2.0 * sigma.get<double>()) ++within_two_sigma;
@@ -294,7 +294,7 @@ void FillRunPage(const fs::path& dir, Page* page) {
         util::FixedCell(100.0 * within_two_sigma / static_cast<double>(errors.size()), 0) +
         " % within 2 predicted sigmas.");
     std::sort(tilts.begin(), tilts.end());
-    page->summary_lines.push_back(
+    if (!tilts.empty()) page->summary_lines.push_back(
         "Tilt error (angle to the true plane): median " + util::FixedCell(util::Quantile(tilts, 0.5), 2) +
         " deg, 90th percentile " + util::FixedCell(util::Quantile(tilts, 0.9), 2) +
         " deg; slope bias (mean of estimated - true) " +

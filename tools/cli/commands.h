@@ -73,6 +73,7 @@ struct CompareCommandOptions {
   std::string colmap_executable = "colmap";   // a name looked up on PATH, or a path
   double colmap_timeout_s = 600.0;            // per COLMAP step
   bool colmap_all_frames = false;             // colmap-free on every frame of the collection window
+  int colmap_max_features = 32768;            // SIFT features COLMAP keeps per image (ColmapOptions)
   bool opengv_dense = false;                  // OpenGV on denser ORB matches than the flight's
   bool figures = true;                        // write flight/figures/ (PNG)
   bool report = true;                         // write report.html and report.md (docs/report.md)

@@ -41,6 +41,7 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
   compare.colmap.executable = options.colmap_executable;
   compare.colmap.timeout_s = options.colmap_timeout_s;
   compare.colmap.use_all_frames = options.colmap_all_frames;
+  compare.colmap.sift_max_num_features = options.colmap_max_features;
   compare.opengv_dense_features = options.opengv_dense;
   const std::vector<std::string> invalid = compare.Validate();
   if (!invalid.empty()) {
@@ -149,6 +150,9 @@ Command AddCompareCommand(CLI::App& app) {
       ->capture_default_str();
   compare->add_flag("--colmap-all-frames", options.colmap_all_frames,
                     "colmap-free on every frame of the collection window, not only the pair");
+  compare->add_option("--colmap-max-features", options.colmap_max_features,
+                      "SIFT features COLMAP keeps per image (the largest scales first)")
+      ->capture_default_str();
   compare->add_option("--fault-match-noise-px", options.fault_match_noise_px,
                       "Fault injection for testing the gate: Gaussian noise added to the flight\n"
                       "method's image-2 matches, pixels per axis (0: none)")

@@ -332,6 +332,197 @@ void SlopeAndSigma(const Eigen::Vector3d& p, const Eigen::Matrix3d& covariance, 
   result->slope_sigma_deg = std::sqrt(largest) * util::kRadToDeg;
 }
 
+// What one fit works on: the pair, the ROI's pixels and the starting plane's
+// scale (the plane is p = scale * q with q of order one).
+struct Problem {
+  const DirectPlaneImages* images;
+  const calib::CameraModel* camera;
+  const Rigid3d* cam2_from_cam1;
+  const DirectPlaneOptions* options;
+  RoiPixels roi;
+  double scale;
+
+  Eigen::Vector3d Plane(const Eigen::Vector3d& q) const { return scale * q; }
+  // Enough of the ROI's pixels in image 2 for the fit.
+  bool Enough(const Linearisation& lin) const {
+    return static_cast<int>(lin.residuals.size()) >= options->min_pixels &&
+           static_cast<double>(lin.residuals.size()) >=
+               options->min_overlap_fraction * static_cast<double>(roi.bearings.size());
+  }
+};
+
+// The unknowns and where the ROI's corners land in image 2 with them.
+struct State {
+  Eigen::Vector3d q = Eigen::Vector3d::Zero();
+  double gain = 1.0;
+  double offset = 0.0;
+  std::vector<Eigen::Vector2d> corners;
+};
+
+// The ROI's warp from image 1 to image 2 (from its corners), inverted: image-1
+// gradients into image 2.
+Eigen::Matrix2d WarpInverse(const RoiPixels& roi, const std::vector<Eigen::Vector2d>& c) {
+  Eigen::Matrix2d a;
+  a.col(0) = (c[1] - c[0]) / roi.corner_spacing_px.x();
+  a.col(1) = (c[2] - c[0]) / roi.corner_spacing_px.y();
+  const double det = a.determinant();
+  return std::abs(det) > 1e-9 ? Eigen::Matrix2d(a.inverse()) : Eigen::Matrix2d::Identity();
+}
+
+Linearisation LineariseAt(const Problem& problem, const State& state) {
+  return Linearise(*problem.images, *problem.camera, problem.roi, *problem.cam2_from_cam1,
+                   problem.Plane(state.q), problem.scale, state.gain, state.offset,
+                   WarpInverse(problem.roi, state.corners));
+}
+
+// The Huber-weighted normal equations of a linearisation.
+struct NormalEquations {
+  Matrix5d normal = Matrix5d::Zero();
+  Vector5d rhs = Vector5d::Zero();
+  double weighted_squares = 0.0;
+  double weights = 0.0;
+};
+NormalEquations Accumulate(const Linearisation& lin, double huber) {
+  NormalEquations eq;
+  for (size_t k = 0; k < lin.residuals.size(); ++k) {
+    const double w = HuberWeight(lin.residuals[k], huber);
+    eq.normal.noalias() += w * lin.jacobians[k] * lin.jacobians[k].transpose();
+    eq.rhs.noalias() += w * lin.jacobians[k] * lin.residuals[k];
+    eq.weighted_squares += w * lin.residuals[k] * lin.residuals[k];
+    eq.weights += w;
+  }
+  return eq;
+}
+
+// Gauss-Newton from `state` until the corners stop moving or max_iterations;
+// false, with the status and reason in *result, when it cannot go on.
+bool Iterate(const Problem& problem, State* state, DirectPlaneResult* result) {
+  const DirectPlaneOptions& options = *problem.options;
+  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    const Linearisation lin = LineariseAt(problem, *state);
+    if (!problem.Enough(lin)) break;
+    const NormalEquations eq = Accumulate(lin, 1.345 * std::max(RobustSigma(lin.residuals), 1e-3));
+    const Eigen::LDLT<Matrix5d> ldlt(eq.normal);
+    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
+      result->status = DirectPlaneStatus::kNoTexture;
+      result->reason = "the pixels do not constrain the plane (singular normal equations)";
+      result->iterations = iteration;
+      return false;
+    }
+    const Vector5d step = -ldlt.solve(eq.rhs);
+    if (!step.allFinite()) {
+      result->reason = "the Gauss-Newton step is not finite";
+      result->iterations = iteration;
+      return false;
+    }
+    // Halve a step that puts the ROI behind a camera.
+    double t = 1.0;
+    std::vector<Eigen::Vector2d> moved;
+    while (t > 1e-3 && !CornersInImage2(problem.roi, *problem.camera, *problem.cam2_from_cam1,
+                                        problem.Plane(state->q + t * step.head<3>()), &moved)) {
+      t *= 0.5;
+    }
+    if (t <= 1e-3) {
+      result->reason = "every step puts the ROI behind a camera";
+      result->iterations = iteration;
+      return false;
+    }
+    state->q += t * step.head<3>();
+    state->gain += t * step(3);
+    state->offset += t * step(4);
+    result->iterations = iteration + 1;
+    double largest_move = 0.0;
+    for (size_t c = 0; c < state->corners.size(); ++c) {
+      largest_move = std::max(largest_move, (moved[c] - state->corners[c]).norm());
+    }
+    state->corners = moved;
+    // A halved step moves little without having converged.
+    if (t == 1.0 && largest_move < options.convergence_px) {
+      result->converged = true;
+      break;
+    }
+  }
+  return true;
+}
+
+// The inverse of a normal matrix, taken at unit diagonal (the plane's columns
+// and the brightness columns differ by orders of magnitude); false, with the
+// reason, when a direction is not constrained.
+bool InvertAtUnitDiagonal(const Matrix5d& normal, Matrix5d* inverse, std::string* why) {
+  const Vector5d diagonal = normal.diagonal();
+  if (!(diagonal.minCoeff() > 0.0)) {
+    *why = "the pixels have no gradient: nothing constrains the plane";
+    return false;
+  }
+  const Vector5d unit = diagonal.cwiseSqrt().cwiseInverse();
+  const Matrix5d scaled = unit.asDiagonal() * normal * unit.asDiagonal();
+  const Eigen::SelfAdjointEigenSolver<Matrix5d> eigen(scaled);
+  if (!(eigen.eigenvalues().minCoeff() > 1e-12 * eigen.eigenvalues().maxCoeff())) {
+    *why = "the pixels' gradients do not constrain every direction of the plane";
+    return false;
+  }
+  *inverse = unit.asDiagonal() *
+             (eigen.eigenvectors() * eigen.eigenvalues().cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose()) *
+             unit.asDiagonal();
+  return true;
+}
+
+// The solution's residuals, covariance, slope and status.
+void FinishAtSolution(const Problem& problem, const State& state, const Eigen::Vector3d& up_in_cam1,
+                      DirectPlaneResult* result) {
+  const DirectPlaneOptions& options = *problem.options;
+  const Linearisation lin = LineariseAt(problem, state);
+  result->pixels = static_cast<int>(lin.residuals.size());
+  if (!problem.Enough(lin)) {
+    result->status = DirectPlaneStatus::kOutsideOverlap;
+    result->reason = std::to_string(lin.residuals.size()) + " of the ROI's " +
+                     std::to_string(problem.roi.bearings.size()) + " pixels project into image 2 (at least " +
+                     util::FixedText(100.0 * options.min_overlap_fraction, 0) + " % and " +
+                     std::to_string(options.min_pixels) + " needed)";
+    return;
+  }
+  result->robust_sigma_dn = RobustSigma(lin.residuals);
+  const NormalEquations eq = Accumulate(lin, 1.345 * std::max(result->robust_sigma_dn, 1e-3));
+  const double dof = std::max(1.0, static_cast<double>(lin.residuals.size()) - 5.0);
+  // The residual variance, never below the quantisation's (1/12 DN^2): an
+  // image is not known better than that, so perfect agreement of untextured
+  // pixels gives an unbounded sigma, not zero.
+  const double variance = std::max(eq.weighted_squares / dof, 1.0 / 12.0);
+  Matrix5d inverse;
+  if (!InvertAtUnitDiagonal(eq.normal, &inverse, &result->reason)) {
+    result->status = DirectPlaneStatus::kNoTexture;
+    return;
+  }
+  const Matrix5d covariance = variance * inverse;
+  result->plane_in_cam1 = problem.Plane(state.q);
+  result->plane_covariance = problem.scale * problem.scale * covariance.topLeftCorner<3, 3>();
+  result->gain = state.gain;
+  result->offset_dn = state.offset;
+  result->residual_rms_dn = std::sqrt(eq.weighted_squares / std::max(eq.weights, 1e-12));
+  SlopeAndSigma(result->plane_in_cam1, result->plane_covariance, up_in_cam1, result);
+  if (!std::isfinite(result->slope_deg) || !std::isfinite(result->slope_sigma_deg)) {
+    result->status = DirectPlaneStatus::kDiverged;
+    result->reason = "the plane's slope is not finite";
+    return;
+  }
+  std::ostringstream reason;
+  reason << result->pixels << " pixels, " << result->iterations << " iterations"
+         << (result->converged ? "" : " (not converged)") << ", residual "
+         << util::FixedText(result->residual_rms_dn, 2) << " DN, slope sigma "
+         << util::FixedText(result->slope_sigma_deg, 2) << " deg";
+  result->reason = reason.str();
+  if (result->slope_sigma_deg > options.max_slope_sigma_deg) {
+    result->status = DirectPlaneStatus::kNoTexture;
+    result->reason += " (over " + util::FixedText(options.max_slope_sigma_deg, 2) + ")";
+    return;
+  }
+  for (const Eigen::Vector3d& b : problem.roi.bearings) {
+    const double pb = result->plane_in_cam1.dot(b);
+    if (pb > 0.0) result->points_in_cam1.push_back(b / pb);
+  }
+  result->status = DirectPlaneStatus::kOk;
+}
+
 }  // namespace
 
 std::vector<std::string> DirectPlaneOptions::Validate() const {
@@ -399,159 +590,21 @@ DirectPlaneResult FitPlaneDirect(const DirectPlaneImages& images, const calib::C
     throw InputError("FitPlaneDirect: the box is empty or not inside image 1");
   }
   DirectPlaneResult result;
-  const RoiPixels roi = PixelsOf(images, camera, box1);
-  const size_t total = roi.bearings.size();
-  const double scale = initial_plane_in_cam1.norm();
-  if (!initial_plane_in_cam1.allFinite() || !(scale > 0.0) || roi.corner_bearings.size() != 4) {
+  const Problem problem{&images, &camera, &cam2_from_cam1, &options, PixelsOf(images, camera, box1),
+                        initial_plane_in_cam1.norm()};
+  if (!initial_plane_in_cam1.allFinite() || !(problem.scale > 0.0) || problem.roi.corner_bearings.size() != 4) {
     result.reason = "no usable starting plane or box corners";
     return result;
   }
-  result.search_scale = SearchScale(images, camera, roi, cam2_from_cam1, initial_plane_in_cam1, options);
-  Eigen::Vector3d q = result.search_scale * initial_plane_in_cam1 / scale;
-  double gain = 1.0, offset = 0.0;
-  std::vector<Eigen::Vector2d> corners;
-  if (!CornersInImage2(roi, camera, cam2_from_cam1, scale * q, &corners)) {
+  result.search_scale = SearchScale(images, camera, problem.roi, cam2_from_cam1, initial_plane_in_cam1, options);
+  State state;
+  state.q = result.search_scale * initial_plane_in_cam1 / problem.scale;
+  if (!CornersInImage2(problem.roi, camera, cam2_from_cam1, problem.scale * state.q, &state.corners)) {
     result.reason = "the starting plane puts the ROI behind a camera";
     return result;
   }
-  const auto enough = [&](const Linearisation& lin) {
-    return static_cast<int>(lin.residuals.size()) >= options.min_pixels &&
-           static_cast<double>(lin.residuals.size()) >= options.min_overlap_fraction * static_cast<double>(total);
-  };
-  Matrix5d normal = Matrix5d::Zero();
-  Linearisation lin;
-  double huber = 0.0;
-  // The ROI's warp from image 1 to image 2 (its corners), inverted: image-1
-  // gradients into image 2.
-  const auto warp_inverse = [&](const std::vector<Eigen::Vector2d>& c) {
-    Eigen::Matrix2d a;
-    a.col(0) = (c[1] - c[0]) / roi.corner_spacing_px.x();
-    a.col(1) = (c[2] - c[0]) / roi.corner_spacing_px.y();
-    const double det = a.determinant();
-    return std::abs(det) > 1e-9 ? Eigen::Matrix2d(a.inverse()) : Eigen::Matrix2d::Identity();
-  };
-  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-    lin = Linearise(images, camera, roi, cam2_from_cam1, scale * q, scale, gain, offset, warp_inverse(corners));
-    if (!enough(lin)) break;
-    huber = 1.345 * std::max(RobustSigma(lin.residuals), 1e-3);
-    normal.setZero();
-    Vector5d rhs = Vector5d::Zero();
-    for (size_t k = 0; k < lin.residuals.size(); ++k) {
-      const double w = HuberWeight(lin.residuals[k], huber);
-      normal.noalias() += w * lin.jacobians[k] * lin.jacobians[k].transpose();
-      rhs.noalias() += w * lin.jacobians[k] * lin.residuals[k];
-    }
-    const Eigen::LDLT<Matrix5d> ldlt(normal);
-    if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) {
-      result.status = DirectPlaneStatus::kNoTexture;
-      result.reason = "the pixels do not constrain the plane (singular normal equations)";
-      result.iterations = iteration;
-      return result;
-    }
-    const Vector5d step = -ldlt.solve(rhs);
-    if (!step.allFinite()) {
-      result.reason = "the Gauss-Newton step is not finite";
-      result.iterations = iteration;
-      return result;
-    }
-    // Halve a step that puts the ROI behind a camera.
-    double t = 1.0;
-    std::vector<Eigen::Vector2d> moved;
-    while (t > 1e-3 && !CornersInImage2(roi, camera, cam2_from_cam1, scale * (q + t * step.head<3>()), &moved)) {
-      t *= 0.5;
-    }
-    if (t <= 1e-3) {
-      result.reason = "every step puts the ROI behind a camera";
-      result.iterations = iteration;
-      return result;
-    }
-    q += t * step.head<3>();
-    gain += t * step(3);
-    offset += t * step(4);
-    result.iterations = iteration + 1;
-    double largest_move = 0.0;
-    for (size_t c = 0; c < corners.size(); ++c) largest_move = std::max(largest_move, (moved[c] - corners[c]).norm());
-    corners = moved;
-    // A halved step moves little without having converged.
-    if (t == 1.0 && largest_move < options.convergence_px) {
-      result.converged = true;
-      break;
-    }
-  }
-  // The solution's residuals and covariance.
-  lin = Linearise(images, camera, roi, cam2_from_cam1, scale * q, scale, gain, offset, warp_inverse(corners));
-  result.pixels = static_cast<int>(lin.residuals.size());
-  if (!enough(lin)) {
-    result.status = DirectPlaneStatus::kOutsideOverlap;
-    result.reason = std::to_string(lin.residuals.size()) + " of the ROI's " + std::to_string(total) +
-                    " pixels project into image 2 (at least " +
-                    util::FixedText(100.0 * options.min_overlap_fraction, 0) + " % and " +
-                    std::to_string(options.min_pixels) + " needed)";
-    return result;
-  }
-  result.robust_sigma_dn = RobustSigma(lin.residuals);
-  huber = 1.345 * std::max(result.robust_sigma_dn, 1e-3);
-  normal.setZero();
-  double weighted_squares = 0.0, weights = 0.0;
-  for (size_t k = 0; k < lin.residuals.size(); ++k) {
-    const double w = HuberWeight(lin.residuals[k], huber);
-    normal.noalias() += w * lin.jacobians[k] * lin.jacobians[k].transpose();
-    weighted_squares += w * lin.residuals[k] * lin.residuals[k];
-    weights += w;
-  }
-  const double dof = std::max(1.0, static_cast<double>(lin.residuals.size()) - 5.0);
-  // The residual variance, never below the quantisation's (1/12 DN^2): an
-  // image is not known better than that, so perfect agreement of untextured
-  // pixels gives an unbounded sigma, not zero.
-  const double variance = std::max(weighted_squares / dof, 1.0 / 12.0);
-  // Inverted at unit diagonal (the plane's columns and the brightness
-  // columns differ by orders of magnitude); a direction the pixels do not
-  // constrain is no texture.
-  const Vector5d diagonal = normal.diagonal();
-  if (!(diagonal.minCoeff() > 0.0)) {
-    result.status = DirectPlaneStatus::kNoTexture;
-    result.reason = "the pixels have no gradient: nothing constrains the plane";
-    return result;
-  }
-  const Vector5d unit = diagonal.cwiseSqrt().cwiseInverse();
-  const Matrix5d scaled = unit.asDiagonal() * normal * unit.asDiagonal();
-  const Eigen::SelfAdjointEigenSolver<Matrix5d> eigen(scaled);
-  if (!(eigen.eigenvalues().minCoeff() > 1e-12 * eigen.eigenvalues().maxCoeff())) {
-    result.status = DirectPlaneStatus::kNoTexture;
-    result.reason = "the pixels' gradients do not constrain every direction of the plane";
-    return result;
-  }
-  const Matrix5d inverse = unit.asDiagonal() *
-                           (eigen.eigenvectors() * eigen.eigenvalues().cwiseInverse().asDiagonal() *
-                            eigen.eigenvectors().transpose()) *
-                           unit.asDiagonal();
-  const Matrix5d covariance = variance * inverse;
-  result.plane_in_cam1 = scale * q;
-  result.plane_covariance = scale * scale * covariance.topLeftCorner<3, 3>();
-  result.gain = gain;
-  result.offset_dn = offset;
-  result.residual_rms_dn = std::sqrt(weighted_squares / std::max(weights, 1e-12));
-  SlopeAndSigma(result.plane_in_cam1, result.plane_covariance, up_in_cam1, &result);
-  if (!std::isfinite(result.slope_deg) || !std::isfinite(result.slope_sigma_deg)) {
-    result.status = DirectPlaneStatus::kDiverged;
-    result.reason = "the plane's slope is not finite";
-    return result;
-  }
-  std::ostringstream reason;
-  reason << result.pixels << " pixels, " << result.iterations << " iterations"
-         << (result.converged ? "" : " (not converged)") << ", residual " << util::FixedText(result.residual_rms_dn, 2)
-         << " DN, slope sigma " << util::FixedText(result.slope_sigma_deg, 2) << " deg";
-  result.reason = reason.str();
-  if (result.slope_sigma_deg > options.max_slope_sigma_deg) {
-    result.status = DirectPlaneStatus::kNoTexture;
-    result.reason += " (over " + util::FixedText(options.max_slope_sigma_deg, 2) + ")";
-    return result;
-  }
-  for (const Eigen::Vector3d& b : roi.bearings) {
-    const double pb = result.plane_in_cam1.dot(b);
-    if (pb > 0.0) result.points_in_cam1.push_back(b / pb);
-  }
-  result.status = DirectPlaneStatus::kOk;
+  if (!Iterate(problem, &state, &result)) return result;
+  FinishAtSolution(problem, state, up_in_cam1, &result);
   return result;
 }
 

@@ -307,6 +307,81 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBear
   return rois;
 }
 
+// The unit vector against gravity, in camera 1 (navigation).
+Eigen::Vector3d UpInCam1(const Context& ctx) {
+  return (ctx.local_from_cam1.Inverse().rotation * (-ctx.dataset->gravity_in_local_mps2)).normalized();
+}
+
+// Level ground through the laser range finder's point: p . X = 1 in camera 1.
+Eigen::Vector3d LevelGroundInCam1(const Context& ctx) {
+  const Eigen::Vector3d up_in_cam1 = UpInCam1(ctx);
+  const Eigen::Vector3d lrf_point =
+      ctx.input.lrf_origin_in_cam1_m + ctx.input.lrf_range_m * ctx.input.lrf_beam_in_cam1.normalized();
+  return up_in_cam1 / up_in_cam1.dot(lrf_point);
+}
+
+// dense-nav: the pair rectified with the nav pose and matched by SGBM
+// (reference/direct/dense_stereo.h); each ROI's plane fitted to the points
+// its image-1 box sees, as every point-based method's. An ROI without enough
+// points is "outside overlap" when under half of its pixels can be matched
+// at all (outside the rectified field or image 2), "no texture" otherwise.
+std::vector<MethodRoi> DenseNavRois(const FlightRun& flight, const CompareOptions& options, const Context& ctx,
+                                    MethodSummary* summary) {
+  const auto start = std::chrono::steady_clock::now();
+  const DenseStereoResult dense = RunDenseStereo(ctx.input.image1, ctx.input.image2, ctx.dataset->camera,
+                                                 ctx.input.cam2_from_cam1, LevelGroundInCam1(ctx),
+                                                 options.dense_stereo);
+  std::vector<MethodRoi> rois(flight.result.rois.size());
+  if (dense.status != DenseStereoStatus::kOk) {
+    for (MethodRoi& roi : rois) {
+      roi.status = MethodRoiStatus::kNotRectifiable;
+      roi.reason = dense.reason;
+    }
+    summary->note = dense.reason;
+    summary->wall_s = SecondsSince(start);
+    return rois;
+  }
+  PairReconstruction recon;
+  recon.method = kMethodDenseNav;
+  recon.ok = true;
+  recon.points.resize(dense.points_in_cam1.size());
+  for (size_t k = 0; k < dense.points_in_cam1.size(); ++k) {
+    recon.points[k].point_in_local_m = ctx.local_from_cam1 * dense.points_in_cam1[k];
+    recon.points[k].pixel1 = dense.pixels1[k];
+  }
+  rois = RoisOfReconstruction(recon, flight.result, *ctx.dataset, ctx.local_from_cam1, ctx.local_from_cam2,
+                              options.min_points);
+  for (size_t i = 0; i < rois.size(); ++i) {
+    MethodRoi& roi = rois[i];
+    const cv::Rect& box = flight.result.rois[i].box1_px;
+    // A dense method that matched only a corner of the ROI (at the overlap's
+    // edge, or a shadow's) does not stand by a plane for all of it.
+    const double share = static_cast<double>(roi.num_points) / std::max(1, box.area());
+    if (roi.status == MethodRoiStatus::kOk && share < options.dense_stereo.min_roi_share) {
+      roi.status = MethodRoiStatus::kTooFewPoints;
+      roi.has_fit = false;
+      roi.reason = std::to_string(roi.num_points) + " points, under " +
+                   std::to_string(static_cast<int>(std::lround(100.0 * options.dense_stereo.min_roi_share))) +
+                   " % of the ROI's pixels";
+    }
+    if (roi.status != MethodRoiStatus::kTooFewPoints) continue;
+    const double seen = DenseOverlapFraction(dense, ctx.dataset->camera, ctx.input.cam2_from_cam1, box,
+                                             options.dense_stereo.block_size_px);
+    const int percent = static_cast<int>(std::lround(100.0 * seen));
+    if (seen < 0.5) {
+      roi.status = MethodRoiStatus::kOutsideOverlap;
+      roi.reason += "; " + std::to_string(percent) + " % of the ROI's pixels are in the rectified field and image 2";
+    } else {
+      roi.status = MethodRoiStatus::kNoTexture;
+      roi.reason += " with a disparity, of " + std::to_string(box.area()) + " pixels (" + std::to_string(percent) +
+                    " % in the rectified field and image 2)";
+    }
+  }
+  summary->note = dense.reason;
+  summary->wall_s = SecondsSince(start);
+  return rois;
+}
+
 // plane-nav: each ROI's plane by the direct photometric fit under the nav
 // pose (reference/direct/plane_direct.h), started from level ground at the
 // LRF's point (never from the flight method's fit, so that the reference owes
@@ -317,12 +392,8 @@ std::vector<MethodRoi> PlaneNavRois(const FlightRun& flight, const CompareOption
   const auto start = std::chrono::steady_clock::now();
   std::vector<MethodRoi> rois(flight.result.rois.size());
   const DirectPlaneImages images = PrepareDirectPlaneImages(ctx.input.image1, ctx.input.image2);
-  const Rigid3d cam1_from_local = ctx.local_from_cam1.Inverse();
-  const Eigen::Vector3d up_in_cam1 =
-      (cam1_from_local.rotation * (-ctx.dataset->gravity_in_local_mps2)).normalized();
-  const Eigen::Vector3d lrf_point =
-      ctx.input.lrf_origin_in_cam1_m + ctx.input.lrf_range_m * ctx.input.lrf_beam_in_cam1.normalized();
-  const Eigen::Vector3d level = up_in_cam1 / up_in_cam1.dot(lrf_point);
+  const Eigen::Vector3d up_in_cam1 = UpInCam1(ctx);
+  const Eigen::Vector3d level = LevelGroundInCam1(ctx);
   // The pixels the flight method's matches of the ROI see: the box grown by
   // half its warp-refinement window (a match at the box's edge reads that far
   // out), so that the two methods judge the same ground with the same support.
@@ -372,6 +443,16 @@ std::vector<MethodRoi> PlaneNavRois(const FlightRun& flight, const CompareOption
   summary->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary->note = std::to_string(fitted) + " planes, " + std::to_string(converged) + " converged within " +
                   std::to_string(options.direct_plane.max_iterations) + " iterations";
+  return rois;
+}
+
+// A method that cannot read the pair as it needs (an InputError of its own):
+// it fails, with every ROI saying why, and the other methods still run.
+std::vector<MethodRoi> FailMethod(const std::string& failure, size_t num_rois, MethodSummary* summary) {
+  summary->ok = false;
+  summary->failure = failure;
+  std::vector<MethodRoi> rois(num_rois);
+  for (MethodRoi& roi : rois) roi.reason = failure;
   return rois;
 }
 
@@ -478,6 +559,7 @@ std::vector<std::string> AllMethodNames() {
   for (const OpenGvSolver solver : AllOpenGvSolvers()) {
     names.push_back(std::string(kOpenGvMethodPrefix) + ToString(solver));
   }
+  names.push_back(kMethodDenseNav);
   names.push_back(kMethodPlaneNav);
   return names;
 }
@@ -532,6 +614,7 @@ std::vector<std::string> CompareOptions::Validate() const {
   for (const std::string& e : colmap.Validate()) errors.push_back("colmap." + e);
   for (const std::string& e : opengv.Validate()) errors.push_back("opengv." + e);
   for (const std::string& e : direct_plane.Validate()) errors.push_back("direct_plane." + e);
+  for (const std::string& e : dense_stereo.Validate()) errors.push_back("dense_stereo." + e);
   for (const std::string& e : refine.Validate()) errors.push_back("refine." + e);
   if (!(fit_pixel_sigma_px > 0.0 && std::isfinite(fit_pixel_sigma_px))) {
     errors.push_back("fit_pixel_sigma_px = " + std::to_string(fit_pixel_sigma_px) +
@@ -556,6 +639,7 @@ const char* ToString(MethodRoiStatus status) {
     case MethodRoiStatus::kOutsideOverlap: return "outside overlap";
     case MethodRoiStatus::kNoTexture: return "no texture";
     case MethodRoiStatus::kDiverged: return "diverged";
+    case MethodRoiStatus::kNotRectifiable: return "not rectifiable";
     case MethodRoiStatus::kFlight: return "flight";
   }
   return "unknown";
@@ -849,12 +933,14 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
       try {
         run.rois[m] = PlaneNavRois(run.flight, options, ctx, &summary);
       } catch (const InputError& e) {
-        // The pair cannot be read as the fit needs: the method fails, the
-        // others still run.
-        summary.ok = false;
-        summary.failure = e.what();
-        run.rois[m].assign(run.flight.result.rois.size(), MethodRoi());
-        for (MethodRoi& roi : run.rois[m]) roi.reason = e.what();
+        run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
+      }
+    } else if (method == kMethodDenseNav) {
+      say("dense-nav: the rectified pair's semi-global matching");
+      try {
+        run.rois[m] = DenseNavRois(run.flight, options, ctx, &summary);
+      } catch (const InputError& e) {
+        run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
       }
     } else if (IsOpenGvMethod(method)) {
       say(method);

@@ -12,10 +12,16 @@
 //   colmap-nav          COLMAP SIFT + point_triangulator, nav poses held fixed
 //   colmap-free         COLMAP SIFT + mapper, aligned to the local frame with
 //                       the nav poses (reference/colmap/colmap_runner.h)
-//   opengv-<solver>     per ROI, the ROI's ORB matches (the flight matcher's
-//                       RANSAC inliers, before any use of navigation), relative
-//                       pose by OpenGV with that solver, scaled by the nav
-//                       baseline, triangulated (reference/opengv/opengv_solvers.h)
+//   opengv-<solver>     every ROI's ORB matches pooled (the flight matcher's
+//                       RANSAC inliers, before any use of navigation), one
+//                       relative pose for the pair by OpenGV with that solver,
+//                       scaled by the nav baseline, each ROI triangulated with
+//                       it (reference/opengv/opengv_solvers.h)
+//   dense-nav           the pair rectified with the nav pose, semi-global
+//                       matching, every matched pixel triangulated
+//                       (reference/direct/dense_stereo.h)
+//   plane-nav           per ROI, the direct photometric plane under the nav
+//                       pose (reference/direct/plane_direct.h)
 //
 // A reference method's points belong to an ROI through their observation in
 // image 1 (inside the ROI's image-1 box). Every method's ROI plane is fitted
@@ -37,6 +43,7 @@
 #include "reference/colmap/colmap_runner.h"
 #include "reference/flight/flight_outputs.h"
 #include "reference/flight/flight_run.h"
+#include "reference/direct/dense_stereo.h"
 #include "reference/direct/plane_direct.h"
 #include "reference/opengv/opengv_solvers.h"
 #include "reference/reconstruction/reconstruction.h"
@@ -48,6 +55,7 @@ inline constexpr char kMethodFlightRefined[] = "flight-refined";
 inline constexpr char kMethodColmapNav[] = "colmap-nav";
 inline constexpr char kMethodColmapFree[] = "colmap-free";
 inline constexpr char kOpenGvMethodPrefix[] = "opengv-";
+inline constexpr char kMethodDenseNav[] = "dense-nav";
 inline constexpr char kMethodPlaneNav[] = "plane-nav";
 
 // Every method name, in the order of the tables.
@@ -70,6 +78,7 @@ struct CompareOptions {
   OpenGvOptions opengv;
   CeresRefineOptions refine = DefaultRefineOptions();
   DirectPlaneOptions direct_plane;  // plane-nav
+  DenseStereoOptions dense_stereo;  // dense-nav
   // The matches the OpenGV methods use: the flight matcher's ORB matches with
   // the flight's options (false), or denser ones over the same boxes (true:
   // 2000 ORB keypoints per box at a FAST threshold of 5, the rest as the
@@ -108,8 +117,12 @@ enum class MethodRoiStatus {
                   // configuration cannot give a confident free relative pose, so no slope
   kLowParallax,   // "low parallax": likewise
   kPoseFailed,    // "pose failed": OpenGV found no pose
-  kOutsideOverlap,  // "outside overlap": plane-nav: too few of the ROI's pixels are seen in image 2
-  kNoTexture,       // "no texture": plane-nav: the ROI's pixels do not constrain its plane
+  kOutsideOverlap,  // "outside overlap": plane-nav, dense-nav: too few of the ROI's pixels are seen in image 2
+                    // (dense-nav: or in the rectified field)
+  kNoTexture,       // "no texture": plane-nav: the ROI's pixels do not constrain its plane;
+                    // dense-nav: too few of them have a disparity
+  kNotRectifiable,  // "not rectifiable": dense-nav: the pair has no baseline, or its epipole leaves no
+                    // part of image 1 to rectify
   kDiverged,        // "diverged": plane-nav: the photometric fit did not give a plane
   kFlight,        // the flight method: its own status, MethodRoi::flight_status
 };

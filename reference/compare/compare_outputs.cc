@@ -46,6 +46,9 @@ Json MethodRoiJson(const MethodRoi& r) {
   j["num_points"] = r.num_points;
   j["slope_deg"] = r.has_fit ? Number(r.slope_deg) : Json(nullptr);
   j["slope_sigma_deg"] = r.has_fit && r.has_sigma ? Number(r.slope_sigma_deg) : Json(nullptr);
+  j["normal"] = r.has_fit ? Json::array({Number(r.normal_in_local.x()), Number(r.normal_in_local.y()),
+                                         Number(r.normal_in_local.z())})
+                          : Json(nullptr);
   j["roughness_rms_m"] = r.has_fit ? Number(r.roughness_rms_m) : Json(nullptr);
   j["roughness_max_m"] = r.has_fit ? Number(r.roughness_max_m) : Json(nullptr);
   j["configuration"] = r.configuration.empty() ? Json(nullptr) : Json(r.configuration);

@@ -8,6 +8,7 @@
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
+#include "reference/direct/cubic_spline.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
@@ -27,83 +28,6 @@ cv::Mat ToFloat(const cv::Mat& image, const char* name) {
   cv::Mat out;
   image.convertTo(out, CV_32F);
   return out;
-}
-
-// The cubic B-spline and its derivative at x.
-double BSpline3(double x) {
-  const double t = std::abs(x);
-  if (t < 1.0) return 2.0 / 3.0 - t * t + 0.5 * t * t * t;
-  if (t < 2.0) return (2.0 - t) * (2.0 - t) * (2.0 - t) / 6.0;
-  return 0.0;
-}
-double BSpline3Derivative(double x) {
-  const double t = std::abs(x);
-  const double sign = x < 0.0 ? -1.0 : 1.0;
-  if (t < 1.0) return sign * (-2.0 * t + 1.5 * t * t);
-  if (t < 2.0) return -sign * 0.5 * (2.0 - t) * (2.0 - t);
-  return 0.0;
-}
-
-// In place: samples to the coefficients of the cubic B-spline that
-// interpolates them (the causal and anti-causal recursions of pole
-// sqrt(3) - 2, mirror boundaries).
-void BSplinePrefilter(double* c, int n, int stride) {
-  if (n < 2) return;
-  const double z = std::sqrt(3.0) - 2.0;
-  const auto at = [&](int i) -> double& { return c[static_cast<ptrdiff_t>(i) * stride]; };
-  for (int i = 0; i < n; ++i) at(i) *= 6.0;  // (1 - z)(1 - 1/z)
-  const int horizon = std::min(n, 30);     // |z|^30 < 1e-17
-  double sum = at(0), zk = z;
-  for (int k = 1; k < horizon; ++k, zk *= z) sum += zk * at(k);
-  at(0) = sum;
-  for (int i = 1; i < n; ++i) at(i) += z * at(i - 1);
-  at(n - 1) = (z / (z * z - 1.0)) * (at(n - 1) + z * at(n - 2));
-  for (int i = n - 2; i >= 0; --i) at(i) = z * (at(i + 1) - at(i));
-}
-
-// Sample of the image's cubic-spline interpolant at (x, y) and its
-// derivatives, from the spline coefficients: the Jacobian is that of the
-// residual the fit minimises. A lesser interpolant would bias the plane:
-// across an ROI the sub-pixel position of image 2 sweeps with the tilt, and
-// bilinear or Keys' bicubic interpolation errors that depend on that
-// position read as a tilt (on exact images of a plane tilted 1.7 deg they
-// gave 0.2 deg). The spline's error at a quarter cycle per pixel is under
-// 0.1 %. (x, y) must satisfy Inside().
-struct Sample {
-  double value = 0.0;
-  double dx = 0.0;
-  double dy = 0.0;
-};
-Sample Spline(const cv::Mat& coefficients, double x, double y) {
-  const int c = static_cast<int>(std::floor(x));
-  const int r = static_cast<int>(std::floor(y));
-  const double tx = x - c;
-  const double ty = y - r;
-  double kx[4], dkx[4], ky[4], dky[4];
-  for (int i = 0; i < 4; ++i) {
-    kx[i] = BSpline3(tx - (i - 1));
-    dkx[i] = BSpline3Derivative(tx - (i - 1));
-    ky[i] = BSpline3(ty - (i - 1));
-    dky[i] = BSpline3Derivative(ty - (i - 1));
-  }
-  Sample s;
-  for (int j = 0; j < 4; ++j) {
-    const double* row = coefficients.ptr<double>(r - 1 + j);
-    double v = 0.0, d = 0.0;
-    for (int i = 0; i < 4; ++i) {
-      v += row[c - 1 + i] * kx[i];
-      d += row[c - 1 + i] * dkx[i];
-    }
-    s.value += v * ky[j];
-    s.dx += d * ky[j];
-    s.dy += v * dky[j];
-  }
-  return s;
-}
-
-// Whether Spline can sample at q: its 4 x 4 neighbourhood is in the image.
-bool Inside(const cv::Mat& image, const Eigen::Vector2d& q) {
-  return q.x() >= 1.0 && q.y() >= 1.0 && q.x() < image.cols - 2 && q.y() < image.rows - 2;
 }
 
 double RobustSigma(const std::vector<double>& residuals) {
@@ -213,12 +137,12 @@ Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraMode
     if (!front[k]) continue;
     const Eigen::Vector2d& q = projected[4 * k];
     if (!valid[4 * k] || !valid[4 * k + 1] || !valid[4 * k + 2] || !valid[4 * k + 3] ||
-        !Inside(images.spline2, q)) {
+        !InsideSpline(images.spline2, q.x(), q.y())) {
       continue;
     }
     Eigen::Matrix<double, 2, 3> dq_dx2;
     for (int j = 0; j < 3; ++j) dq_dx2.col(j) = (projected[4 * k + 1 + j] - q) / steps[k];
-    const Sample sample = Spline(images.spline2, q.x(), q.y());
+    const SplineSample sample = SampleCubicSpline(images.spline2, q.x(), q.y());
     // Image 2's gradient from image 1's (central differences, which leave
     // out the pixel's own value) through the ROI's warp: noise-free of the
     // residual's own noise. The interpolant's gradient at q shares that
@@ -257,9 +181,9 @@ double Correlation(const DirectPlaneImages& images, const calib::CameraModel& ca
   double s1 = 0, s2 = 0, s11 = 0, s22 = 0, s12 = 0;
   int n = 0;
   for (size_t i = 0; i < points.size(); ++i) {
-    if (!valid[i] || !Inside(images.spline2, projected[i])) continue;
+    if (!valid[i] || !InsideSpline(images.spline2, projected[i].x(), projected[i].y())) continue;
     const double a = roi.values1[index[i]];
-    const double b = Spline(images.spline2, projected[i].x(), projected[i].y()).value;
+    const double b = SampleCubicSpline(images.spline2, projected[i].x(), projected[i].y()).value;
     s1 += a;
     s2 += b;
     s11 += a * a;
@@ -516,6 +440,14 @@ void FinishAtSolution(const Problem& problem, const State& state, const Eigen::V
     result->reason += " (over " + util::FixedText(options.max_slope_sigma_deg, 2) + ")";
     return;
   }
+  // A plane the fit does not settle on is not given, whatever its sigma (at
+  // the overlap's edge, a fit that kept moving ended 85 deg steep with a
+  // sigma of 1 deg).
+  if (!result->converged) {
+    result->status = DirectPlaneStatus::kDiverged;
+    result->reason += ": a fit that did not settle gives no plane";
+    return;
+  }
   for (const Eigen::Vector3d& b : problem.roi.bearings) {
     const double pb = result->plane_in_cam1.dot(b);
     if (pb > 0.0) result->points_in_cam1.push_back(b / pb);
@@ -565,14 +497,7 @@ DirectPlaneImages PrepareDirectPlaneImages(const cv::Mat& image1, const cv::Mat&
   // Central differences, (I(x + 1) - I(x - 1)) / 2, the border replicated.
   cv::Sobel(images.image1, images.gradient_x1, CV_32F, 1, 0, 1, 0.5, 0.0, cv::BORDER_REPLICATE);
   cv::Sobel(images.image1, images.gradient_y1, CV_32F, 0, 1, 1, 0.5, 0.0, cv::BORDER_REPLICATE);
-  float2.convertTo(images.spline2, CV_64F);
-  for (int r = 0; r < images.spline2.rows; ++r) {
-    BSplinePrefilter(images.spline2.ptr<double>(r), images.spline2.cols, 1);
-  }
-  for (int col = 0; col < images.spline2.cols; ++col) {
-    BSplinePrefilter(images.spline2.ptr<double>(0) + col, images.spline2.rows,
-                     static_cast<int>(images.spline2.step1()));
-  }
+  images.spline2 = CubicSplineCoefficients(float2);
   return images;
 }
 

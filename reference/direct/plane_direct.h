@@ -68,7 +68,8 @@ enum class DirectPlaneStatus {
   kOk,              // "ok"
   kOutsideOverlap,  // "outside overlap": too few of the ROI's pixels project into image 2
   kNoTexture,       // "no texture": the pixels do not constrain the plane
-  kDiverged,        // "diverged": the plane went behind a camera or the solve was singular
+  kDiverged,        // "diverged": the plane went behind a camera, the solve was singular, or it
+                    // did not converge within max_iterations
 };
 const char* ToString(DirectPlaneStatus status);
 

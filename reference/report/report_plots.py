@@ -109,7 +109,9 @@ def compare_series(compare):
 
 
 def method_colours(names):
-    cycle = plt.get_cmap("tab10").colors
+    # tab10 while it lasts (the common case), tab20 beyond ten methods, so
+    # that no two methods share a colour.
+    cycle = plt.get_cmap("tab10" if len(names) <= 10 else "tab20").colors
     return {name: cycle[i % len(cycle)] for i, name in enumerate(names)}
 
 

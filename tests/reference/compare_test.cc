@@ -31,7 +31,7 @@ using testing_support::RunHdabench;
 
 TEST(ParseMethodList, AllNamesAndFlightFirst) {
   const std::vector<std::string> all = AllMethodNames();
-  ASSERT_EQ(all.size(), 10u);
+  ASSERT_EQ(all.size(), 11u);
   EXPECT_EQ(all.back(), "plane-nav");
   EXPECT_EQ(all.front(), "flight");
   EXPECT_EQ(ParseMethodList("all"), all);
@@ -308,6 +308,23 @@ TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirG
     if (run.rois[0][i].HasSlope()) ++plane_slopes;
   }
   EXPECT_GE(plane_slopes, 0.8 * flight_slopes) << plane_slopes << " of " << flight_slopes;
+
+  // dense-nav: a plane on at least 80 % of the flight method's ROIs, each
+  // from at least half of the ROI's pixels; an ROI without one says why.
+  const size_t dense_nav = run.methods.size() - 2;
+  ASSERT_EQ(run.methods[dense_nav], "dense-nav");
+  int dense_slopes = 0;
+  for (size_t i = 0; i < run.rois[dense_nav].size(); ++i) {
+    const MethodRoi& roi = run.rois[dense_nav][i];
+    if (!roi.HasSlope()) {
+      EXPECT_FALSE(roi.reason.empty());
+      EXPECT_NE(roi.status, MethodRoiStatus::kOk);
+      continue;
+    }
+    EXPECT_GE(roi.num_points, run.flight.result.rois[i].box1_px.area() / 2);
+    if (run.rois[0][i].HasSlope()) ++dense_slopes;
+  }
+  EXPECT_GE(dense_slopes, 0.8 * flight_slopes) << dense_slopes << " of " << flight_slopes;
 
   // The outputs: the table has one column per method.
   const std::vector<std::string> written = WriteCompareOutputs(

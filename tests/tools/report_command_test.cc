@@ -307,7 +307,7 @@ TEST(ReportCommand, TheDefaultDatasetsReportRendersWithTheTableAndEveryFigure) {
   const Dom dom = Render(out / "report.html", dir);
   EXPECT_EQ(dom.roi_table_rows, static_cast<int>(json["rois"].size()));
   EXPECT_EQ(dom.roi_table_columns, 2 + static_cast<int>(json["methods"].size()));
-  EXPECT_EQ(json["methods"].size(), 10u);
+  EXPECT_EQ(json["methods"].size(), 11u);
   for (const std::string& id : expected) EXPECT_EQ(dom.figure_ids.count(id), 1u) << id;
   EXPECT_EQ(dom.images.size(), dom.figure_ids.size());
   ExpectEveryImageIsAnEmbeddedPng(dom);

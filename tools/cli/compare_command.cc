@@ -133,7 +133,7 @@ Command AddCompareCommand(CLI::App& app) {
   compare->add_option("--methods", options.methods,
                       "Comma-separated methods, or all: flight, flight-refined, colmap-nav,\n"
                       "colmap-free, opengv-stewenius, opengv-nister, opengv-eight-point,\n"
-                      "opengv-eigensolver, opengv-two-point, plane-nav (flight always runs)")
+                      "opengv-eigensolver, opengv-two-point, dense-nav, plane-nav (flight always runs)")
       ->capture_default_str();
   compare->add_option("--out", options.out_dir,
                       "Output folder (created if missing; files replaced)")

@@ -355,26 +355,33 @@ std::vector<MethodRoi> DenseNavRois(const FlightRun& flight, const CompareOption
     MethodRoi& roi = rois[i];
     const cv::Rect& box = flight.result.rois[i].box1_px;
     // A dense method that matched only a corner of the ROI (at the overlap's
-    // edge, or a shadow's) does not stand by a plane for all of it.
-    const double share = static_cast<double>(roi.num_points) / std::max(1, box.area());
+    // edge, or a shadow's) does not stand by a plane for all of it. The
+    // share counts image-1 pixels (an oblique rectification can sample a
+    // pixel twice).
+    std::set<std::pair<long, long>> pixels;
+    for (const ReconstructedPoint& p : recon.points) {
+      if (InBox(p.pixel1, box)) pixels.emplace(std::lround(p.pixel1.x()), std::lround(p.pixel1.y()));
+    }
+    const double share = static_cast<double>(pixels.size()) / std::max(1, box.area());
     if (roi.status == MethodRoiStatus::kOk && share < options.dense_stereo.min_roi_share) {
       roi.status = MethodRoiStatus::kTooFewPoints;
       roi.has_fit = false;
-      roi.reason = std::to_string(roi.num_points) + " points, under " +
-                   std::to_string(static_cast<int>(std::lround(100.0 * options.dense_stereo.min_roi_share))) +
-                   " % of the ROI's pixels";
     }
     if (roi.status != MethodRoiStatus::kTooFewPoints) continue;
+    roi.reason = std::to_string(pixels.size()) + " of the ROI's " + std::to_string(box.area()) +
+                 " pixels have a point (" +
+                 std::to_string(static_cast<int>(std::lround(100.0 * options.dense_stereo.min_roi_share))) +
+                 " % needed)";
     const double seen = DenseOverlapFraction(dense, ctx.dataset->camera, ctx.input.cam2_from_cam1, box,
                                              options.dense_stereo.block_size_px);
     const int percent = static_cast<int>(std::lround(100.0 * seen));
     if (seen < 0.5) {
       roi.status = MethodRoiStatus::kOutsideOverlap;
-      roi.reason += "; " + std::to_string(percent) + " % of the ROI's pixels are in the rectified field and image 2";
+      roi.reason += "; " + std::to_string(percent) + " % of them are in the rectified field and image 2";
     } else {
       roi.status = MethodRoiStatus::kNoTexture;
-      roi.reason += " with a disparity, of " + std::to_string(box.area()) + " pixels (" + std::to_string(percent) +
-                    " % in the rectified field and image 2)";
+      roi.reason += "; " + std::to_string(percent) + " % of them are in the rectified field and image 2, "
+                    "the rest found no match";
     }
   }
   summary->note = dense.reason;
@@ -934,12 +941,16 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
         run.rois[m] = PlaneNavRois(run.flight, options, ctx, &summary);
       } catch (const InputError& e) {
         run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
+      } catch (const UnsupportedError& e) {  // a lens model the method cannot unproject
+        run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
       }
     } else if (method == kMethodDenseNav) {
       say("dense-nav: the rectified pair's semi-global matching");
       try {
         run.rois[m] = DenseNavRois(run.flight, options, ctx, &summary);
       } catch (const InputError& e) {
+        run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
+      } catch (const UnsupportedError& e) {  // a lens model the method cannot unproject
         run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
       }
     } else if (IsOpenGvMethod(method)) {

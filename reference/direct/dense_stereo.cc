@@ -122,6 +122,11 @@ void DisparitySearch(const DenseStereoOptions& options, DenseRectification* rect
     }
   }
   const double m = options.inverse_depth_margin;
+  // Bounded before the integer casts: ground nearer than a pixel of the
+  // search is outside it anyway.
+  constexpr double kLargest = 1e6;
+  lo = std::min(lo, kLargest);
+  hi = std::min(hi, kLargest);
   rect->disparity_shift_px = static_cast<int>(std::floor(lo * (1.0 - m)));
   const double width = hi * (1.0 + m) - rect->disparity_shift_px + 1.0;
   int n = 16 * static_cast<int>(std::ceil(width / 16.0));
@@ -132,7 +137,7 @@ void DisparitySearch(const DenseStereoOptions& options, DenseRectification* rect
 // The rectified image of a camera whose rectified frame is rect_from_cam
 // (principal point cx), resampled with a cubic kernel, row v read from row
 // v + row_shift . (1, u, v) of the rectification; map_x/map_y (CV_32F)
-// give each rectified pixel's source pixel (-1 where it has none).
+// give each rectified pixel's source pixel (-1e6 where it has none).
 void Rectify(const cv::Mat& image, const calib::CameraModel& camera, const Eigen::Matrix3d& rect_from_cam,
              const DenseRectification& rect, double cx, const Eigen::Vector3d& row_shift, cv::Mat* rectified,
              cv::Mat* map_x, cv::Mat* map_y) {
@@ -297,7 +302,8 @@ bool RefineMatch2d(const cv::Mat& left, const cv::Mat& right_spline, int u, int 
 // a pixel above or below their row, which a one-dimensional matcher turns
 // into disparity errors wherever the texture runs diagonally. The offset e of
 // a grid of matches (every `stride` pixels, both directions constrained) is
-// fitted as e = a + b u + c v (least squares, then again without the matches
+// fitted as e = a + b u2 + c v (u2 the match's column in image 2, where
+// Rectify applies it) (least squares, then again without the matches
 // beyond 3 robust sigmas). False with fewer than 50 usable matches.
 bool EstimateRowShift(const cv::Mat& left, const cv::Mat& right_spline, const cv::Mat& disparity, int first_column,
                       int half, const Eigen::Vector2d& gradient, double min_gradient, Eigen::Vector3d* shift,
@@ -310,11 +316,12 @@ bool EstimateRowShift(const cv::Mat& left, const cv::Mat& right_spline, const cv
       if (d_row[u] < 0) continue;
       double d = 0.0, e = 0.0;
       if (RefineMatch2d(left, right_spline, u, v, half, d_row[u] / kDisparityScale, gradient, min_gradient, &d, &e)) {
-        rows.emplace_back(u, v, e);
+        rows.emplace_back(u - d, v, e);  // the offset is applied at image 2's column
       }
     }
   }
   constexpr size_t kMinMatches = 50;
+  *used = 0;
   std::vector<bool> keep(rows.size(), true);
   for (int pass = 0; pass < 2; ++pass) {
     Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
@@ -327,7 +334,10 @@ bool EstimateRowShift(const cv::Mat& left, const cv::Mat& right_spline, const cv
       b += basis * rows[k].z();
       ++count;
     }
-    if (count < kMinMatches) return false;
+    if (count < kMinMatches) {
+      *used = 0;
+      return false;
+    }
     *shift = a.ldlt().solve(b);
     *used = static_cast<int>(count);
     if (pass == 1) break;
@@ -340,7 +350,11 @@ bool EstimateRowShift(const cv::Mat& left, const cv::Mat& right_spline, const cv
     const double limit = 3.0 * 1.4826 * sorted[sorted.size() / 2];
     for (size_t k = 0; k < rows.size(); ++k) keep[k] = residuals[k] <= limit;
   }
-  return std::isfinite(shift->sum());
+  if (!std::isfinite(shift->sum())) {
+    *used = 0;
+    return false;
+  }
+  return true;
 }
 
 bool Inside(double x, double y, const calib::CameraModel& camera, double border) {
@@ -387,6 +401,18 @@ bool SetUpRectification(const calib::CameraModel& camera, const Rigid3d& cam2_fr
     result->reason = reason.str();
     return false;
   }
+  // At most twice the image's larger side each way, around the image
+  // centre's ray (a wide lens seen obliquely would rectify to tens of
+  // thousands of pixels).
+  const Eigen::Vector3d centre_in_rect = rect.rect_from_cam1 * view;
+  const double half_span = std::max(camera.WidthPx(), camera.HeightPx()) / rect.focal_px;
+  if (centre_in_rect.z() > 0.0) {
+    const double cx = centre_in_rect.x() / centre_in_rect.z(), cy = centre_in_rect.y() / centre_in_rect.z();
+    rect.field_x_min = std::max(rect.field_x_min, cx - half_span);
+    rect.field_x_max = std::min(rect.field_x_max, cx + half_span);
+    rect.field_y_min = std::max(rect.field_y_min, cy - half_span);
+    rect.field_y_max = std::min(rect.field_y_max, cy + half_span);
+  }
   DisparitySearch(options, &rect, &result->search_clipped);
   const int field_width = static_cast<int>(std::ceil((rect.field_x_max - rect.field_x_min) * rect.focal_px)) + 1;
   rect.height_px = static_cast<int>(std::ceil((rect.field_y_max - rect.field_y_min) * rect.focal_px)) + 1;
@@ -405,12 +431,14 @@ std::vector<std::string> DenseStereoOptions::Validate() const {
                 "odd, in [3, 11]", &errors);
   RequireOption(inverse_depth_margin >= 0 && inverse_depth_margin <= 0.9, "inverse_depth_margin",
                 inverse_depth_margin, "in [0, 0.9]", &errors);
-  RequireOption(max_disparities >= 16, "max_disparities", max_disparities, ">= 16", &errors);
+  // SGBM's disparities are 16-bit sixteenths of a pixel.
+  RequireOption(max_disparities >= 16 && max_disparities <= 2032, "max_disparities", max_disparities,
+                "in [16, 2032]", &errors);
   RequireOption(uniqueness_ratio_percent >= 0 && uniqueness_ratio_percent <= 100, "uniqueness_ratio_percent",
                 uniqueness_ratio_percent, "in [0, 100]", &errors);
   RequireOption(speckle_window_px >= 0, "speckle_window_px", speckle_window_px, ">= 0", &errors);
   RequireOption(speckle_range_px >= 1, "speckle_range_px", speckle_range_px, ">= 1", &errors);
-  RequireOption(max_lr_difference_px >= 0, "max_lr_difference_px", max_lr_difference_px, ">= 0", &errors);
+  RequireOption(max_lr_difference_px >= 1, "max_lr_difference_px", max_lr_difference_px, ">= 1", &errors);
   RequireOption(min_ncc >= -1 && min_ncc <= 1, "min_ncc", min_ncc, "in [-1, 1]", &errors);
   RequireOption(min_roi_share > 0 && min_roi_share <= 1, "min_roi_share", min_roi_share, "in (0, 1]", &errors);
   RequireOption(max_off_axis_deg > 0 && max_off_axis_deg < 85, "max_off_axis_deg", max_off_axis_deg,
@@ -432,6 +460,10 @@ DenseStereoResult RunDenseStereo(const cv::Mat& image1, const cv::Mat& image2, c
   ThrowIfInvalid("dense stereo: invalid options: ", options.Validate());
   const cv::Mat float1 = ToFloat(image1, camera, "image 1");
   const cv::Mat float2 = ToFloat(image2, camera, "image 2");
+  if (!level_plane_in_cam1.allFinite() || !(level_plane_in_cam1.norm() > 0.0)) {
+    throw InputError("dense stereo: the level ground through the range finder's point is not a plane in front "
+                     "of the camera (check the LRF range)");
+  }
   DenseStereoResult result;
   DenseRectification& rect = result.rectification;
   rect.level_plane_in_cam1 = level_plane_in_cam1;

@@ -1,5 +1,6 @@
 // The dense stereo reference (dense-nav): the pair rectified with the
-// navigation's relative pose through the camera model (any mrcal lens model),
+// navigation's relative pose through the camera model (any lens model the
+// camera can unproject: not CAHVORE),
 // semi-global matching (OpenCV's StereoSGBM, sixteenth-pixel disparities),
 // and every pixel with a disparity triangulated. Hundreds to thousands of
 // points per ROI, from a matcher that shares nothing with the flight
@@ -11,7 +12,9 @@
 // rectified images are pinhole views of that orientation, at camera 1's focal
 // length at its image centre, so a pixel of the rectified image 1 and its
 // match in the rectified image 2 share a row. The field covers image 1 up to
-// max_off_axis_deg from the rectified z axis: a baseline near the view
+// max_off_axis_deg from the rectified z axis in x and in y (so its corners
+// reach further), and at most twice the image's larger side each way around
+// the image centre's ray: a baseline near the view
 // direction (motion along the boresight) puts the epipole in the image, and
 // only the part of image 1 away from it can be rectified; with no such part
 // the pair is "not rectifiable".
@@ -64,11 +67,11 @@ struct DenseStereoOptions {
   // The search around level ground: disparities of level ground times
   // 1 - margin .. 1 + margin (the inverse distance's fraction).
   double inverse_depth_margin = 0.25;  // in [0, 0.9]
-  int max_disparities = 512;         // >= 16: the search's width at most (a multiple of 16)
+  int max_disparities = 512;         // in [16, 2032]: the search's width at most (a multiple of 16)
   int uniqueness_ratio_percent = 10; // in [0, 100]: the best cost beats the second by this much
   int speckle_window_px = 100;       // >= 0: smaller regions of similar disparity are dropped (0: off)
   int speckle_range_px = 2;          // >= 1: disparity variation within a region
-  int max_lr_difference_px = 1;      // >= 0: left-right consistency (the disparity of both images' matches)
+  int max_lr_difference_px = 1;      // >= 1: left-right consistency (the disparity of both images' matches)
   double max_off_axis_deg = 60.0;    // in (0, 85): the rectified field's half-width from its z axis
   // Each SGBM disparity refined by its window's own Gauss-Newton fit (see
   // dense_stereo.cc, RefineDisparity): off, SGBM's parabola alone.

@@ -164,6 +164,8 @@ std::string EntrySettings(const GateEntry& e, const GateSuite& suite, const Gate
   j["format_version"] = kGateFormatVersion;
   j["entry"] = EntrySpecJson(e);
   j["methods"] = suite.methods;
+  // Only when set, so that the folders of suites without it stay complete.
+  if (suite.colmap_max_features) j["colmap_max_features"] = *suite.colmap_max_features;
   j["fault_match_noise_px"] = o.fault_match_noise_px;
   j["flight_compute_budget_s"] = kGateComputeBudgetS;
   j["colmap"] = o.colmap_executable;
@@ -262,6 +264,7 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     compare.hda.processor_scale = o.processor_scale;
     compare.hda.compute_budget_s = kGateComputeBudgetS;
     compare.colmap.executable = o.colmap_executable;
+    if (suite.colmap_max_features) compare.colmap.sift_max_num_features = *suite.colmap_max_features;
     const fs::path staging = final_dir.string() + ".partial-" + std::to_string(::getpid());
     fs::remove_all(staging);
     fs::create_directories(staging);
@@ -294,7 +297,7 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
 GateSuite ReadGateSuite(const std::string& path) {
   const Json j = ReadJsonFile(path);
   CheckFormat(j, kGateSuiteFormatName, path);
-  OnlyKeys(j, {"format", "format_version", "description", "methods", "entries"}, path);
+  OnlyKeys(j, {"format", "format_version", "description", "methods", "colmap", "entries"}, path);
   GateSuite suite;
   suite.file = path;
   if (j.contains("description")) suite.description = StringField(j, "description", path);
@@ -310,6 +313,20 @@ GateSuite ReadGateSuite(const std::string& path) {
     suite.methods = ParseMethodList(list);
   } catch (const InputError& e) {
     throw InputError(path + ": methods: " + e.what());
+  }
+  if (j.contains("colmap")) {
+    const Json& c = j["colmap"];
+    const std::string where = path + ": colmap";
+    if (!c.is_object()) throw InputError(where + ": expected an object");
+    OnlyKeys(c, {"max_features"}, where);
+    if (c.contains("max_features")) {
+      if (!c["max_features"].is_number_integer() || c["max_features"].get<std::int64_t>() < 10 ||
+          c["max_features"].get<std::int64_t>() > 1000000) {
+        throw InputError(where + ": field 'max_features' must be an integer in [10, 1000000] (SIFT features "
+                                 "per image)");
+      }
+      suite.colmap_max_features = c["max_features"].get<int>();
+    }
   }
   if (!j.contains("entries") || !j["entries"].is_array() || j["entries"].empty()) {
     throw InputError(path + ": field 'entries' must be a non-empty list");

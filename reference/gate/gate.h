@@ -48,6 +48,9 @@ struct GateSuite {
   std::string file;                      // where it was read from
   std::string description;
   std::vector<std::string> methods;      // compared on every entry (reference::ParseMethodList)
+  // COLMAP's options for every entry ("colmap": {"max_features": N}); unset:
+  // compare's defaults (ColmapOptions).
+  std::optional<int> colmap_max_features;
   std::vector<GateEntry> entries;
 };
 

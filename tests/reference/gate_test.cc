@@ -62,6 +62,16 @@ TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
             std::string::npos);
   EXPECT_NE(suite(R"("methods": ["flight"], "entries": [)" + ok_entry + R"(], "extra": 1)").find("unknown field 'extra'"),
             std::string::npos);
+  // COLMAP's options for the suite: the number of SIFT features, an integer.
+  EXPECT_EQ(suite(R"("methods": ["flight"], "colmap": {"max_features": 8192}, "entries": [)" + ok_entry + "]"),
+            "no error");
+  EXPECT_EQ(ReadGateSuite((dir / "suite.json").string()).colmap_max_features, 8192);
+  EXPECT_NE(suite(R"("methods": ["flight"], "colmap": {"max_features": 8.5}, "entries": [)" + ok_entry + "]")
+                .find("colmap: field 'max_features' must be an integer in [10, 1000000]"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "colmap": {"peak": 1}, "entries": [)" + ok_entry + "]")
+                .find("colmap: unknown field 'peak'"),
+            std::string::npos);
   EXPECT_NE(ErrorOf([&] { ReadGateSuite((dir / "missing.json").string()); }).find("missing.json: cannot read"),
             std::string::npos);
 }

@@ -13,12 +13,14 @@
 #include <limits>
 #include <map>
 #include <sstream>
+#include <thread>
 
 #include <Eigen/SVD>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
 #include "tools/util/process.h"
@@ -279,10 +281,14 @@ std::string ReadVerifiedMatches(const std::string& path,
 struct SiftImageSize {
   int width = 0, height = 0;
   double from_image_x = 1.0, from_image_y = 1.0;  // SIFT pixels per image pixel
+  SiftOctaves octaves;                            // the extraction's scale space
 };
 
-SiftImageSize SiftImageSizeOf(int width, int height, int max_image_size) {
-  SiftImageSize size{width, height, 1.0, 1.0};
+SiftImageSize SiftImageSizeOf(int width, int height, const ColmapOptions& options) {
+  const int max_image_size = options.sift_max_image_size_px;
+  SiftImageSize size{width, height, 1.0, 1.0, SiftOctaves()};
+  size.octaves.first_octave = *options.sift_first_octave;
+  size.octaves.octave_resolution = options.sift_octave_resolution;
   if (width > max_image_size || height > max_image_size) {
     const double scale = static_cast<double>(max_image_size) / std::max(width, height);
     size.width = static_cast<int>(width * scale);
@@ -297,6 +303,7 @@ SiftImageSize SiftImageSizeOf(int width, int height, int max_image_size) {
 struct ImageFeatures {
   SiftDescriptors descriptors;
   int unset = 0;  // descriptors set to zero: COLMAP may not have computed them
+  std::vector<Eigen::Vector2d> keypoints;  // COLMAP's positions, pixels of COLMAP's image
 };
 
 // The SIFT descriptors of every image in `names` (by image name), checked
@@ -371,6 +378,7 @@ std::string ReadFeatures(const std::string& path, const DatabaseIds& ids,
     const size_t cols = static_cast<size_t>(rows.keypoint_cols);
     for (int k = 0; k < out.descriptors.rows; ++k) {
       const float* kp = rows.keypoints.data() + static_cast<size_t>(k) * cols;
+      out.keypoints.emplace_back(static_cast<double>(kp[0]), static_cast<double>(kp[1]));
       double scale = 0.0;  // unknown for the x y layout: every octave is checked
       if (cols == 4) scale = static_cast<double>(kp[2]);
       if (cols == 6) {
@@ -380,7 +388,7 @@ std::string ReadFeatures(const std::string& path, const DatabaseIds& ids,
       const double to_sift = 0.5 * (sift.from_image_x + sift.from_image_y);
       if (SiftDescriptorMayBeUnset(static_cast<double>(kp[0]) * sift.from_image_x,
                                    static_cast<double>(kp[1]) * sift.from_image_y, scale * to_sift,
-                                   sift.width, sift.height)) {
+                                   sift.width, sift.height, sift.octaves)) {
         std::fill_n(out.descriptors.data.begin() + static_cast<std::ptrdiff_t>(k) * 128, 128, 0);
         ++out.unset;
       }
@@ -485,25 +493,87 @@ std::vector<std::string> VerificationArgs(const ColmapOptions& o) {
           "--SiftMatching.max_error",   util::ShortestText(o.sift_max_error_px)};
 }
 
+// ColmapOptions::extraction_threads, 0 resolved to the number of cores.
+int ExtractionThreads(const ColmapOptions& o) {
+  if (o.extraction_threads > 0) return o.extraction_threads;
+  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+}
+
 // The exact matcher's options: COLMAP's defaults (max_distance 0.7,
-// cross-check, max_num_matches 32768) but for the ratio.
+// cross-check) but for the ratio and for the number of matches, which only
+// the number of features bounds (COLMAP's 32768 would cut the pairs of
+// 50000 features that the first octave -2 gives).
 SiftMatchOptions ExactMatchOptions(const ColmapOptions& o) {
   SiftMatchOptions match;
   match.max_ratio = o.sift_max_ratio;
+  match.max_num_matches = o.sift_max_num_features;
+  match.threads = ExtractionThreads(o);
   return match;
 }
 
+// Guided matching of images 1 and 2 under their nav relative pose
+// (ColmapOptions::nav_guided_max_error_px > 0): the camera as COLMAP's images have it,
+// the pose, and the band's half-width as the sine of an angle.
+struct NavGuide {
+  const calib::CameraModel* camera = nullptr;
+  const CameraSetup* setup = nullptr;
+  Rigid3d cam2_from_cam1;
+  double max_sin = 0.0;
+};
+
+// The bearings of COLMAP keypoints (pixels of COLMAP's image) in the camera
+// frame; zero where the camera cannot unproject the pixel.
+std::vector<Eigen::Vector3d> KeypointBearings(const std::vector<Eigen::Vector2d>& keypoints,
+                                              const NavGuide& guide) {
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<Eigen::Vector2d> pixels;
+  for (const Eigen::Vector2d& k : keypoints) pixels.push_back(PixelFromColmap(k));
+  const CameraSetup& setup = *guide.setup;
+  if (setup.resampled) {
+    for (const Eigen::Vector2d& p : pixels) {
+      bearings.emplace_back((p.x() - setup.cx) / setup.fx, (p.y() - setup.cy) / setup.fy, 1.0);
+    }
+    return bearings;
+  }
+  std::vector<unsigned char> valid;
+  guide.camera->Unproject(pixels, &bearings, &valid);
+  for (size_t i = 0; i < bearings.size(); ++i) {
+    if (!valid[i]) bearings[i].setZero();
+  }
+  return bearings;
+}
+
+// The guided matches of one pair, with the candidate count in the log.
+std::vector<SiftMatch> MatchGuided(const ImageFeatures& one, const ImageFeatures& two,
+                                   const NavGuide& guide, const SiftMatchOptions& match,
+                                   std::ostream& log) {
+  const std::vector<std::vector<int>> candidates = EpipolarCandidates(
+      KeypointBearings(one.keypoints, guide), KeypointBearings(two.keypoints, guide),
+      guide.cam2_from_cam1.RotationMatrix(), guide.cam2_from_cam1.translation, guide.max_sin);
+  size_t total = 0;
+  for (const std::vector<int>& c : candidates) total += c.size();
+  log << "nav epipolar candidates: " << total << " pairs, "
+      << util::ShortestText(candidates.empty() ? 0.0 : static_cast<double>(total) / static_cast<double>(candidates.size()))
+      << " per descriptor of image 1\n";
+  return MatchSiftGuided(one.descriptors, two.descriptors, candidates, match);
+}
+
 // Matches every pair of `names` (in that order, first with second, ...) with
-// MatchSiftExact and writes matches_importer's raw match list: per pair a line
+// MatchSiftExact (with MatchSiftGuided under `guide`, which `names` must then
+// be images 1 and 2 for) and writes matches_importer's raw match list: per pair a line
 // "name1 name2", a line "index1 index2" per match, then an empty line. The
 // pairs share one time limit, checked before each pair. false with *error on
 // failure.
 bool MatchAllPairs(const std::string& database, const DatabaseIds& ids,
                    const std::vector<std::string>& names, const SiftImageSize& sift,
-                   const SiftMatchOptions& match, double timeout_s, const fs::path& match_list,
-                   std::ostream& log, std::string* error) {
+                   const SiftMatchOptions& match, const NavGuide* guide, double timeout_s,
+                   const fs::path& match_list, std::ostream& log, std::string* error) {
   const Clock::time_point start = Clock::now();
-  log << "# exact SIFT matching of every image pair (reference/colmap/sift_matching.h): max_ratio "
+  log << (guide != nullptr ? "# SIFT matching of images 1 and 2 guided by the nav epipolar geometry, band "
+                           "of " + util::ShortestText(std::asin(guide->max_sin) * util::kRadToDeg) +
+                                 " deg, in front of both cameras"
+                           : std::string("# exact SIFT matching of every image pair"))
+      << " (reference/colmap/sift_matching.h): max_ratio "
       << util::ShortestText(match.max_ratio) << ", max_distance " << util::ShortestText(match.max_distance)
       << ", cross_check " << (match.cross_check ? 1 : 0) << ", max_num_matches "
       << match.max_num_matches << "\n";
@@ -532,7 +602,9 @@ bool MatchAllPairs(const std::string& database, const DatabaseIds& ids,
       const Clock::time_point pair_start = Clock::now();
       const SiftDescriptors& d1 = features.at(names[i]).descriptors;
       const SiftDescriptors& d2 = features.at(names[j]).descriptors;
-      const std::vector<SiftMatch> matches = MatchSiftExact(d1, d2, match);
+      const std::vector<SiftMatch> matches =
+          guide != nullptr ? MatchGuided(features.at(names[i]), features.at(names[j]), *guide, match, log)
+                           : MatchSiftExact(d1, d2, match);
       out << names[i] << ' ' << names[j] << '\n';
       for (const SiftMatch& m : matches) out << m.index1 << ' ' << m.index2 << '\n';
       out << '\n';
@@ -672,7 +744,8 @@ WorkspacePaths PrepareWorkspace(const std::string& workspace_dir) {
     fs::create_directories(workspace);
     for (const fs::path& old :
          {images_dir, logs_dir, workspace / "nav", workspace / "free", database,
-          workspace / "database.db-journal", workspace / "matches.txt"}) {
+          workspace / "database.db-journal", workspace / "matches.txt", workspace / "free.db",
+          workspace / "free.db-journal", workspace / "nav_matches.txt"}) {
       fs::remove_all(old);
     }
     fs::create_directories(images_dir);
@@ -748,11 +821,17 @@ bool ExtractFeatures(ColmapRun* run) {
                                                  "--SiftExtraction.use_gpu",
                                                  "0",
                                                  "--SiftExtraction.num_threads",
-                                                 std::to_string(options.threads),
+                                                 std::to_string(ExtractionThreads(options)),
                                                  "--SiftExtraction.max_image_size",
                                                  std::to_string(options.sift_max_image_size_px),
                                                  "--SiftExtraction.max_num_features",
-                                                 std::to_string(options.sift_max_num_features)};
+                                                 std::to_string(options.sift_max_num_features),
+                                                 "--SiftExtraction.first_octave",
+                                                 std::to_string(*options.sift_first_octave),
+                                                 "--SiftExtraction.octave_resolution",
+                                                 std::to_string(options.sift_octave_resolution),
+                                                 "--SiftExtraction.peak_threshold",
+                                                 util::ShortestText(options.sift_peak_threshold)};
   if (!run->steps->Run("feature_extractor", extract_args, &failure)) {
     FailBoth(options, run->start, failure, run->results);
     return false;
@@ -781,53 +860,70 @@ bool ExtractFeatures(ColmapRun* run) {
   return true;
 }
 
+// How one database's images are matched: every pair exactly, or images 1
+// and 2 alone guided by their nav relative pose.
+struct MatchPlan {
+  fs::path database;
+  fs::path match_list;              // the raw matches for matches_importer
+  std::vector<std::string> names;   // the images matched, pair by pair
+  std::optional<NavGuide> guide;    // guided matching (names: images 1 and 2)
+  std::string step;                 // the matching step's name in the logs
+};
+
 // Matching: the exact matcher instead of COLMAP's exhaustive_matcher, whose
-// approximate search differs from run to run (header, "Determinism"), then
-// COLMAP's own two-view geometric verification of those raw matches; false,
-// both methods failed, on failure.
-bool MatchImages(const ColmapRun& run) {
+// approximate search differs from run to run (header, "Determinism"), or the
+// nav-guided one, then COLMAP's own two-view geometric verification of those
+// raw matches, then the check that images 1 and 2 have verified matches
+// (without any nothing can be triangulated, and COLMAP 3.8's
+// point_triangulator aborts on an empty bundle adjustment). false with
+// *failure on failure.
+bool MatchAndVerify(const ColmapRun& run, const MatchPlan& plan, std::string* failure) {
   const ColmapOptions& options = run.options;
-  const fs::path match_list = run.paths.root / "matches.txt";
   const auto match_all = [&](std::ostream& log, std::string* error) {
     return MatchAllPairs(
-        run.paths.database.string(), run.ids, run.names,
-        SiftImageSizeOf(run.camera.WidthPx(), run.camera.HeightPx(), options.sift_max_image_size_px),
-        ExactMatchOptions(options), options.timeout_s, match_list, log, error);
+        plan.database.string(), run.ids, plan.names,
+        SiftImageSizeOf(run.camera.WidthPx(), run.camera.HeightPx(), options),
+        ExactMatchOptions(options), plan.guide ? &*plan.guide : nullptr, options.timeout_s,
+        plan.match_list, log, error);
   };
-  std::vector<std::string> import_args = {"--database_path",   run.paths.database.string(),
-                                          "--match_list_path", match_list.string(),
+  std::vector<std::string> import_args = {"--database_path",   plan.database.string(),
+                                          "--match_list_path", plan.match_list.string(),
                                           "--match_type",      "raw"};
   for (const std::string& a : VerificationArgs(options)) import_args.push_back(a);
-  std::string failure;
-  if (!run.steps->RunInProcess("exact_matcher", match_all, &failure) ||
-      !run.steps->Run("matches_importer", import_args, &failure)) {
-    FailBoth(options, run.start, failure, run.results);
+  if (!run.steps->RunInProcess(plan.step, match_all, failure) ||
+      !run.steps->Run("matches_importer", import_args, failure)) {
     return false;
   }
-  return true;
-}
-
-// Without verified matches between images 1 and 2 nothing can be
-// triangulated (and COLMAP 3.8's point_triangulator aborts on an empty
-// bundle adjustment): false, both methods failed, then.
-bool CheckVerifiedPair(const ColmapRun& run) {
   std::map<std::int64_t, std::int64_t> verified;
-  const std::string verified_error = ReadVerifiedMatches(run.paths.database.string(), &verified);
+  const std::string verified_error = ReadVerifiedMatches(plan.database.string(), &verified);
   if (!verified_error.empty()) {
-    FailBoth(run.options, run.start, "colmap matches_importer: " + verified_error, run.results);
+    *failure = "colmap matches_importer: " + verified_error;
     return false;
   }
   const auto pair = verified.find(
       PairId(run.ids.image_ids.at(ImageName(0)), run.ids.image_ids.at(ImageName(1))));
   if (pair == verified.end() || pair->second == 0) {
-    FailBoth(run.options, run.start,
-             "colmap matches_importer: no points: no verified matches between images 1 and 2 "
-             "(log: " +
-                 run.steps->LastLog() + ")",
-             run.results);
+    *failure = "colmap matches_importer: no points: no verified matches between images 1 and 2 (log: " +
+               run.steps->LastLog() + ")";
     return false;
   }
   return true;
+}
+
+// The nav-guided matching of images 1 and 2 into `database`.
+MatchPlan NavGuidedPlan(const ColmapRun& run, const fs::path& database) {
+  MatchPlan plan{database, run.paths.root / "nav_matches.txt", {ImageName(0), ImageName(1)}, NavGuide(),
+                 "nav_guided_matcher"};
+  NavGuide& guide = *plan.guide;
+  guide.camera = &run.camera;
+  guide.setup = &run.setup;
+  guide.cam2_from_cam1 = run.input.local_from_cam[1].Inverse() * run.input.local_from_cam[0];
+  // The band in pixels at the focal length of COLMAP's camera.
+  const double focal = run.setup.resampled
+                           ? 0.5 * (run.setup.fx + run.setup.fy)
+                           : 0.5 * (run.setup.colmap.params[0] + run.setup.colmap.params[1]);
+  guide.max_sin = std::sin(std::atan(run.options.nav_guided_max_error_px / focal));
+  return plan;
 }
 
 // point_triangulator's input model: COLMAP's camera, and images 1 and 2 at
@@ -855,17 +951,17 @@ ColmapModel NavInputModel(const ColmapRun& run) {
   return model;
 }
 
-// colmap-nav: point_triangulator with the nav poses fixed.
-void ReconstructWithNav(const ColmapRun& run) {
+// colmap-nav: point_triangulator with the nav poses fixed, on the matches in
+// `database`. Its time: the shared steps' and its own since nav_start.
+void ReconstructWithNav(const ColmapRun& run, const fs::path& database, Clock::time_point nav_start) {
   PairReconstruction& nav_result = run.results->nav;
-  const Clock::time_point nav_start = Clock::now();
   const fs::path nav_input = run.paths.root / "nav" / "input";
   const fs::path nav_model = run.paths.root / "nav" / "model";
   fs::create_directories(nav_input);
   fs::create_directories(nav_model);
   WriteColmapTextModel(NavInputModel(run), nav_input.string());
   std::vector<std::string> args = {"--database_path",
-                                   run.paths.database.string(),
+                                   database.string(),
                                    "--image_path",
                                    run.paths.images_dir.string(),
                                    "--input_path",
@@ -1005,15 +1101,15 @@ void AlignFreeModel(const ColmapRun& run, const ColmapModel& model) {
   }
 }
 
-// colmap-free: mapper from images 1 and 2, then the similarity into the local
-// frame.
-void ReconstructFree(const ColmapRun& run) {
+// colmap-free: mapper from images 1 and 2 on the matches in `database`, then
+// the similarity into the local frame. Its time: the shared steps' and its
+// own since free_start.
+void ReconstructFree(const ColmapRun& run, const fs::path& database, Clock::time_point free_start) {
   PairReconstruction& free_result = run.results->free;
-  const Clock::time_point free_start = Clock::now();
   const fs::path free_dir = run.paths.root / "free";
   fs::create_directories(free_dir);
   std::vector<std::string> args = {"--database_path",
-                                   run.paths.database.string(),
+                                   database.string(),
                                    "--image_path",
                                    run.paths.images_dir.string(),
                                    "--output_path",
@@ -1051,13 +1147,25 @@ std::vector<std::string> ColmapOptions::Validate() const {
   if (executable.empty()) errors.push_back("executable = '': expected a program name or path");
   RequireOption(timeout_s > 0, "timeout_s", timeout_s, "> 0", &errors);
   RequireOption(threads >= 1, "threads", threads, ">= 1", &errors);
+  RequireOption(extraction_threads >= 0, "extraction_threads", extraction_threads, ">= 0 (0: every core)",
+                &errors);
   RequireOption(sift_max_image_size_px >= 16, "sift_max_image_size_px", sift_max_image_size_px,
                 ">= 16", &errors);
   RequireOption(sift_max_num_features >= 10, "sift_max_num_features", sift_max_num_features,
                 ">= 10", &errors);
+  if (sift_first_octave) {
+    RequireOption(*sift_first_octave >= -2 && *sift_first_octave <= 2, "sift_first_octave",
+                  *sift_first_octave, "in [-2, 2]", &errors);
+  }
+  RequireOption(sift_octave_resolution >= 1 && sift_octave_resolution <= 12, "sift_octave_resolution",
+                sift_octave_resolution, "in [1, 12]", &errors);
+  RequireOption(sift_peak_threshold > 0 && sift_peak_threshold < 1, "sift_peak_threshold",
+                sift_peak_threshold, "in (0, 1)", &errors);
   RequireOption(sift_max_ratio > 0 && sift_max_ratio <= 1, "sift_max_ratio", sift_max_ratio,
                 "in (0, 1]", &errors);
   RequireOption(sift_max_error_px > 0, "sift_max_error_px", sift_max_error_px, "> 0", &errors);
+  RequireOption(nav_guided_max_error_px >= 0 && nav_guided_max_error_px <= 1000, "nav_guided_max_error_px",
+                nav_guided_max_error_px, "in [0, 1000] (0: exact matching)", &errors);
   RequireOption(min_tri_angle_deg > 0 && min_tri_angle_deg < 90, "min_tri_angle_deg",
                 min_tri_angle_deg, "in (0, 90)", &errors);
   RequireOption(init_min_tri_angle_deg > 0 && init_min_tri_angle_deg < 90, "init_min_tri_angle_deg",
@@ -1092,12 +1200,38 @@ ColmapCameraParams ToColmapCamera(const calib::CameraModel& camera) {
   return out;
 }
 
-ColmapResults RunColmap(const ColmapInput& input, const ColmapOptions& options) {
+int DefaultSiftFirstOctave(double smallest_roi_px, int width, int height) {
+  constexpr double kSmallRoiPx = 64.0;
+  constexpr int kLargestUpsampledSidePx = 2048;
+  const bool small = smallest_roi_px > 0 && smallest_roi_px < kSmallRoiPx;
+  return small && std::max(width, height) <= kLargestUpsampledSidePx ? -2 : -1;
+}
+
+ColmapResults RunColmap(const ColmapInput& input, const ColmapOptions& given) {
   const Clock::time_point start = Clock::now();
-  CheckRunColmapInput(input, options);
+  CheckRunColmapInput(input, given);
+  if (!(input.smallest_roi_px >= 0) || !std::isfinite(input.smallest_roi_px)) {
+    throw InputError("RunColmap: smallest_roi_px = " + util::ShortestText(input.smallest_roi_px) +
+                     ": expected a finite number >= 0");
+  }
   const calib::CameraModel& camera = *input.camera;
+  ColmapOptions options = given;
+  std::string extraction_note;
+  if (!options.sift_first_octave) {
+    options.sift_first_octave =
+        DefaultSiftFirstOctave(input.smallest_roi_px, camera.WidthPx(), camera.HeightPx());
+    extraction_note = "SIFT first octave " + std::to_string(*options.sift_first_octave) + ": " +
+                      (input.smallest_roi_px > 0 ? "the smallest ROI is " + util::ShortestText(input.smallest_roi_px) +
+                                                       " px on a side"
+                                                 : std::string("no ROI size given")) +
+                      ", the image " + std::to_string(camera.WidthPx()) + " x " +
+                      std::to_string(camera.HeightPx()) + " px";
+  } else {
+    extraction_note = "SIFT first octave " + std::to_string(*options.sift_first_octave) + " (set)";
+  }
 
   ColmapResults results = InitialResults(options);
+  results.extraction_note = extraction_note;
   if (!options.run_nav && !options.run_free) return results;
 
   const WorkspacePaths paths = PrepareWorkspace(input.workspace);
@@ -1121,11 +1255,52 @@ ColmapResults RunColmap(const ColmapInput& input, const ColmapOptions& options) 
 
   StepRunner steps(executable, paths.logs_dir, options, &results);
   ColmapRun run{input, options, camera, paths, setup, num_used, start, &steps, &results, {}, {}};
-  if (!ExtractFeatures(&run) || !MatchImages(run) || !CheckVerifiedPair(run)) return results;
+  if (!ExtractFeatures(&run)) return results;
+  const MatchPlan exact{paths.database, paths.root / "matches.txt", run.names, std::nullopt,
+                        "exact_matcher"};
+  std::string failure;
+  if (!(options.run_nav && options.nav_guided_max_error_px > 0)) {
+    // One matching for both methods.
+    if (!MatchAndVerify(run, exact, &failure)) {
+      FailBoth(options, start, failure, &results);
+      return results;
+    }
+    results.shared_s = SecondsSince(start);
+    if (options.run_nav) ReconstructWithNav(run, paths.database, Clock::now());
+    if (options.run_free) ReconstructFree(run, paths.database, Clock::now());
+    return results;
+  }
+  // colmap-nav's guided matches stay out of colmap-free: each method matches
+  // into its own copy of the extraction's database.
+  MatchPlan free_plan = exact;
+  free_plan.database = paths.root / "free.db";
+  if (options.run_free) {
+    std::error_code copy_error;
+    fs::copy_file(paths.database, free_plan.database, fs::copy_options::overwrite_existing, copy_error);
+    if (copy_error) {
+      FailBoth(options, start,
+               "cannot copy " + paths.database.string() + " to " + free_plan.database.string() +
+                   ": " + copy_error.message(),
+               &results);
+      return results;
+    }
+  }
   results.shared_s = SecondsSince(start);
-
-  if (options.run_nav) ReconstructWithNav(run);
-  if (options.run_free) ReconstructFree(run);
+  const Clock::time_point nav_start = Clock::now();
+  if (MatchAndVerify(run, NavGuidedPlan(run, paths.database), &failure)) {
+    ReconstructWithNav(run, paths.database, nav_start);
+  } else {
+    Fail(&results.nav, failure);
+    results.nav.wall_s = results.shared_s + SecondsSince(nav_start);
+  }
+  if (!options.run_free) return results;
+  const Clock::time_point free_start = Clock::now();
+  if (MatchAndVerify(run, free_plan, &failure)) {
+    ReconstructFree(run, free_plan.database, free_start);
+  } else {
+    Fail(&results.free, failure);
+    results.free.wall_s = results.shared_s + SecondsSince(free_start);
+  }
   return results;
 }
 

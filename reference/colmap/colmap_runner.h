@@ -8,6 +8,14 @@
 //                       from COLMAP's database and matches every image pair
 //                       exactly with COLMAP's rules (reference/colmap/sift_matching.h),
 //                       in place of COLMAP's approximate exhaustive_matcher
+//   nav_guided_matcher  colmap-nav's matching when ColmapOptions::
+//                       nav_guided_max_error_px > 0: COLMAP's rules, each keypoint
+//                       compared only with those of the other image near its
+//                       epipolar line under the nav relative pose and in
+//                       front of both cameras, as COLMAP's guided matching
+//                       does with the geometry it estimated. colmap-free then
+//                       matches exactly in a copy of the database, so that
+//                       nothing of the navigation reaches it.
 //   matches_importer    COLMAP's two-view geometric verification (RANSAC) of
 //                       those raw matches (--match_type raw), no GPU
 //   colmap-nav          point_triangulator on the pair with the navigation
@@ -91,8 +99,12 @@
 //   images/frame_NNN.png   the frames as 8-bit grey PNG (resampled when the
 //                          lens model has no COLMAP equivalent); NNN = index
 //                          in ColmapInput::image_paths
-//   database.db            COLMAP's database (features, matches)
+//   database.db            COLMAP's database (features, matches; colmap-nav's
+//                          guided matches when nav_guided_max_error_px > 0)
+//   free.db                colmap-free's copy of it with the exact matches
+//                          (guided matching with both methods only)
 //   matches.txt            exact_matcher's raw matches, matches_importer's input
+//   nav_matches.txt        nav_guided_matcher's raw matches
 //   logs/NN-<step>.log     stdout and stderr of each COLMAP step (glog
 //                          included: --log_to_stderr 1); exact_matcher's
 //                          own: its options, per image the descriptors and
@@ -126,29 +138,73 @@ struct ColmapInput {
   // Folder for this run's files (layout above). Created when missing; the
   // files of a previous run in it (the names above) are replaced.
   std::string workspace;
+  // The side of the smallest region the points will be judged on, pixels of
+  // image 1 (compare: the smallest ROI box); 0: unknown. It sets the SIFT
+  // first octave when ColmapOptions::sift_first_octave is unset.
+  double smallest_roi_px = 0.0;
 };
+
+// The SIFT first octave for regions of `smallest_roi_px` on a side in
+// images of width x height px: -2 (the image upsampled four times) when the
+// regions are under 64 px and the image's larger side at most 2048 px, else
+// -1. The density of COLMAP's keypoints on the bench's regolith at -1 is
+// about 22 per 1000 px^2, so a 32 px ROI (10 m at 566 m) holds about 22 and
+// a 64 px one about 90; -2 doubles the count (about 50000 per 1024 x 1024
+// frame, 40 per 32 px ROI) at 4 times the extraction's memory (1.2 GB on a
+// 1024 px pair) and 4 times the exact matching's time, which the 2048 px
+// bound keeps within this machine's means. Unknown (0): -1.
+int DefaultSiftFirstOctave(double smallest_roi_px, int width, int height);
 
 struct ColmapOptions {
   std::string executable = "colmap";  // a name looked up on PATH, or a path
   double timeout_s = 600.0;           // wall-time limit of each step, seconds, > 0
   int threads = 1;                    // threads of COLMAP's steps, >= 1 (1: reproducible output)
+  // Threads of the two steps whose output does not depend on them, >= 0 (0:
+  // every core): COLMAP's feature_extractor (each image is extracted whole by
+  // one thread, its features written under the image id it was read with,
+  // so the database is the same bytes; the compare test checks it) and the
+  // exact matcher (sift_matching.h, SiftMatchOptions::threads).
+  int extraction_threads = 0;
   bool run_nav = true;                // colmap-nav (point_triangulator, nav poses fixed)
   bool run_free = true;               // colmap-free (mapper, then alignment)
   bool use_all_frames = false;        // colmap-free on every frame given instead of the pair
 
   // SIFT (feature_extractor, exact_matcher, matches_importer). The exact
   // matcher's other rules are COLMAP's defaults: max_distance 0.7 rad,
-  // cross-check, at most 32768 matches per pair.
+  // cross-check; the matches per pair bounded by sift_max_num_features only.
   int sift_max_image_size_px = 3200;  // images larger than this are downscaled for SIFT
-  // Features kept per image. COLMAP keeps the largest scales first: a
-  // 1024 x 1024 regolith frame has about 23000 SIFT keypoints under COLMAP's
-  // detector defaults, and COLMAP's own cap of 8192 dropped the small-scale
-  // ones, which are those in the smooth blocks the quadtree keeps (9 points
-  // per 10 m ROI at the median; 17 with 32768, at 3.3 s more on a 1024 px
-  // pair: the exact matching grows with the product of the two counts).
-  int sift_max_num_features = 32768;
+  // Features kept per image, >= 10. COLMAP keeps the largest scales first: a
+  // 1024 x 1024 regolith frame has about 23000 SIFT keypoints at the first
+  // octave -1 and 50000 at -2, and COLMAP's own cap of 8192 dropped the
+  // small-scale ones, which are those in the smooth blocks the quadtree keeps
+  // (9 points per 10 m ROI at the median). The exact matching's time grows
+  // with the product of the two images' counts.
+  int sift_max_num_features = 131072;
+  // COLMAP's scale space and detector threshold (--SiftExtraction options of
+  // the same names). The first octave, in [-2, 2]: -1 (COLMAP's default)
+  // upsamples the image twice first, -2 four times; unset: from the ROIs'
+  // size in pixels (DefaultSiftFirstOctave).
+  std::optional<int> sift_first_octave;
+  int sift_octave_resolution = 3;       // levels per octave, in [1, 12] (COLMAP's default)
+  double sift_peak_threshold = 0.02 / 3;  // DoG peak threshold, in (0, 1) (COLMAP's default)
   double sift_max_ratio = 0.8;        // Lowe ratio test (exact_matcher), in (0, 1]
   double sift_max_error_px = 4.0;     // two-view geometry RANSAC threshold, pixels, > 0
+  // colmap-nav's matching guided by the nav epipolar geometry (header): the
+  // band's half-width, the largest distance of a keypoint from its epipolar
+  // line under the nav pose, pixels at the focal length, in [0, 1000]; 0:
+  // exact matching of every pair of descriptors, as colmap-free. A band must
+  // cover the nav pose's error as seen in the image (the bench's NOVA-C nav
+  // puts matches 0.2-0.7 px off their lines) and the keypoints' own noise.
+  // Guided matching is cheaper (0.9 s against 6.7 s on the default pair's
+  // 23000 keypoints per image), but a descriptor then meets in the ratio test
+  // only the hundred or so of the other image on its band: a wrong match along
+  // the band whose true partner was not detected has no rival to fail it, and
+  // lies on the epipolar line, so neither the verification nor the
+  // triangulation removes it. Measured on the default pair (seed 1, first
+  // octave -2): a 4 px band gave ROI slopes up to 84 deg off (bias +2.7 deg)
+  // where exact matching stays within 6.9 deg (+0.9 deg); hence exact by
+  // default (docs/compare-results.md, "COLMAP's options").
+  double nav_guided_max_error_px = 0.0;
 
   // Triangulation (both methods): smallest angle between the rays of a
   // point, degrees, > 0. The NOVA-C pair has about 3 deg of parallax (30 m at
@@ -185,6 +241,9 @@ struct ColmapResults {
   // Preparation, extraction, matching and verification (in both methods' seconds).
   double shared_s = 0.0;
   std::string camera_note;  // how the camera was given to COLMAP (model or resampling and why)
+  // The SIFT extraction's scale space as run and why ("SIFT first octave -2:
+  // the smallest ROI is 32 px on a side").
+  std::string extraction_note;
 };
 
 // Runs the COLMAP references. Throws InputError for invalid options or

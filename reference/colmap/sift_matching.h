@@ -31,17 +31,22 @@
 // lowest index is taken; as said, such a tie is rejected anyway.
 //
 // Dot products: integers, computed in full for every pair of descriptors
-// (SSE2's 16-bit multiply-adds where the compiler targets it, plain loops
-// elsewhere); a dot product is at most 128 * 255^2 < 2^24, so nothing
-// overflows or rounds, and the candidates' order only decides ties, by the
-// rule above. The result is the same on every machine and run.
-// Single-threaded: two sets of 4000 descriptors take about 0.2 s, of 11000
-// (a 1024 x 1024 pair at 8192 features) 1.1 to 1.5 s on this bench's machine.
+// (AVX2's 16-bit multiply-adds, eight descriptors of image 2 at a time, where
+// the processor has it, chosen at run time; SSE2's where the compiler
+// targets it; plain loops elsewhere); a dot product is at most
+// 128 * 255^2 < 2^24, so nothing overflows or rounds, and the candidates'
+// order only decides ties, by the rule above. The result is the same on every
+// machine and run, and with any number of threads (SiftMatchOptions::threads).
+// On this bench's machine (BM_MatchSiftExact): 23000 x 23000 descriptors (a
+// 1024 x 1024 pair at the first octave -1) 4.8 s on one core, 2.5 s on two;
+// 50000 x 50000 (first octave -2) 18.9 s and 8.5 s.
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 namespace hdabench::reference {
 
@@ -51,9 +56,14 @@ struct SiftMatchOptions {
   double max_distance = 0.7;  // largest angle of a match, radians, > 0
   bool cross_check = true;    // keep mutual matches only
   // Most matches kept per pair, >= 1: the first ones by index in image 1.
-  // COLMAP's CPU matcher does not apply it; with at most 8192 features per
-  // image (ColmapOptions::sift_max_num_features) it never binds at 32768.
+  // COLMAP's CPU matcher does not apply it; the COLMAP references set it to
+  // ColmapOptions::sift_max_num_features, which bounds the matches anyway.
   int max_num_matches = 32768;
+  // Threads of the exact matcher, >= 1. The matches do not depend on it: each
+  // thread takes a range of image 2's descriptors, and the best and second
+  // best of a descriptor are the same whatever order its candidates come in
+  // (the lowest index wins a tie for the best).
+  int threads = 1;
 
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;
@@ -79,21 +89,57 @@ struct SiftMatch {
 std::vector<SiftMatch> MatchSiftExact(const SiftDescriptors& image1, const SiftDescriptors& image2,
                                       const SiftMatchOptions& options);
 
+// Guided matching: the rules above, with each descriptor of image 1 compared
+// only with its candidates in image 2 (candidates[i]: indices into image 2,
+// increasing; one list per descriptor of image 1), and each descriptor of
+// image 2 only with the descriptors of image 1 that list it. Best and second
+// best are taken over those, as COLMAP's guided matching takes them over the
+// features its estimated two-view geometry allows. Throws InputError for
+// invalid options or descriptors, a list count other than image1.rows, or an
+// index not increasing or out of range.
+std::vector<SiftMatch> MatchSiftGuided(const SiftDescriptors& image1, const SiftDescriptors& image2,
+                                       const std::vector<std::vector<int>>& candidates,
+                                       const SiftMatchOptions& options);
+
+// The candidates of guided matching under a known relative pose (camera 2
+// from camera 1: x2 = rotation * x1 + translation, any scale): image-2
+// bearing j is a candidate of image-1 bearing i when each lies within an
+// angle of asin(max_sin) of the other's epipolar plane (the band is the same
+// seen from either image, so the relation is symmetric) and the two rays
+// meet in front of both cameras. Bearings need not be unit length; a zero or
+// non-finite one has no candidates. No translation: no candidates at all.
+// Every pair is tested: about 1 s for 23000 x 23000 bearings.
+std::vector<std::vector<int>> EpipolarCandidates(const std::vector<Eigen::Vector3d>& bearings1,
+                                                 const std::vector<Eigen::Vector3d>& bearings2,
+                                                 const Eigen::Matrix3d& rotation,
+                                                 const Eigen::Vector3d& translation,
+                                                 double max_sin);
+
+// COLMAP's scale space (--SiftExtraction options of the same names).
+struct SiftOctaves {
+  int first_octave = -1;      // -1: the image upsampled twice first
+  int num_octaves = 4;
+  int octave_resolution = 3;  // levels per octave
+};
+
 // Keypoints whose stored descriptor COLMAP 3.8 may never have computed.
-// Its CPU SIFT (VLFeat: first octave -1, 4 octaves, 3 levels per octave)
-// keeps a keypoint refined onto the last pixel row of its octave, but
-// VLFeat's descriptor function returns without writing for such a keypoint
-// (it needs the row below), and COLMAP then stores what its buffer held:
-// zeros in one run, an unrelated descriptor in the next. Measured on
-// 1024 x 1024 images: about one keypoint in 10000, all at the bottom edge,
-// the only descriptors that differed between two extractions.
+// Its CPU SIFT (VLFeat, with COLMAP's scale space: by default first octave
+// -1, 4 octaves, 3 levels per octave) keeps a keypoint refined onto the last
+// pixel row of its octave, but VLFeat's descriptor function returns without
+// writing for such a keypoint (it needs the row below), and COLMAP then
+// stores what its buffer held: zeros in one run, an unrelated descriptor in
+// the next. Measured on 1024 x 1024 images: about one keypoint in 10000, all
+// at the bottom edge, the only descriptors that differed between two
+// extractions.
 // True when, for any octave the keypoint's scale allows, it rounds onto a
 // pixel VLFeat leaves without a descriptor. x, y: COLMAP's keypoint position
 // (the top-left pixel's corner at 0, 0) and scale (pixels), in the image as
 // SIFT saw it, of width x height px. The octave follows from the scale,
-// sigma0 2^(octave + level / 3) with sigma0 = 1.6 * 2^(1/3) and the refined
-// level within 1.5 of a detection level 0..2; where two octaves are possible
-// both are checked. A scale <= 0 or not finite checks every octave.
-bool SiftDescriptorMayBeUnset(double x, double y, double scale, int width, int height);
+// sigma0 2^(octave + level / S) with S the octave resolution, sigma0 =
+// 1.6 * 2^(1/S) and the refined level within 1.5 of a detection level
+// 0..S-1; where two octaves are possible both are checked. A scale <= 0 or
+// not finite checks every octave.
+bool SiftDescriptorMayBeUnset(double x, double y, double scale, int width, int height,
+                              const SiftOctaves& octaves = SiftOctaves());
 
 }  // namespace hdabench::reference

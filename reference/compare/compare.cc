@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <future>
 #include <limits>
 #include <cmath>
 #include <set>
@@ -811,11 +812,22 @@ Context MakeContext(const datasets::Dataset& dataset, int frame1, int frame2) {
   return ctx;
 }
 
+// The smallest side of the flight method's ROI boxes in image 1, pixels; 0
+// without ROIs.
+double SmallestRoiSidePx(const FlightRun& flight) {
+  int side = 0;
+  for (const auto& roi : flight.result.rois) {
+    const int s = std::min(roi.box1_px.width, roi.box1_px.height);
+    if (s > 0 && (side == 0 || s < side)) side = s;
+  }
+  return side;
+}
+
 // colmap-nav and colmap-free (whichever are wanted) in one COLMAP run: the
 // pair first, then, with use_all_frames, every other frame of the window.
 ColmapResults RunColmapMethods(const datasets::Dataset& dataset, int frame1, int frame2,
                                const CompareOptions& options, bool nav, bool free,
-                               const std::string& workspace) {
+                               double smallest_roi_px, const std::string& workspace) {
   if (dataset.dir.empty()) {
     throw InputError("colmap needs the dataset's image files: the dataset has no folder");
   }
@@ -832,6 +844,7 @@ ColmapResults RunColmapMethods(const datasets::Dataset& dataset, int frame1, int
   }
   input.camera = dataset.camera;
   input.workspace = workspace;
+  input.smallest_roi_px = smallest_roi_px;
   ColmapOptions colmap = options.colmap;
   colmap.run_nav = nav;
   colmap.run_free = free;
@@ -857,11 +870,12 @@ ConfigurationReport PairConfiguration(const std::vector<RoiBearings>& roi_matche
 struct WholePairMethods {
   std::vector<std::pair<std::string, PairReconstruction>> reconstructions;
   std::string refine_note;  // flight-refined's solver note
+  std::string colmap_note;  // COLMAP's extraction (ColmapResults::extraction_note)
 };
 
 // A whole-pair method's ROIs and summary from its reconstruction.
 void FillWholePairMethod(const std::string& method, const PairReconstruction& recon,
-                         const std::string& refine_note, const CompareRun& run,
+                         const WholePairMethods& whole, const CompareRun& run,
                          const std::vector<RoiBearings>& roi_matches,
                          const ConfigurationReport& pair_configuration,
                          const CompareOptions& options, const Context& ctx,
@@ -871,8 +885,11 @@ void FillWholePairMethod(const std::string& method, const PairReconstruction& re
   summary->ok = recon.ok;
   summary->failure = recon.failure;
   summary->wall_s = recon.wall_s;
-  if (method == kMethodFlightRefined) summary->note = refine_note;
+  if (method == kMethodFlightRefined) summary->note = whole.refine_note;
   if (!recon.log_dir.empty()) summary->note = "logs: " + recon.log_dir;
+  if ((method == kMethodColmapNav || method == kMethodColmapFree) && !whole.colmap_note.empty()) {
+    summary->note += std::string(summary->note.empty() ? "" : "; ") + whole.colmap_note;
+  }
   if (method == kMethodColmapFree && !roi_matches.empty()) {
     summary->note += std::string(summary->note.empty() ? "" : "; ") + "pair configuration: " +
                      pair_configuration.reason;
@@ -910,14 +927,37 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
     whole.reconstructions.emplace_back(kMethodFlightRefined,
                                        FlightRefined(run.flight, options, ctx, &whole.refine_note));
   }
-  if (wants(kMethodColmapNav) || wants(kMethodColmapFree)) {
-    say("colmap: SIFT, matching, reconstruction in " + colmap_workspace);
-    ColmapResults results = RunColmapMethods(dataset, frame1, frame2, options, wants(kMethodColmapNav),
-                                             wants(kMethodColmapFree), colmap_workspace);
+  // COLMAP (an external program, one thread, and the exact matcher) runs
+  // alongside the methods computed here; its results are taken when those
+  // are done. Nothing is shared but read-only inputs, so no result depends on
+  // it; the in-process methods' times are measured under its load.
+  const bool any_colmap = wants(kMethodColmapNav) || wants(kMethodColmapFree);
+  std::future<ColmapResults> colmap_results;
+  if (any_colmap) {
+    say("colmap: SIFT, matching, reconstruction in " + colmap_workspace + " (alongside the other methods)");
+    colmap_results = std::async(std::launch::async, [&] {
+      return RunColmapMethods(dataset, frame1, frame2, options, wants(kMethodColmapNav), wants(kMethodColmapFree),
+                              SmallestRoiSidePx(run.flight), colmap_workspace);
+    });
     run.colmap_workspace = colmap_workspace;
+  }
+  // Waits for COLMAP and adds its methods (on every way out: an exception
+  // here must not leave COLMAP running on freed inputs).
+  bool colmap_taken = false;
+  const auto take_colmap = [&] {
+    if (!any_colmap || colmap_taken) return;
+    colmap_taken = true;
+    ColmapResults results = colmap_results.get();
+    whole.colmap_note = results.extraction_note;
     if (wants(kMethodColmapNav)) whole.reconstructions.emplace_back(kMethodColmapNav, std::move(results.nav));
     if (wants(kMethodColmapFree)) whole.reconstructions.emplace_back(kMethodColmapFree, std::move(results.free));
-  }
+  };
+  struct WaitForColmap {
+    std::future<ColmapResults>* future;
+    ~WaitForColmap() {
+      if (future->valid()) future->wait();
+    }
+  } wait_for_colmap{&colmap_results};
   std::vector<RoiBearings> roi_matches;
   const bool any_opengv = std::any_of(run.methods.begin(), run.methods.end(), IsOpenGvMethod);
   if (any_opengv || wants(kMethodColmapFree)) {
@@ -958,12 +998,25 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
       const OpenGvSolver solver =
           ParseOpenGvSolver(method.substr(std::string(kOpenGvMethodPrefix).size()));
       run.rois[m] = OpenGvRois(solver, roi_matches, options, ctx, &summary);
+    } else if (method == kMethodColmapNav || method == kMethodColmapFree) {
+      continue;  // when COLMAP is done, below
     } else {
       for (const auto& [name, recon] : whole.reconstructions) {
         if (name != method) continue;
-        FillWholePairMethod(method, recon, whole.refine_note, run, roi_matches, pair_configuration,
+        FillWholePairMethod(method, recon, whole, run, roi_matches, pair_configuration,
                             options, ctx, &run.rois[m], &summary);
       }
+    }
+  }
+  if (any_colmap) say("colmap: waiting for it to finish");
+  take_colmap();
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    const std::string& method = run.methods[m];
+    if (method != kMethodColmapNav && method != kMethodColmapFree) continue;
+    for (const auto& [name, recon] : whole.reconstructions) {
+      if (name != method) continue;
+      FillWholePairMethod(method, recon, whole, run, roi_matches, pair_configuration, options, ctx,
+                          &run.rois[m], &run.summaries[m]);
     }
   }
   const auto colmap_nav = std::find(run.methods.begin(), run.methods.end(), kMethodColmapNav);

@@ -89,6 +89,45 @@ bool ValidName(const std::string& name) {
   }) && name != "." && name != "..";
 }
 
+// A suite's COLMAP options over compare's.
+void ApplyColmapOptions(const GateColmapOptions& from, ColmapOptions* to) {
+  if (from.max_features) to->sift_max_num_features = *from.max_features;
+  if (from.first_octave) to->sift_first_octave = *from.first_octave;
+  if (from.octave_resolution) to->sift_octave_resolution = *from.octave_resolution;
+  if (from.peak_threshold) to->sift_peak_threshold = *from.peak_threshold;
+  if (from.nav_band_px) to->nav_guided_max_error_px = *from.nav_band_px;
+}
+
+// A suite's "colmap" object: its fields typed here, their ranges those of
+// ColmapOptions::Validate.
+GateColmapOptions ReadColmapOptions(const Json& c, const std::string& where) {
+  if (!c.is_object()) throw InputError(where + ": expected an object");
+  OnlyKeys(c, {"max_features", "first_octave", "octave_resolution", "peak_threshold", "nav_band_px"}, where);
+  GateColmapOptions out;
+  if (c.contains("max_features")) {
+    if (!c["max_features"].is_number_integer() || c["max_features"].get<std::int64_t>() < 10 ||
+        c["max_features"].get<std::int64_t>() > 1000000) {
+      throw InputError(where + ": field 'max_features' must be an integer in [10, 1000000] (SIFT features "
+                               "per image)");
+    }
+    out.max_features = c["max_features"].get<int>();
+  }
+  for (const auto& [key, field] : {std::pair{"first_octave", &out.first_octave},
+                                   std::pair{"octave_resolution", &out.octave_resolution}}) {
+    if (!c.contains(key)) continue;
+    if (!c[key].is_number_integer() || std::abs(c[key].get<std::int64_t>()) > 1000) {
+      throw InputError(where + ": field '" + key + "' must be an integer");
+    }
+    *field = c[key].get<int>();
+  }
+  if (c.contains("peak_threshold")) out.peak_threshold = NumberField(c, "peak_threshold", where);
+  if (c.contains("nav_band_px")) out.nav_band_px = NumberField(c, "nav_band_px", where);
+  ColmapOptions options;
+  ApplyColmapOptions(out, &options);
+  ThrowIfInvalid(where + ": ", options.Validate());
+  return out;
+}
+
 // ---------------------------------------------------------------------------
 // Metrics
 
@@ -165,7 +204,11 @@ std::string EntrySettings(const GateEntry& e, const GateSuite& suite, const Gate
   j["entry"] = EntrySpecJson(e);
   j["methods"] = suite.methods;
   // Only when set, so that the folders of suites without it stay complete.
-  if (suite.colmap_max_features) j["colmap_max_features"] = *suite.colmap_max_features;
+  if (suite.colmap.max_features) j["colmap_max_features"] = *suite.colmap.max_features;
+  if (suite.colmap.first_octave) j["colmap_first_octave"] = *suite.colmap.first_octave;
+  if (suite.colmap.octave_resolution) j["colmap_octave_resolution"] = *suite.colmap.octave_resolution;
+  if (suite.colmap.peak_threshold) j["colmap_peak_threshold"] = *suite.colmap.peak_threshold;
+  if (suite.colmap.nav_band_px) j["colmap_nav_band_px"] = *suite.colmap.nav_band_px;
   j["fault_match_noise_px"] = o.fault_match_noise_px;
   j["flight_compute_budget_s"] = kGateComputeBudgetS;
   j["colmap"] = o.colmap_executable;
@@ -264,7 +307,7 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     compare.hda.processor_scale = o.processor_scale;
     compare.hda.compute_budget_s = kGateComputeBudgetS;
     compare.colmap.executable = o.colmap_executable;
-    if (suite.colmap_max_features) compare.colmap.sift_max_num_features = *suite.colmap_max_features;
+    ApplyColmapOptions(suite.colmap, &compare.colmap);
     const fs::path staging = final_dir.string() + ".partial-" + std::to_string(::getpid());
     fs::remove_all(staging);
     fs::create_directories(staging);
@@ -318,15 +361,7 @@ GateSuite ReadGateSuite(const std::string& path) {
     const Json& c = j["colmap"];
     const std::string where = path + ": colmap";
     if (!c.is_object()) throw InputError(where + ": expected an object");
-    OnlyKeys(c, {"max_features"}, where);
-    if (c.contains("max_features")) {
-      if (!c["max_features"].is_number_integer() || c["max_features"].get<std::int64_t>() < 10 ||
-          c["max_features"].get<std::int64_t>() > 1000000) {
-        throw InputError(where + ": field 'max_features' must be an integer in [10, 1000000] (SIFT features "
-                                 "per image)");
-      }
-      suite.colmap_max_features = c["max_features"].get<int>();
-    }
+    suite.colmap = ReadColmapOptions(c, where);
   }
   if (!j.contains("entries") || !j["entries"].is_array() || j["entries"].empty()) {
     throw InputError(path + ": field 'entries' must be a non-empty list");

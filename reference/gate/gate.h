@@ -44,13 +44,22 @@ struct GateEntry {
   std::optional<double> site_size_m;  // the flight quadtree's site size for this entry
 };
 
+// COLMAP's options for every entry of a suite ("colmap": {...}, docs/gate.md),
+// each as compare's flag of the same name; unset: compare's default
+// (ColmapOptions).
+struct GateColmapOptions {
+  std::optional<int> max_features;       // --colmap-max-features: sift_max_num_features
+  std::optional<int> first_octave;       // --colmap-first-octave: sift_first_octave
+  std::optional<int> octave_resolution;  // --colmap-octave-resolution: sift_octave_resolution
+  std::optional<double> peak_threshold;  // --colmap-peak-threshold: sift_peak_threshold
+  std::optional<double> nav_band_px;     // --colmap-nav-band-px: nav_guided_max_error_px
+};
+
 struct GateSuite {
   std::string file;                      // where it was read from
   std::string description;
   std::vector<std::string> methods;      // compared on every entry (reference::ParseMethodList)
-  // COLMAP's options for every entry ("colmap": {"max_features": N}); unset:
-  // compare's defaults (ColmapOptions).
-  std::optional<int> colmap_max_features;
+  GateColmapOptions colmap;              // COLMAP's options for every entry
   std::vector<GateEntry> entries;
 };
 

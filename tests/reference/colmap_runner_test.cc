@@ -337,6 +337,43 @@ TEST_F(ColmapRunner, TwoRunsGiveTheSameBytes) {
   }
 }
 
+// colmap-nav's matching guided by the nav pose: its own step and match list,
+// its points where the truth is, and colmap-free untouched by it (matched
+// exactly in its own copy of the database: the same model bytes as a run
+// without guidance).
+TEST_F(ColmapRunner, NavGuidedMatchingStaysOutOfColmapFree) {
+  const fs::path dir = FreshTestDir();
+  ColmapOptions exact;
+  exact.threads = 1;
+  exact.timeout_s = 120.0;
+  ColmapOptions guided = exact;
+  guided.nav_guided_max_error_px = 4.0;
+  const ColmapResults plain = RunColmap(PairInput(dir / "exact"), exact);
+  const ColmapResults results = RunColmap(PairInput(dir / "guided"), guided);
+  ASSERT_TRUE(plain.free.ok) << plain.free.failure;
+  ASSERT_TRUE(results.nav.ok) << results.nav.failure;
+  ASSERT_TRUE(results.free.ok) << results.free.failure;
+  EXPECT_EQ(StepNames(results),
+            (std::vector<std::string>{"feature_extractor", "nav_guided_matcher", "matches_importer",
+                                      "point_triangulator", "exact_matcher", "matches_importer",
+                                      "mapper"}));
+  EXPECT_TRUE(fs::is_regular_file(dir / "guided" / "nav_matches.txt"));
+  EXPECT_TRUE(fs::is_regular_file(dir / "guided" / "free.db"));
+  const std::string log = ReadText(results.steps[1].log_file);
+  EXPECT_NE(log.find("guided by the nav epipolar geometry"), std::string::npos) << log;
+  EXPECT_NE(log.find("nav epipolar candidates: "), std::string::npos) << log;
+  const std::vector<double> distances = TruthDistances(results.nav);
+  std::printf("[ colmap   ] nav, guided: %zu points (exact matching: %zu), median distance to truth %.2f m\n",
+              results.nav.points.size(), plain.nav.points.size(), Median(distances));
+  EXPECT_GE(results.nav.points.size(), 300u);
+  EXPECT_LT(Median(distances), DepthErrorM(0.3));
+  for (const char* file : {"cameras.bin", "images.bin", "points3D.bin"}) {
+    const std::string first = ReadText(dir / "exact" / "free" / "0" / file);
+    EXPECT_FALSE(first.empty()) << file;
+    EXPECT_TRUE(ReadText(dir / "guided" / "free" / "0" / file) == first) << file;
+  }
+}
+
 // A database whose descriptors are not 128 bytes wide (here: COLMAP's output
 // altered after extraction) fails the exact matcher, which names the image
 // and its log; nothing after it runs.
@@ -516,12 +553,20 @@ TEST_F(ColmapRunner, InvalidInputsThrow) {
   ColmapOptions bad;
   bad.threads = 0;
   bad.timeout_s = -1;
+  bad.sift_first_octave = 3;
+  bad.sift_octave_resolution = 0;
+  bad.sift_peak_threshold = 0.0;
+  bad.nav_guided_max_error_px = -2.0;
   try {
     RunColmap(PairInput(dir / "ws"), bad);
     ADD_FAILURE() << "no exception";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("threads = 0"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("timeout_s = -1"), std::string::npos) << e.what();
+    for (const char* field : {"sift_first_octave = 3", "sift_octave_resolution = 0", "sift_peak_threshold = 0",
+                              "nav_guided_max_error_px = -2"}) {
+      EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+    }
   }
 }
 

@@ -65,9 +65,31 @@ TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
   // COLMAP's options for the suite: the number of SIFT features, an integer.
   EXPECT_EQ(suite(R"("methods": ["flight"], "colmap": {"max_features": 8192}, "entries": [)" + ok_entry + "]"),
             "no error");
-  EXPECT_EQ(ReadGateSuite((dir / "suite.json").string()).colmap_max_features, 8192);
+  EXPECT_EQ(ReadGateSuite((dir / "suite.json").string()).colmap.max_features, 8192);
   EXPECT_NE(suite(R"("methods": ["flight"], "colmap": {"max_features": 8.5}, "entries": [)" + ok_entry + "]")
                 .find("colmap: field 'max_features' must be an integer in [10, 1000000]"),
+            std::string::npos);
+  // The extraction and matching options, each in ColmapOptions' range.
+  EXPECT_EQ(suite(R"("methods": ["flight"], "colmap": {"first_octave": -2, "octave_resolution": 4, )"
+                  R"("peak_threshold": 0.004, "nav_band_px": 2.5}, "entries": [)" + ok_entry + "]"),
+            "no error");
+  const GateSuite read = ReadGateSuite((dir / "suite.json").string());
+  EXPECT_FALSE(read.colmap.max_features.has_value());
+  EXPECT_EQ(read.colmap.first_octave, -2);
+  EXPECT_EQ(read.colmap.octave_resolution, 4);
+  EXPECT_EQ(read.colmap.peak_threshold, 0.004);
+  EXPECT_EQ(read.colmap.nav_band_px, 2.5);
+  EXPECT_NE(suite(R"("methods": ["flight"], "colmap": {"first_octave": -3}, "entries": [)" + ok_entry + "]")
+                .find("colmap: sift_first_octave = -3: expected in [-2, 2]"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "colmap": {"octave_resolution": 2.5}, "entries": [)" + ok_entry + "]")
+                .find("colmap: field 'octave_resolution' must be an integer"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "colmap": {"nav_band_px": -1}, "entries": [)" + ok_entry + "]")
+                .find("colmap: nav_guided_max_error_px = -1: expected in [0, 1000]"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "colmap": {"peak_threshold": "low"}, "entries": [)" + ok_entry + "]")
+                .find("colmap: field 'peak_threshold' must be a finite number"),
             std::string::npos);
   EXPECT_NE(suite(R"("methods": ["flight"], "colmap": {"peak": 1}, "entries": [)" + ok_entry + "]")
                 .find("colmap: unknown field 'peak'"),

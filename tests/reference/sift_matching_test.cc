@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include "tools/util/error.h"
@@ -245,6 +246,27 @@ TEST(MatchSiftExact, AgreesWithTheRulesComputedOneByOne) {
   }
 }
 
+// The matches do not depend on the number of threads (each takes a range of
+// image 2's descriptors; the best two per descriptor merge exactly), ties
+// for the best included.
+TEST(MatchSiftExact, TheThreadsDoNotChangeTheMatches) {
+  auto [one, two] = RandomPair(testing_support::CurrentTestSeed());
+  // Copies of an image-2 descriptor far apart, in different threads' ranges.
+  std::copy_n(two.data.begin() + 128 * 3, 128, two.data.begin() + 128 * 600);
+  for (const bool cross_check : {true, false}) {
+    SiftMatchOptions options;
+    options.cross_check = cross_check;
+    const Pairs one_thread = Match(one, two, options);
+    for (const int threads : {2, 3, 7, 64}) {
+      options.threads = threads;
+      EXPECT_EQ(Match(one, two, options), one_thread) << threads << " threads";
+    }
+  }
+  SiftMatchOptions bad;
+  bad.threads = 0;
+  EXPECT_THROW(MatchSiftExact(one, two, bad), InputError);
+}
+
 TEST(MatchSiftExact, ReorderingAnImageReordersTheMatchesOnly) {
   const auto [one, two] = RandomPair(testing_support::CurrentTestSeed());
   // Image 2 reversed: descriptor j moves to rows - 1 - j.
@@ -257,6 +279,135 @@ TEST(MatchSiftExact, ReorderingAnImageReordersTheMatchesOnly) {
   for (auto& m : mapped) m.second = two.rows - 1 - m.second;
   EXPECT_FALSE(matches.empty());
   EXPECT_EQ(mapped, matches);
+}
+
+// The guided matches as (index1, index2) pairs.
+Pairs MatchGuided(const SiftDescriptors& one, const SiftDescriptors& two,
+                  const std::vector<std::vector<int>>& candidates, const SiftMatchOptions& options) {
+  Pairs pairs;
+  for (const SiftMatch& m : MatchSiftGuided(one, two, candidates, options)) {
+    pairs.emplace_back(m.index1, m.index2);
+  }
+  return pairs;
+}
+
+TEST(MatchSiftGuided, EveryCandidateIsTheExactMatcher) {
+  const auto [one, two] = RandomPair(testing_support::CurrentTestSeed());
+  std::vector<int> all(static_cast<size_t>(two.rows));
+  for (int j = 0; j < two.rows; ++j) all[static_cast<size_t>(j)] = j;
+  const std::vector<std::vector<int>> candidates(static_cast<size_t>(one.rows), all);
+  for (const bool cross_check : {true, false}) {
+    SiftMatchOptions options;
+    options.cross_check = cross_check;
+    const Pairs exact = Match(one, two, options);
+    EXPECT_GT(exact.size(), 100u);
+    EXPECT_EQ(MatchGuided(one, two, candidates, options), exact);
+  }
+}
+
+TEST(MatchSiftGuided, TheBandDecidesTheRatioTest) {
+  // Two equal descriptors in image 2 make every exact match ambiguous; with
+  // only one of them a candidate the match is unambiguous.
+  const SiftDescriptors one = Set({Block(0), Block(1)});
+  const SiftDescriptors two = Set({Block(0), Block(1), Block(0)});
+  EXPECT_EQ(Match(one, two, SiftMatchOptions()), (Pairs{{1, 1}}));
+  EXPECT_EQ(MatchGuided(one, two, {{2}, {1}}, SiftMatchOptions()), (Pairs{{0, 2}, {1, 1}}));
+  EXPECT_EQ(MatchGuided(one, two, {{0}, {1}}, SiftMatchOptions()), (Pairs{{0, 0}, {1, 1}}));
+  // Image 2's side of the cross-check sees only the descriptors that list it:
+  // both of image 1 listing image 2's first, the better one wins it.
+  const SiftDescriptors near = Set({Block(0), NearBlock0()});
+  EXPECT_EQ(MatchGuided(near, Set({Block(0)}), {{0}, {0}}, SiftMatchOptions()), (Pairs{{0, 0}}));
+  EXPECT_EQ(MatchGuided(near, Set({Block(0)}), {{}, {0}}, SiftMatchOptions()), (Pairs{{1, 0}}));
+  // No candidates, no matches.
+  EXPECT_TRUE(MatchGuided(one, two, {{}, {}}, SiftMatchOptions()).empty());
+}
+
+TEST(MatchSiftGuided, InvalidCandidatesThrow) {
+  const SiftDescriptors one = Set({Block(0), Block(1)}), two = Set({Block(0), Block(1)});
+  const auto message = [&](const std::vector<std::vector<int>>& candidates) {
+    try {
+      MatchSiftGuided(one, two, candidates, SiftMatchOptions());
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no exception");
+  };
+  EXPECT_NE(message({{0}}).find("1 candidate lists for 2 descriptors"), std::string::npos);
+  EXPECT_NE(message({{1, 0}, {}}).find("candidates of descriptor 0"), std::string::npos);
+  EXPECT_NE(message({{0}, {2}}).find("candidates of descriptor 1 of image 1: index 2"), std::string::npos);
+  EXPECT_NE(message({{0}, {-1}}).find("not increasing"), std::string::npos);
+}
+
+// Camera 2 from camera 1 for a camera that moved 30 m along its x axis and
+// turned 2 deg about its y axis; ground points about 566 m ahead.
+struct TwoViews {
+  Eigen::Matrix3d rotation = Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  Eigen::Vector3d translation = -(Eigen::AngleAxisd(2.0 * M_PI / 180.0, Eigen::Vector3d::UnitY()) *
+                                  Eigen::Vector3d(30.0, 0.0, 0.0));
+  Eigen::Vector3d InCamera2(const Eigen::Vector3d& p1) const { return rotation * p1 + translation; }
+};
+
+TEST(EpipolarCandidates, TrueCorrespondencesInTheBandOthersOut) {
+  const TwoViews views;
+  std::mt19937_64 rng(testing_support::CurrentTestSeed());
+  const auto uniform = [&rng]() { return static_cast<double>(rng() >> 11) * 0x1.0p-53; };
+  std::vector<Eigen::Vector3d> points;
+  for (int k = 0; k < 200; ++k) {
+    points.emplace_back(300.0 * (uniform() - 0.5), 300.0 * (uniform() - 0.5), 540.0 + 50.0 * uniform());
+  }
+  std::vector<Eigen::Vector3d> b1, b2;
+  for (const Eigen::Vector3d& p : points) {
+    b1.push_back(p);  // bearings need not be unit length
+    b2.push_back(views.InCamera2(p) * 3.0);
+  }
+  // A band of 1 px at a focal length of 1000 px.
+  const double max_sin = std::sin(std::atan(1.0 / 1000.0));
+  const std::vector<std::vector<int>> candidates =
+      EpipolarCandidates(b1, b2, views.rotation, views.translation, max_sin);
+  ASSERT_EQ(candidates.size(), points.size());
+  // The same relation seen from image 2 (camera 1 from camera 2).
+  const std::vector<std::vector<int>> reverse = EpipolarCandidates(
+      b2, b1, views.rotation.transpose(), -(views.rotation.transpose() * views.translation), max_sin);
+  size_t total = 0, total_reverse = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    const std::vector<int>& c = candidates[i];
+    EXPECT_TRUE(std::is_sorted(c.begin(), c.end()));
+    EXPECT_TRUE(std::binary_search(c.begin(), c.end(), static_cast<int>(i))) << "point " << i;
+    total += c.size();
+    total_reverse += reverse[i].size();
+    for (const int j : c) {
+      EXPECT_TRUE(std::binary_search(reverse[static_cast<size_t>(j)].begin(),
+                                     reverse[static_cast<size_t>(j)].end(), static_cast<int>(i)));
+    }
+  }
+  EXPECT_EQ(total_reverse, total);
+  // A band of 2 px out of about 1000 keeps a few per cent of 200 points.
+  std::printf("[ epipolar ] %zu candidate pairs of %zu x %zu\n", total, points.size(), points.size());
+  EXPECT_LT(total, points.size() * 20);
+  // 2 px off the line (across it, at 566 m and f = 1000 px: 1.13 m in y):
+  // outside; 0.5 px: inside.
+  for (const double offset_px : {2.0, 0.5}) {
+    const Eigen::Vector3d p(10.0, 20.0, 566.0);
+    const Eigen::Vector3d moved = views.InCamera2(p) + Eigen::Vector3d(0.0, offset_px * 0.566, 0.0);
+    const auto c = EpipolarCandidates({p}, {moved}, views.rotation, views.translation, max_sin);
+    EXPECT_EQ(c[0].size(), offset_px < 1.0 ? 1u : 0u) << offset_px << " px";
+  }
+  // Rays on their epipolar planes that meet behind camera 2 (image 2's ray
+  // reversed) or behind camera 1 (image 2 sees the mirrored point): no
+  // candidate.
+  const Eigen::Vector3d p(10.0, 20.0, 566.0);
+  EXPECT_TRUE(EpipolarCandidates({p}, {-views.InCamera2(p)}, views.rotation, views.translation, max_sin)[0]
+                  .empty());
+  EXPECT_TRUE(EpipolarCandidates({p}, {views.InCamera2(-p)}, views.rotation, views.translation, max_sin)[0]
+                  .empty());
+  // No translation, a zero or non-finite bearing: no candidates.
+  EXPECT_TRUE(EpipolarCandidates({p}, {p}, views.rotation, Eigen::Vector3d::Zero(), max_sin)[0].empty());
+  EXPECT_TRUE(EpipolarCandidates({Eigen::Vector3d::Zero()}, {views.InCamera2(p)}, views.rotation,
+                                 views.translation, max_sin)[0]
+                  .empty());
+  EXPECT_TRUE(EpipolarCandidates({p}, {Eigen::Vector3d(NAN, 0.0, 1.0)}, views.rotation, views.translation,
+                                 max_sin)[0]
+                  .empty());
 }
 
 // Keypoints of COLMAP 3.8 on 1024 x 1024 images whose descriptors differed

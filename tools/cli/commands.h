@@ -73,7 +73,13 @@ struct CompareCommandOptions {
   std::string colmap_executable = "colmap";   // a name looked up on PATH, or a path
   double colmap_timeout_s = 600.0;            // per COLMAP step
   bool colmap_all_frames = false;             // colmap-free on every frame of the collection window
-  int colmap_max_features = 32768;            // SIFT features COLMAP keeps per image (ColmapOptions)
+  int colmap_max_features = 131072;           // SIFT features COLMAP keeps per image (ColmapOptions)
+  // colmap-nav's matching: guided by the nav epipolar geometry within this
+  // many pixels (ColmapOptions::nav_guided_max_error_px), or exact when 0.
+  double colmap_nav_band_px = 0.0;
+  std::optional<int> colmap_first_octave;     // ColmapOptions::sift_first_octave (unset: from the ROIs)
+  int colmap_octave_resolution = 3;           // ColmapOptions::sift_octave_resolution
+  double colmap_peak_threshold = 0.02 / 3;    // ColmapOptions::sift_peak_threshold
   bool opengv_dense = false;                  // OpenGV on denser ORB matches than the flight's
   bool figures = true;                        // write flight/figures/ (PNG)
   bool report = true;                         // write report.html and report.md (docs/report.md)

@@ -42,6 +42,10 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
   compare.colmap.timeout_s = options.colmap_timeout_s;
   compare.colmap.use_all_frames = options.colmap_all_frames;
   compare.colmap.sift_max_num_features = options.colmap_max_features;
+  compare.colmap.sift_first_octave = options.colmap_first_octave;
+  compare.colmap.sift_octave_resolution = options.colmap_octave_resolution;
+  compare.colmap.sift_peak_threshold = options.colmap_peak_threshold;
+  compare.colmap.nav_guided_max_error_px = options.colmap_nav_band_px;
   compare.opengv_dense_features = options.opengv_dense;
   const std::vector<std::string> invalid = compare.Validate();
   if (!invalid.empty()) {
@@ -152,6 +156,33 @@ Command AddCompareCommand(CLI::App& app) {
                     "colmap-free on every frame of the collection window, not only the pair");
   compare->add_option("--colmap-max-features", options.colmap_max_features,
                       "SIFT features COLMAP keeps per image (the largest scales first)")
+      ->capture_default_str();
+  compare->add_option_function<std::string>(
+              "--colmap-first-octave",
+              [&options](const std::string& value) {
+                if (value == "auto") {
+                  options.colmap_first_octave.reset();
+                  return;
+                }
+                int octave = 0;
+                if (!CLI::detail::lexical_cast(value, octave)) {
+                  throw CLI::ValidationError("--colmap-first-octave", "'" + value + "' is not an integer or auto");
+                }
+                options.colmap_first_octave = octave;
+              },
+              "COLMAP's first SIFT octave, in [-2, 2]: -1 upsamples the images twice, -2 four\n"
+              "times (more small-scale keypoints, in the smooth blocks the quadtree keeps); auto:\n"
+              "-2 when the smallest ROI is under 64 px and the image at most 2048 px, else -1")
+      ->default_str("auto");
+  compare->add_option("--colmap-octave-resolution", options.colmap_octave_resolution,
+                      "COLMAP's SIFT levels per octave")
+      ->capture_default_str();
+  compare->add_option("--colmap-peak-threshold", options.colmap_peak_threshold,
+                      "COLMAP's SIFT difference-of-Gaussian peak threshold")
+      ->capture_default_str();
+  compare->add_option("--colmap-nav-band-px", options.colmap_nav_band_px,
+                      "colmap-nav's SIFT matching guided by the nav epipolar geometry: the band's\n"
+                      "half-width, pixels (0: exact matching of every descriptor pair, as colmap-free)")
       ->capture_default_str();
   compare->add_option("--fault-match-noise-px", options.fault_match_noise_px,
                       "Fault injection for testing the gate: Gaussian noise added to the flight\n"

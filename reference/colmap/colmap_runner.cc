@@ -493,9 +493,9 @@ std::vector<std::string> VerificationArgs(const ColmapOptions& o) {
           "--SiftMatching.max_error",   util::ShortestText(o.sift_max_error_px)};
 }
 
-// ColmapOptions::extraction_threads, 0 resolved to the number of cores.
-int ExtractionThreads(const ColmapOptions& o) {
-  if (o.extraction_threads > 0) return o.extraction_threads;
+// ColmapOptions::matcher_threads, 0 resolved to the number of cores.
+int MatcherThreads(const ColmapOptions& o) {
+  if (o.matcher_threads > 0) return o.matcher_threads;
   return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
 }
 
@@ -507,7 +507,7 @@ SiftMatchOptions ExactMatchOptions(const ColmapOptions& o) {
   SiftMatchOptions match;
   match.max_ratio = o.sift_max_ratio;
   match.max_num_matches = o.sift_max_num_features;
-  match.threads = ExtractionThreads(o);
+  match.threads = MatcherThreads(o);
   return match;
 }
 
@@ -821,7 +821,7 @@ bool ExtractFeatures(ColmapRun* run) {
                                                  "--SiftExtraction.use_gpu",
                                                  "0",
                                                  "--SiftExtraction.num_threads",
-                                                 std::to_string(ExtractionThreads(options)),
+                                                 std::to_string(options.threads),
                                                  "--SiftExtraction.max_image_size",
                                                  std::to_string(options.sift_max_image_size_px),
                                                  "--SiftExtraction.max_num_features",
@@ -1147,8 +1147,7 @@ std::vector<std::string> ColmapOptions::Validate() const {
   if (executable.empty()) errors.push_back("executable = '': expected a program name or path");
   RequireOption(timeout_s > 0, "timeout_s", timeout_s, "> 0", &errors);
   RequireOption(threads >= 1, "threads", threads, ">= 1", &errors);
-  RequireOption(extraction_threads >= 0, "extraction_threads", extraction_threads, ">= 0 (0: every core)",
-                &errors);
+  RequireOption(matcher_threads >= 0, "matcher_threads", matcher_threads, ">= 0 (0: every core)", &errors);
   RequireOption(sift_max_image_size_px >= 16, "sift_max_image_size_px", sift_max_image_size_px,
                 ">= 16", &errors);
   RequireOption(sift_max_num_features >= 10, "sift_max_num_features", sift_max_num_features,

@@ -159,12 +159,12 @@ struct ColmapOptions {
   std::string executable = "colmap";  // a name looked up on PATH, or a path
   double timeout_s = 600.0;           // wall-time limit of each step, seconds, > 0
   int threads = 1;                    // threads of COLMAP's steps, >= 1 (1: reproducible output)
-  // Threads of the two steps whose output does not depend on them, >= 0 (0:
-  // every core): COLMAP's feature_extractor (each image is extracted whole by
-  // one thread, its features written under the image id it was read with,
-  // so the database is the same bytes; the compare test checks it) and the
-  // exact matcher (sift_matching.h, SiftMatchOptions::threads).
-  int extraction_threads = 0;
+  // Threads of the exact matcher (sift_matching.h, SiftMatchOptions::
+  // threads), >= 0 (0: every core); its matches do not depend on them.
+  // COLMAP's feature_extractor keeps `threads`: with two, the images' ids in
+  // the database followed the order the extractions finished in, and the
+  // models' bytes changed between runs.
+  int matcher_threads = 0;
   bool run_nav = true;                // colmap-nav (point_triangulator, nav poses fixed)
   bool run_free = true;               // colmap-free (mapper, then alignment)
   bool use_all_frames = false;        // colmap-free on every frame given instead of the pair

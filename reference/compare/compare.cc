@@ -900,6 +900,39 @@ void FillWholePairMethod(const std::string& method, const PairReconstruction& re
   PoseErrorAgainstTruth(recon, ctx, summary);
 }
 
+// A per-ROI method one of `methods` computes in this process (flight,
+// plane-nav, dense-nav, OpenGV); nothing for the whole-pair methods, filled
+// from their reconstructions. A method that cannot run on this dataset (a
+// bad input, a lens model it cannot unproject) fails its column only.
+void ComputeMethodHere(const std::string& method, const FlightRun& flight,
+                       const std::vector<RoiBearings>& roi_matches, const CompareOptions& options,
+                       const Context& ctx, const std::function<void(const std::string&)>& say,
+                       std::vector<MethodRoi>* rois, MethodSummary* summary) {
+  const auto guarded = [&](const std::function<std::vector<MethodRoi>()>& compute) {
+    try {
+      *rois = compute();
+    } catch (const InputError& e) {
+      *rois = FailMethod(e.what(), flight.result.rois.size(), summary);
+    } catch (const UnsupportedError& e) {  // a lens model the method cannot unproject
+      *rois = FailMethod(e.what(), flight.result.rois.size(), summary);
+    }
+  };
+  if (method == kMethodFlight) {
+    *rois = FlightRois(flight, ctx);
+    summary->wall_s = flight.result.times.total_s;
+  } else if (method == kMethodPlaneNav) {
+    say("plane-nav: the direct plane of every ROI");
+    guarded([&] { return PlaneNavRois(flight, options, ctx, summary); });
+  } else if (method == kMethodDenseNav) {
+    say("dense-nav: the rectified pair's semi-global matching");
+    guarded([&] { return DenseNavRois(flight, options, ctx, summary); });
+  } else if (IsOpenGvMethod(method)) {
+    say(method);
+    const OpenGvSolver solver = ParseOpenGvSolver(method.substr(std::string(kOpenGvMethodPrefix).size()));
+    *rois = OpenGvRois(solver, roi_matches, options, ctx, summary);
+  }
+}
+
 }  // namespace
 
 CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
@@ -941,23 +974,6 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
     });
     run.colmap_workspace = colmap_workspace;
   }
-  // Waits for COLMAP and adds its methods (on every way out: an exception
-  // here must not leave COLMAP running on freed inputs).
-  bool colmap_taken = false;
-  const auto take_colmap = [&] {
-    if (!any_colmap || colmap_taken) return;
-    colmap_taken = true;
-    ColmapResults results = colmap_results.get();
-    whole.colmap_note = results.extraction_note;
-    if (wants(kMethodColmapNav)) whole.reconstructions.emplace_back(kMethodColmapNav, std::move(results.nav));
-    if (wants(kMethodColmapFree)) whole.reconstructions.emplace_back(kMethodColmapFree, std::move(results.free));
-  };
-  struct WaitForColmap {
-    std::future<ColmapResults>* future;
-    ~WaitForColmap() {
-      if (future->valid()) future->wait();
-    }
-  } wait_for_colmap{&colmap_results};
   std::vector<RoiBearings> roi_matches;
   const bool any_opengv = std::any_of(run.methods.begin(), run.methods.end(), IsOpenGvMethod);
   if (any_opengv || wants(kMethodColmapFree)) {
@@ -969,55 +985,25 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
   run.rois.resize(run.methods.size());
   run.summaries.resize(run.methods.size());
   for (size_t m = 0; m < run.methods.size(); ++m) {
-    const std::string& method = run.methods[m];
-    MethodSummary& summary = run.summaries[m];
-    summary.method = method;
-    if (method == kMethodFlight) {
-      run.rois[m] = FlightRois(run.flight, ctx);
-      summary.wall_s = flight_seconds;
-    } else if (method == kMethodPlaneNav) {
-      say("plane-nav: the direct plane of every ROI");
-      try {
-        run.rois[m] = PlaneNavRois(run.flight, options, ctx, &summary);
-      } catch (const InputError& e) {
-        run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
-      } catch (const UnsupportedError& e) {  // a lens model the method cannot unproject
-        run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
-      }
-    } else if (method == kMethodDenseNav) {
-      say("dense-nav: the rectified pair's semi-global matching");
-      try {
-        run.rois[m] = DenseNavRois(run.flight, options, ctx, &summary);
-      } catch (const InputError& e) {
-        run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
-      } catch (const UnsupportedError& e) {  // a lens model the method cannot unproject
-        run.rois[m] = FailMethod(e.what(), run.flight.result.rois.size(), &summary);
-      }
-    } else if (IsOpenGvMethod(method)) {
-      say(method);
-      const OpenGvSolver solver =
-          ParseOpenGvSolver(method.substr(std::string(kOpenGvMethodPrefix).size()));
-      run.rois[m] = OpenGvRois(solver, roi_matches, options, ctx, &summary);
-    } else if (method == kMethodColmapNav || method == kMethodColmapFree) {
-      continue;  // when COLMAP is done, below
-    } else {
-      for (const auto& [name, recon] : whole.reconstructions) {
-        if (name != method) continue;
-        FillWholePairMethod(method, recon, whole, run, roi_matches, pair_configuration,
-                            options, ctx, &run.rois[m], &summary);
-      }
-    }
+    run.summaries[m].method = run.methods[m];
+    ComputeMethodHere(run.methods[m], run.flight, roi_matches, options, ctx, say, &run.rois[m],
+                      &run.summaries[m]);
   }
-  if (any_colmap) say("colmap: waiting for it to finish");
-  take_colmap();
-  for (size_t m = 0; m < run.methods.size(); ++m) {
-    const std::string& method = run.methods[m];
-    if (method != kMethodColmapNav && method != kMethodColmapFree) continue;
-    for (const auto& [name, recon] : whole.reconstructions) {
-      if (name != method) continue;
-      FillWholePairMethod(method, recon, whole, run, roi_matches, pair_configuration, options, ctx,
-                          &run.rois[m], &run.summaries[m]);
-    }
+  // The whole-pair methods, COLMAP's once it is done (a future of std::async
+  // waits for its task when destroyed, so an exception above never leaves
+  // COLMAP running on freed inputs).
+  if (any_colmap) {
+    say("colmap: waiting for it to finish");
+    ColmapResults results = colmap_results.get();
+    whole.colmap_note = results.extraction_note;
+    if (wants(kMethodColmapNav)) whole.reconstructions.emplace_back(kMethodColmapNav, std::move(results.nav));
+    if (wants(kMethodColmapFree)) whole.reconstructions.emplace_back(kMethodColmapFree, std::move(results.free));
+  }
+  for (const auto& [method, recon] : whole.reconstructions) {
+    const size_t m = static_cast<size_t>(std::find(run.methods.begin(), run.methods.end(), method) -
+                                         run.methods.begin());
+    FillWholePairMethod(method, recon, whole, run, roi_matches, pair_configuration, options, ctx, &run.rois[m],
+                        &run.summaries[m]);
   }
   const auto colmap_nav = std::find(run.methods.begin(), run.methods.end(), kMethodColmapNav);
   const size_t colmap_nav_index = static_cast<size_t>(colmap_nav - run.methods.begin());

@@ -126,9 +126,18 @@ class HeaderParser {
   size_t pos_ = 0;
 };
 
-bool ParseNpy(const std::string& bytes, bool read_values, NpyFloat32* array, std::string* error) {
-  array->shape.clear();
-  array->values.clear();
+// The header of .npy bytes: shape, dtype (one of `dtypes`: '<f4' 4 bytes,
+// '<f8' 8 bytes), where the data begin and how many values they hold
+// (checked against the bytes). `expected` names the dtypes in messages.
+struct NpyLayout {
+  std::vector<std::int64_t> shape;
+  std::string descr;
+  size_t item_bytes = 4;
+  size_t data_begin = 0;
+  std::uint64_t count = 0;
+};
+
+bool ParseNpyLayout(const std::string& bytes, bool allow_f8, NpyLayout* layout, std::string* error) {
   if (bytes.size() < kMagicSize + 4 || bytes.compare(0, kMagicSize, kMagic, kMagicSize) != 0) {
     *error = "is not a .npy file (no \\x93NUMPY magic)";
     return false;
@@ -157,25 +166,29 @@ bool ParseNpy(const std::string& bytes, bool read_values, NpyFloat32* array, std
     *error = "is truncated inside the .npy header";
     return false;
   }
-  std::string descr;
   bool fortran_order = false;
   HeaderParser parser(std::string_view(bytes).substr(header_begin, header_length));
-  if (!parser.Parse(&descr, &fortran_order, &array->shape, error)) return false;
-  if (descr != "<f4") {
-    *error = "has dtype '" + descr + "'; expected '<f4' (little-endian float32)";
+  if (!parser.Parse(&layout->descr, &fortran_order, &layout->shape, error)) return false;
+  if (layout->descr == "<f4") {
+    layout->item_bytes = 4;
+  } else if (allow_f8 && layout->descr == "<f8") {
+    layout->item_bytes = 8;
+  } else {
+    *error = "has dtype '" + layout->descr + "'; expected " +
+             (allow_f8 ? "'<f4' or '<f8' (little-endian float32 or float64)" : "'<f4' (little-endian float32)");
     return false;
   }
   if (fortran_order) {
     *error = "is stored in Fortran order; expected C order (fortran_order: False)";
     return false;
   }
-  const size_t data_begin = header_begin + header_length;
-  const size_t data_bytes = bytes.size() - data_begin;
+  layout->data_begin = header_begin + header_length;
+  const size_t data_bytes = bytes.size() - layout->data_begin;
   // Product of the shape, refusing sizes beyond 2^60 values (and overflow).
   constexpr std::uint64_t kMaxValues = std::uint64_t{1} << 60;
   std::uint64_t count = 1;
   bool too_large = false;
-  for (const std::int64_t extent : array->shape) {
+  for (const std::int64_t extent : layout->shape) {
     const std::uint64_t e = static_cast<std::uint64_t>(extent);
     if (e != 0 && count > kMaxValues / e) {
       too_large = true;
@@ -183,25 +196,61 @@ bool ParseNpy(const std::string& bytes, bool read_values, NpyFloat32* array, std
       count *= e;
     }
   }
-  if (too_large || count * 4 != data_bytes) {
+  const std::uint64_t needed = count * layout->item_bytes;
+  if (too_large || needed != data_bytes) {
     *error = "holds " + std::to_string(data_bytes) + " bytes of data; shape " +
-             FormatNpyShape(array->shape) + " of float32 needs " +
-             (too_large ? std::string("more than 2^62") : std::to_string(count * 4)) +
-             (too_large || count * 4 > data_bytes ? " (truncated file?)" : "");
+             FormatNpyShape(layout->shape) + " of " + (layout->item_bytes == 4 ? "float32" : "float64") +
+             " needs " + (too_large ? std::string("more than 2^62") : std::to_string(needed)) +
+             (too_large || needed > data_bytes ? " (truncated file?)" : "");
     return false;
   }
+  if (!IsLittleEndianHost()) {
+    *error = "cannot be read: this build reads little-endian arrays only on little-endian hosts";
+    return false;
+  }
+  layout->count = count;
+  return true;
+}
+
+bool ParseNpy(const std::string& bytes, bool read_values, NpyFloat32* array, std::string* error) {
+  array->shape.clear();
+  array->values.clear();
+  NpyLayout layout;
+  if (!ParseNpyLayout(bytes, false, &layout, error)) {
+    array->shape = layout.shape;
+    return false;
+  }
+  array->shape = layout.shape;
   if (read_values) {
-    if (!IsLittleEndianHost()) {
-      *error = "cannot be read: this build reads '<f4' only on little-endian hosts";
-      return false;
+    array->values.resize(static_cast<size_t>(layout.count));
+    if (layout.count > 0) {
+      std::memcpy(array->values.data(), bytes.data() + layout.data_begin, layout.count * 4);
     }
-    array->values.resize(static_cast<size_t>(count));
-    if (count > 0) std::memcpy(array->values.data(), bytes.data() + data_begin, data_bytes);
   }
   return true;
 }
 
 }  // namespace
+
+bool ParseNpyAsDoubles(const std::string& bytes, NpyDoubles* array, std::string* error) {
+  array->shape.clear();
+  array->values.clear();
+  NpyLayout layout;
+  if (!ParseNpyLayout(bytes, true, &layout, error)) return false;
+  array->shape = layout.shape;
+  array->values.resize(static_cast<size_t>(layout.count));
+  const char* data = bytes.data() + layout.data_begin;
+  for (size_t i = 0; i < array->values.size(); ++i) {
+    if (layout.item_bytes == 4) {
+      float v = 0;
+      std::memcpy(&v, data + 4 * i, 4);
+      array->values[i] = v;
+    } else {
+      std::memcpy(&array->values[i], data + 8 * i, 8);
+    }
+  }
+  return true;
+}
 
 std::int64_t NpyFloat32::NumValues() const {
   std::int64_t count = 1;

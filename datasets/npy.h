@@ -1,5 +1,6 @@
 // Float32 arrays in numpy's .npy format (version 1.0 written; 1.0, 2.0 and 3.0
-// read), the format of the dataset's truth rasters. Any numpy opens them with
+// read), the format of the dataset's truth rasters; small float32 or float64
+// arrays read as doubles (the StereoLunar .npz members). Any numpy opens them with
 // numpy.load(path). Only little-endian float32 ('<f4') in C order is accepted.
 // https://numpy.org/doc/stable/reference/generated/numpy.lib.format.html
 #pragma once
@@ -26,6 +27,16 @@ bool ParseNpyFloat32(const std::string& bytes, NpyFloat32* array, std::string* e
 // The same, reading only the header: `array->values` stays empty. Also checks
 // that the file holds exactly the bytes the shape needs.
 bool ParseNpyFloat32Header(const std::string& bytes, NpyFloat32* array, std::string* error);
+
+// A float array of either float dtype numpy writes ('<f4', '<f8'), as doubles.
+struct NpyDoubles {
+  std::vector<std::int64_t> shape;
+  std::vector<double> values;  // C order
+};
+
+// Parses .npy bytes of dtype '<f4' or '<f8' in C order into doubles; false
+// with `error` as ParseNpyFloat32.
+bool ParseNpyAsDoubles(const std::string& bytes, NpyDoubles* array, std::string* error);
 
 // Encodes a float32 array as .npy version 1.0 bytes. The header is padded so
 // the data starts at a multiple of 64 bytes, as numpy does. Throws

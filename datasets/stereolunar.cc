@@ -21,6 +21,7 @@
 
 #include "tools/util/error.h"
 #include "tools/util/text.h"
+#include "datasets/npz.h"
 
 namespace hdabench::datasets {
 
@@ -188,9 +189,9 @@ void FindPairCameras(const std::vector<StereoLunarCamera>& cameras,
   }
   const StereoLunarCamera* const* camera = pair->camera;
   if (camera[0]->k != camera[1]->k) {
-    throw InputError(cameras_txt + ":" + std::to_string(camera[1]->line) + ": K of " +
-                     camera[1]->key + " differs from K of " + camera[0]->key + " (line " +
-                     std::to_string(camera[0]->line) + "); the bench needs one camera per dataset");
+    throw InputError(camera[1]->where + ": K of " + camera[1]->key + " differs from K of " +
+                     camera[0]->key + " (" + camera[0]->where +
+                     "); the bench needs one camera per dataset");
   }
 }
 
@@ -334,6 +335,31 @@ cv::Mat TruthPointsFromDepth(const cv::Mat& depth, const Pinhole& pinhole,
   return points;
 }
 
+// Throws InputError "where: ..." unless K is [fx 0 cx; 0 fy cy; 0 0 1] with
+// fx, fy > 0 and cam2world a rigid transform (last row 0 0 0 1, rotation
+// orthonormal within kOrthonormalTolerance, det +1).
+void CheckCamera(const StereoLunarCamera& camera, const std::string& where) {
+  const Eigen::Matrix3d& k = camera.k;
+  if (!(k(0, 0) > 0.0) || !(k(1, 1) > 0.0) || k(0, 1) != 0.0 || k(1, 0) != 0.0 ||
+      k(2, 0) != 0.0 || k(2, 1) != 0.0 || k(2, 2) != 1.0) {
+    throw InputError(where + ": K of " + camera.key +
+                     " is not [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (no skew)");
+  }
+  const Eigen::Matrix4d& m = camera.cam2world;
+  if (m(3, 0) != 0.0 || m(3, 1) != 0.0 || m(3, 2) != 0.0 || m(3, 3) != 1.0) {
+    throw InputError(where + ": cam2world of " + camera.key + " has last row (" + util::ShortestText(m(3, 0)) +
+                     " " + util::ShortestText(m(3, 1)) + " " + util::ShortestText(m(3, 2)) + " " + util::ShortestText(m(3, 3)) +
+                     "); expected (0 0 0 1)");
+  }
+  const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
+  const double error = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (!(error <= kOrthonormalTolerance) || !(r.determinant() > 0.0)) {
+    throw InputError(where + ": cam2world rotation of " + camera.key +
+                     " is not a rotation (|R^T R - I| = " + util::ShortestText(error) + ", det " +
+                     util::ShortestText(r.determinant()) + "); expected orthonormal within 1e-4, det +1");
+  }
+}
+
 }  // namespace
 
 std::vector<StereoLunarCamera> ReadStereoLunarCameras(const std::string& path) {
@@ -369,31 +395,14 @@ std::vector<StereoLunarCamera> ReadStereoLunarCameras(const std::string& path) {
     StereoLunarCamera camera;
     camera.key = fields[0];
     camera.line = line_number;
+    camera.where = path + ":" + std::to_string(line_number);
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) camera.k(r, c) = values[static_cast<size_t>(3 * r + c)];
     }
     for (int r = 0; r < 4; ++r) {
       for (int c = 0; c < 4; ++c) camera.cam2world(r, c) = values[static_cast<size_t>(9 + 4 * r + c)];
     }
-    const Eigen::Matrix3d& k = camera.k;
-    if (!(k(0, 0) > 0.0) || !(k(1, 1) > 0.0) || k(0, 1) != 0.0 || k(1, 0) != 0.0 ||
-        k(2, 0) != 0.0 || k(2, 1) != 0.0 || k(2, 2) != 1.0) {
-      throw InputError(where + ": K of " + camera.key +
-                       " is not [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (no skew)");
-    }
-    const Eigen::Matrix4d& m = camera.cam2world;
-    if (m(3, 0) != 0.0 || m(3, 1) != 0.0 || m(3, 2) != 0.0 || m(3, 3) != 1.0) {
-      throw InputError(where + ": cam2world of " + camera.key + " has last row (" + util::ShortestText(m(3, 0)) +
-                       " " + util::ShortestText(m(3, 1)) + " " + util::ShortestText(m(3, 2)) + " " + util::ShortestText(m(3, 3)) +
-                       "); expected (0 0 0 1)");
-    }
-    const Eigen::Matrix3d r = m.topLeftCorner<3, 3>();
-    const double error = (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-    if (!(error <= kOrthonormalTolerance) || !(r.determinant() > 0.0)) {
-      throw InputError(where + ": cam2world rotation of " + camera.key +
-                       " is not a rotation (|R^T R - I| = " + util::ShortestText(error) + ", det " +
-                       util::ShortestText(r.determinant()) + "); expected orthonormal within 1e-4, det +1");
-    }
+    CheckCamera(camera, where);
     const auto inserted = seen.emplace(camera.key, line_number);
     if (!inserted.second) {
       throw InputError(where + ": " + camera.key + " repeats line " +
@@ -404,6 +413,35 @@ std::vector<StereoLunarCamera> ReadStereoLunarCameras(const std::string& path) {
   if (in.bad()) throw InputError(path + ": read error");
   if (cameras.empty()) throw InputError(path + ": no camera line");
   return cameras;
+}
+
+StereoLunarCamera ReadStereoLunarNpzCamera(const std::string& path, const std::string& key) {
+  const std::map<std::string, NpyDoubles> arrays = ReadNpzArrays(path);
+  const auto array = [&](const std::string& name, std::int64_t rows, std::int64_t cols) {
+    const auto it = arrays.find(name);
+    if (it == arrays.end()) throw InputError(path + ": no array '" + name + "'");
+    if (it->second.shape != std::vector<std::int64_t>{rows, cols}) {
+      throw InputError(path + ": array '" + name + "' has shape " + FormatNpyShape(it->second.shape) +
+                       "; expected (" + std::to_string(rows) + ", " + std::to_string(cols) + ")");
+    }
+    for (const double v : it->second.values) {
+      if (!std::isfinite(v)) throw InputError(path + ": array '" + name + "' holds a value that is not finite");
+    }
+    return it->second.values;
+  };
+  const std::vector<double> k = array("intrinsics", 3, 3);
+  const std::vector<double> m = array("cam2world", 4, 4);
+  StereoLunarCamera camera;
+  camera.key = key;
+  camera.where = path;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) camera.k(r, c) = k[static_cast<size_t>(3 * r + c)];
+  }
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) camera.cam2world(r, c) = m[static_cast<size_t>(4 * r + c)];
+  }
+  CheckCamera(camera, path);
+  return camera;
 }
 
 Rigid3d LocalLevelFromMoon(const Eigen::Vector3d& ground_in_moon_m) {
@@ -449,20 +487,38 @@ Dataset ConvertStereoLunarPair(const std::string& pair_dir, const std::string& c
   }
   const std::vector<SourceFrame> frames = ListFrames(dir);
   RequireSun(pair_dir, frames, sun);
-  const std::vector<StereoLunarCamera> cameras = ReadStereoLunarCameras(cameras_txt);
   const std::string folder = FolderName(dir);
 
   PairFrames pair;
   pair.source[0] = frames[static_cast<size_t>(2 * sun)];
   pair.source[1] = frames[static_cast<size_t>(2 * sun + 1)];
-  FindPairCameras(cameras, cameras_txt, folder, &pair);
+  // The cameras: the given cameras.txt; else each frame's .npz, as the
+  // dataset ships; else the default cameras.txt.
+  std::string camera_source = cameras_txt;
+  std::vector<StereoLunarCamera> cameras;
+  if (cameras_txt.empty()) {
+    std::error_code npz_ec;
+    const fs::path npz0 = dir / (pair.source[0].stem + ".npz");
+    const fs::path npz1 = dir / (pair.source[1].stem + ".npz");
+    if (fs::exists(npz0, npz_ec) || fs::exists(npz1, npz_ec)) {
+      for (const fs::path& npz : {npz0, npz1}) {
+        if (!fs::exists(npz, npz_ec)) throw InputError(npz.string() + ": no such file");
+        cameras.push_back(ReadStereoLunarNpzCamera(npz.string(), folder + "/" + npz.stem().string()));
+      }
+      camera_source = npz0.string();
+    } else {
+      camera_source = DefaultStereoLunarCamerasFile(pair_dir);
+    }
+  }
+  if (cameras.empty()) cameras = ReadStereoLunarCameras(camera_source);
+  FindPairCameras(cameras, camera_source, folder, &pair);
   ReadPairRasters(dir, &pair);
   const cv::Size size = pair.image[0].size();
 
   const Pinhole pinhole = PinholeFromK(pair.camera[0]->k);
   Dataset dataset(calib::CameraModel("LENSMODEL_PINHOLE",
                                      {pinhole.fx, pinhole.fy, pinhole.cx, pinhole.cy},
-                                     size.width, size.height, {}, cameras_txt));
+                                     size.width, size.height, {}, camera_source));
   Rigid3d moon_from_cam[2];
   for (int i = 0; i < 2; ++i) moon_from_cam[i] = MoonFromCam(*pair.camera[i]);
 

@@ -55,7 +55,8 @@ constexpr double kStereoLunarPrincipalPointShiftPx = -0.5;
 // One line of cameras.txt.
 struct StereoLunarCamera {
   std::string key;          // first field, e.g. "paire1/im_00594"
-  int line = 0;             // 1-based line in the file
+  int line = 0;             // 1-based line in the file (0: from a .npz)
+  std::string where;        // "path:line" of cameras.txt, or the .npz path
   Eigen::Matrix3d k;        // intrinsics, pixels, source pixel convention
   Eigen::Matrix4d cam2world;  // moon_from_cam: OpenCV camera axes, Moon-centred metres
 };
@@ -68,6 +69,14 @@ struct StereoLunarCamera {
 // camera line.
 std::vector<StereoLunarCamera> ReadStereoLunarCameras(const std::string& path);
 
+// The camera of one frame from its .npz, as the dataset ships it: arrays
+// `intrinsics` (3 x 3) and `cam2world` (4 x 4), float32 or float64, checked as
+// ReadStereoLunarCameras checks a line. `key` names the frame
+// ("paire1/im_00594"). Throws InputError "path: ..." for an unreadable
+// archive, a missing array, a wrong shape, a value that is not finite, or a
+// K or cam2world that fails the checks.
+StereoLunarCamera ReadStereoLunarNpzCamera(const std::string& path, const std::string& key);
+
 // local_from_moon of the local-level frame at ground point `ground_in_moon_m`
 // (Moon-centred metres): x east, y north, z radial up, origin the point (see
 // the header comment). Throws InputError when the point is within 1 m of the
@@ -79,7 +88,9 @@ Rigid3d LocalLevelFromMoon(const Eigen::Vector3d& ground_in_moon_m);
 Eigen::Vector2d StereoLunarCentrePixel(int width_px, int height_px);
 
 // Converts sun position `sun` (0-based) of the pair in `pair_dir` with the
-// poses of `cameras_txt` (see the header comment). Throws std::invalid_argument
+// poses of `cameras_txt` (see the header comment); when `cameras_txt` is
+// empty, with each frame's .npz (ReadStereoLunarNpzCamera) when the pair's
+// frames have one, else with DefaultStereoLunarCamerasFile. Throws std::invalid_argument
 // when sun < 0; InputError naming the file (and line) when the folder is
 // missing or holds no usable frame sequence, sun is beyond the folder's sun
 // positions, an image or depth file is missing or unreadable (a non-8-bit
@@ -87,7 +98,7 @@ Eigen::Vector2d StereoLunarCentrePixel(int width_px, int height_px);
 // has no line in cameras.txt, the two frames' K differ, or the centre pixel
 // has no valid depth. Sets OPENCV_IO_ENABLE_OPENEXR=1 in the environment
 // before the first depth read (OpenCV reads that variable once).
-Dataset ConvertStereoLunarPair(const std::string& pair_dir, const std::string& cameras_txt,
+Dataset ConvertStereoLunarPair(const std::string& pair_dir, const std::string& cameras_txt = "",
                                int sun = 0);
 
 // The cameras.txt used when none is given: pair_dir/cameras.txt when that file

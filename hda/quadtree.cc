@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <string>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -41,20 +42,19 @@ std::string QuadtreeResult::Summary() const {
   return line.str();
 }
 
-int MinimumBlockSizePx(const calib::CameraModel& camera, double lrf_range_m,
-                       const QuadtreeOptions& options) {
-  ThrowIfInvalid("MinimumBlockSizePx", options.Validate());
+double ProjectedSiteSidePx(const calib::CameraModel& camera, double lrf_range_m, double site_size_m,
+                           const char* caller) {
+  const std::string who = caller;
   if (!(std::isfinite(lrf_range_m) && lrf_range_m > 0)) {
     std::ostringstream message;
-    message << "MinimumBlockSizePx: lrf_range_m = " << lrf_range_m << ": expected finite and > 0";
+    message << who << ": lrf_range_m = " << lrf_range_m << ": expected finite and > 0";
     throw InputError(message.str());
   }
   const Eigen::Vector2d centre_px(0.5 * (camera.WidthPx() - 1), 0.5 * (camera.HeightPx() - 1));
   std::vector<Eigen::Vector3d> bearings;
   std::vector<unsigned char> valid;
   if (camera.Unproject({centre_px}, &bearings, &valid) != 1) {
-    throw InputError("MinimumBlockSizePx: camera " + camera.LensModelName() +
-                     " cannot unproject the image centre");
+    throw InputError(who + ": camera " + camera.LensModelName() + " cannot unproject the image centre");
   }
   const Eigen::Vector3d ray = bearings[0].normalized();
   // Two directions perpendicular to the ray: the first in the camera's x-z
@@ -64,16 +64,23 @@ int MinimumBlockSizePx(const calib::CameraModel& camera, double lrf_range_m,
   across.normalize();
   const Eigen::Vector3d down = ray.cross(across).normalized();
   const Eigen::Vector3d centre_in_cam = lrf_range_m * ray;
-  const double half_m = 0.5 * options.site_size_m;
+  const double half_m = 0.5 * site_size_m;
   const std::vector<Eigen::Vector3d> points_in_cam = {
       centre_in_cam - half_m * across, centre_in_cam + half_m * across,
       centre_in_cam - half_m * down, centre_in_cam + half_m * down};
   std::vector<Eigen::Vector2d> pixels;
   if (camera.Project(points_in_cam, &pixels, &valid) != 4) {
-    throw InputError("MinimumBlockSizePx: camera " + camera.LensModelName() +
+    throw InputError(who + ": camera " + camera.LensModelName() +
                      " cannot project the landing site at the image centre");
   }
-  const double site_px = std::min((pixels[1] - pixels[0]).norm(), (pixels[3] - pixels[2]).norm());
+  return std::min((pixels[1] - pixels[0]).norm(), (pixels[3] - pixels[2]).norm());
+}
+
+int MinimumBlockSizePx(const calib::CameraModel& camera, double lrf_range_m,
+                       const QuadtreeOptions& options) {
+  ThrowIfInvalid("MinimumBlockSizePx", options.Validate());
+  const double site_px =
+      ProjectedSiteSidePx(camera, lrf_range_m, options.site_size_m, "MinimumBlockSizePx");
   // The epsilon keeps an exact product (3000.0 computed as 2999.9999999) from
   // losing a pixel.
   const double side_px = std::floor(options.min_block_fraction * site_px + 1e-9);

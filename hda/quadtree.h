@@ -30,6 +30,13 @@ struct QuadtreeOptions {
   std::vector<std::string> Validate() const;
 };
 
+// The projected side s_px of a site_size_m square at lrf_range_m along the
+// ray of the image centre, as defined for MinimumBlockSizePx below. Throws
+// InputError (messages prefixed by `caller`) when lrf_range_m is not finite
+// and > 0 or the camera cannot unproject the centre or project the segment.
+double ProjectedSiteSidePx(const calib::CameraModel& camera, double lrf_range_m, double site_size_m,
+                           const char* caller = "ProjectedSiteSidePx");
+
 // Smallest block side the quadtree splits down to, in pixels, for a camera at
 // `lrf_range_m` from the ground:
 //   side_px = floor(min_block_fraction * s_px), at least kMinBlockSidePx,

@@ -81,7 +81,7 @@ bool ParseCsv(const std::string& file, const std::string& text, const CsvSchema&
       problems->push_back({header_where, "header column " + std::to_string(i + 1) +
                                              " has no name; " + ExpectedColumns(schema)});
       header_ok = false;
-    } else if (known.count(name) == 0) {
+    } else if (known.count(name) == 0 && !schema.allow_other_columns) {
       problems->push_back({header_where, "unknown column '" + name + "'; " + ExpectedColumns(schema)});
       header_ok = false;
     } else if (table->column_index.count(name) != 0) {

@@ -14,6 +14,7 @@ namespace hdabench::datasets::internal {
 struct CsvSchema {
   std::vector<std::string> required;                     // must all be present
   std::vector<std::vector<std::string>> optional_groups;  // each: all present or all absent
+  bool allow_other_columns = false;  // other columns are kept and not a problem (field logs)
 };
 
 struct CsvRow {

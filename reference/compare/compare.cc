@@ -198,7 +198,7 @@ struct RoiBearings {
 std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOptions& options,
                                       const Context& ctx) {
   std::vector<RoiBearings> all(flight.result.rois.size());
-  hda::MatchingOptions matching = options.hda.matching;
+  hda::MatchingOptions matching = options.hda.options.matching;
   // The nav-aided refinement maps each window through the motion the nav pose
   // predicts: off, so that the relative-pose solvers see matches that owe
   // nothing to navigation beyond the search boxes (Lucas-Kanade only).
@@ -405,7 +405,7 @@ std::vector<MethodRoi> PlaneNavRois(const FlightRun& flight, const CompareOption
   // The pixels the flight method's matches of the ROI see: the box grown by
   // half its warp-refinement window (a match at the box's edge reads that far
   // out), so that the two methods judge the same ground with the same support.
-  const int margin = options.hda.matching.warp_refine_window_px / 2;
+  const int margin = options.hda.options.matching.warp_refine_window_px / 2;
   int converged = 0, fitted = 0;
   for (size_t i = 0; i < rois.size(); ++i) {
     const auto roi_start = std::chrono::steady_clock::now();
@@ -618,7 +618,7 @@ std::vector<std::string> CompareOptions::Validate() const {
   if (methods.empty() || methods.front() != kMethodFlight) {
     errors.push_back("methods: must start with flight (it finds the ROIs)");
   }
-  for (const std::string& e : hda.Validate()) errors.push_back("hda." + e);
+  for (const std::string& e : hda.options.Validate()) errors.push_back("hda." + e);
   for (const std::string& e : colmap.Validate()) errors.push_back("colmap." + e);
   for (const std::string& e : opengv.Validate()) errors.push_back("opengv." + e);
   for (const std::string& e : direct_plane.Validate()) errors.push_back("direct_plane." + e);

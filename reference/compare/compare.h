@@ -73,7 +73,10 @@ CeresRefineOptions DefaultRefineOptions();
 
 struct CompareOptions {
   std::vector<std::string> methods = AllMethodNames();
-  hda::HdaOptions hda;            // the flight method (and the matcher the OpenGV methods use)
+  // The flight method (and the matcher the OpenGV methods use); the keys not
+  // given follow the pair's geometry (ResolveHdaOptions). Set a key with
+  // hda.Set so that it is kept as given.
+  HdaSettings hda;
   ColmapOptions colmap;           // workspace: <out>/colmap
   OpenGvOptions opengv;
   CeresRefineOptions refine = DefaultRefineOptions();

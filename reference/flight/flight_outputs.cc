@@ -78,49 +78,6 @@ std::string PlyName(const hda::RoiResult& roi) { return "points/" + RoiFileStem(
 // ---------------------------------------------------------------------------
 // result.json
 
-Json OptionsJson(const hda::HdaOptions& o) {
-  Json j;
-  j["max_hazard_height_m"] = o.max_hazard_height_m;
-  j["max_slope_deg"] = o.max_slope_deg;
-  j["quadtree"] = {{"site_size_m", o.quadtree.site_size_m},
-                   {"min_block_fraction", o.quadtree.min_block_fraction},
-                   {"max_block_stddev", o.quadtree.max_block_stddev},
-                   {"min_block_mean", o.quadtree.min_block_mean},
-                   {"max_roi_stddev", o.quadtree.max_roi_stddev}};
-  j["prediction"] = {{"nav_position_sigma_m", o.prediction.nav_position_sigma_m},
-                     {"nav_attitude_sigma_deg", o.prediction.nav_attitude_sigma_deg},
-                     {"range_sigma_m", o.prediction.range_sigma_m},
-                     {"sigma_multiplier", o.prediction.sigma_multiplier},
-                     {"min_margin_px", o.prediction.min_margin_px}};
-  const hda::MatchingOptions& m = o.matching;
-  j["matching"] = {{"orb_features_per_roi", m.orb_features_per_roi},
-                   {"orb_levels", m.orb_levels},
-                   {"orb_scale_factor", m.orb_scale_factor},
-                   {"orb_fast_threshold", m.orb_fast_threshold},
-                   {"orb_patch_size_px", m.orb_patch_size_px},
-                   {"ratio_test", m.ratio_test},
-                   {"cross_check", m.cross_check},
-                   {"subpixel_refine", m.subpixel_refine},
-                   {"refine_window_px", m.refine_window_px},
-                   {"max_refine_shift_px", m.max_refine_shift_px},
-                   {"warp_refine", m.warp_refine},
-                   {"warp_refine_window_px", m.warp_refine_window_px},
-                   {"ransac_threshold_px", m.ransac_threshold_px},
-                   {"ransac_confidence", m.ransac_confidence},
-                   {"ransac_max_iterations", m.ransac_max_iterations}};
-  j["triangulation"] = {{"min_parallax_deg", o.triangulation.min_parallax_deg}};
-  j["assumed_pixel_sigma_px"] = o.assumed_pixel_sigma_px;
-  j["max_relief_m"] = o.max_relief_m;
-  j["min_points"] = o.min_points;
-  j["pixel_sigma_floor_px"] = o.pixel_sigma_floor_px;
-  j["max_slope_sigma_deg"] = o.max_slope_sigma_deg;
-  j["max_roughness_rms_m"] = o.max_roughness_rms_m;
-  j["compute_budget_s"] = o.compute_budget_s;
-  j["processor_scale"] = o.processor_scale;
-  j["fault_match_noise_px"] = o.fault_match_noise_px;
-  return j;
-}
-
 Json CountsJson(const hda::RoiCounts& c) {
   return {{"keypoints1", c.keypoints1},           {"keypoints2", c.keypoints2},
           {"matches", c.matches},                 {"refine_rejected", c.refine_rejected},
@@ -411,7 +368,14 @@ std::string FlightResultJson(const FlightRun& run) {
   j["format_version"] = kFlightResultFormatVersion;
   j["dataset"] = run.dataset_name;
   j["frames"] = Json::array({run.frame1, run.frame2});
-  j["options"] = OptionsJson(run.options);
+  j["options"] = HdaOptionsJson(run.options);
+  if (!run.derived_options.empty()) {
+    Json derived = Json::array();
+    for (const DerivedParam& d : run.derived_options) {
+      derived.push_back({{"key", d.key}, {"value", Number(d.value)}, {"rule", d.rule}});
+    }
+    j["options_from_geometry"] = derived;
+  }
   j["camera"] = {{"lens_model", run.lens_model},
                  {"width_px", run.image_width_px},
                  {"height_px", run.image_height_px}};

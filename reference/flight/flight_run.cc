@@ -6,6 +6,7 @@
 
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
+#include "tools/util/options_check.h"
 #include "datasets/synth/truth.h"
 
 namespace hdabench::reference {
@@ -110,6 +111,30 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   run.options = options;
   run.result = hda::RunHda(input, dataset.camera, options);
   run.truths = TruthOfRois(dataset, frame1, run.result);
+  return run;
+}
+
+FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
+                    const HdaSettings& settings) {
+  const int n = static_cast<int>(dataset.frames.size());
+  if (frame1 < 0 || frame1 >= n || frame2 < 0 || frame2 >= n) {
+    return RunFlight(dataset, frame1, frame2, settings.options);  // MakeHdaInput names the frame
+  }
+  PairGeometry geometry;
+  geometry.lrf_range_m = dataset.LrfRangeAt(dataset.frames[static_cast<size_t>(frame1)].time_s);
+  geometry.baseline_m = dataset.BaselineM(frame1, frame2);
+  const cv::Mat& image1 = dataset.frames[static_cast<size_t>(frame1)].image;
+  if (!image1.empty()) {
+    geometry.keypoints_per_px = OrbKeypointDensity(image1, settings.options.matching,
+                                                   settings.options.quadtree.min_block_mean);
+  }
+  std::vector<DerivedParam> derived;
+  const hda::HdaOptions options = ResolveHdaOptions(settings, dataset.camera, geometry, &derived);
+  ThrowIfInvalid("flight-method parameters for frames " + std::to_string(frame1) + "," +
+                     std::to_string(frame2) + ": ",
+                 options.Validate());
+  FlightRun run = RunFlight(dataset, frame1, frame2, options);
+  run.derived_options = std::move(derived);
   return run;
 }
 

@@ -13,6 +13,7 @@
 #include "datasets/dataset.h"
 #include "hda/hda_options.h"
 #include "hda/pipeline.h"
+#include "reference/flight/hda_params.h"
 
 namespace hdabench::reference {
 
@@ -70,6 +71,9 @@ struct FlightRun {
   double baseline_m = 0.0;        // navigation baseline between the two frames, metres
   double lrf_range_m = 0.0;       // LRF range at frame 1, metres
   hda::HdaOptions options;        // the options RunHda was given
+  // The values of `options` set from the pair's geometry (ResolveHdaOptions);
+  // empty when the options were given whole.
+  std::vector<DerivedParam> derived_options;
   hda::HdaResult result;
   // Truth per ROI, parallel to result.rois (TruthOfRois). Empty, or all
   // unavailable, when the dataset has no truth.
@@ -84,5 +88,12 @@ struct FlightRun {
 // MakeHdaInput and RunHda do.
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
                     const hda::HdaOptions& options);
+
+// The same with the options resolved for this pair (ResolveHdaOptions: the
+// keys not given follow the LRF range at frame 1 and the navigation
+// baseline), recorded in FlightRun::derived_options. Throws InputError also
+// when the resolved options are unusable.
+FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
+                    const HdaSettings& settings);
 
 }  // namespace hdabench::reference

@@ -191,7 +191,15 @@ Json EntrySpecJson(const GateEntry& e) {
   }
   if (e.dataset_dir) j["dataset"] = *e.dataset_dir;
   if (e.stereolunar_pair_dir) j["stereolunar"] = {{"pair", *e.stereolunar_pair_dir}, {"sun", e.stereolunar_sun}};
-  j["site_size_m"] = e.site_size_m ? Json(*e.site_size_m) : Json(nullptr);
+  const Json given = e.hda.GivenJson();
+  // site_size_m alone keeps the record of suites written before "hda".
+  if (given.size() == 1 && given.contains("quadtree.site_size_m")) {
+    j["site_size_m"] = given["quadtree.site_size_m"];
+  } else if (given.empty()) {
+    j["site_size_m"] = nullptr;
+  } else {
+    j["hda"] = given;
+  }
   return j;
 }
 
@@ -250,7 +258,7 @@ std::string EntryDataset(const GateEntry& e, const GateSuite& suite, const GateR
   } else {
     const std::string pair_dir = (suite_dir / *e.stereolunar_pair_dir).lexically_normal().string();
     datasets::WriteDataset(datasets::ConvertStereoLunarPair(
-                               pair_dir, datasets::DefaultStereoLunarCamerasFile(pair_dir),
+                               pair_dir, /*cameras_txt=*/"",
                                e.stereolunar_sun),
                            staging.string());
   }
@@ -302,10 +310,10 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     const std::pair<int, int> pair = DefaultFramePair(*dataset);
     CompareOptions compare;
     compare.methods = suite.methods;
-    if (e.site_size_m) compare.hda.quadtree.site_size_m = *e.site_size_m;
-    compare.hda.fault_match_noise_px = o.fault_match_noise_px;
-    compare.hda.processor_scale = o.processor_scale;
-    compare.hda.compute_budget_s = kGateComputeBudgetS;
+    compare.hda = e.hda;
+    compare.hda.Set("fault_match_noise_px", o.fault_match_noise_px, "gate");
+    compare.hda.Set("processor_scale", o.processor_scale, "gate");
+    compare.hda.Set("compute_budget_s", kGateComputeBudgetS, "gate");
     compare.colmap.executable = o.colmap_executable;
     ApplyColmapOptions(suite.colmap, &compare.colmap);
     const fs::path staging = final_dir.string() + ".partial-" + std::to_string(::getpid());
@@ -371,7 +379,7 @@ GateSuite ReadGateSuite(const std::string& path) {
     const Json& ej = j["entries"][i];
     const std::string where = path + ": entries[" + std::to_string(i) + "]";
     if (!ej.is_object()) throw InputError(where + ": expected an object");
-    OnlyKeys(ej, {"name", "synth", "dataset", "stereolunar", "site_size_m"}, where);
+    OnlyKeys(ej, {"name", "synth", "dataset", "stereolunar", "site_size_m", "hda"}, where);
     GateEntry e;
     e.name = StringField(ej, "name", where);
     if (!ValidName(e.name)) {
@@ -427,9 +435,17 @@ GateSuite ReadGateSuite(const std::string& path) {
       if (s.contains("sun")) e.stereolunar_sun = static_cast<int>(NumberField(s, "sun", where + ".stereolunar"));
     }
     if (ej.contains("site_size_m")) {
-      e.site_size_m = NumberField(ej, "site_size_m", where);
-      if (!(*e.site_size_m > 0)) throw InputError(where + ": field 'site_size_m' must be > 0");
+      const double site = NumberField(ej, "site_size_m", where);
+      if (!(site > 0)) throw InputError(where + ": field 'site_size_m' must be > 0");
+      e.hda.Set("quadtree.site_size_m", site, where);
     }
+    if (ej.contains("hda")) {
+      if (ej.contains("site_size_m")) {
+        throw InputError(where + ": give the site size once: 'site_size_m' or 'hda'");
+      }
+      e.hda.SetAll(ej["hda"], where + ".hda");
+    }
+    e.hda.Validate(where);
     suite.entries.push_back(e);
   }
   return suite;

@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include "reference/flight/hda_params.h"
+
 #include "datasets/synth/synth.h"
 
 namespace hdabench::reference {
@@ -41,7 +43,10 @@ struct GateEntry {
   std::optional<std::string> dataset_dir;
   std::optional<std::string> stereolunar_pair_dir;
   int stereolunar_sun = 0;
-  std::optional<double> site_size_m;  // the flight quadtree's site size for this entry
+  // The flight method's parameters for this entry: "site_size_m" and the
+  // "hda" object (HdaSettings::SetAll); the keys not given follow the
+  // geometry, as in compare.
+  HdaSettings hda;
 };
 
 // COLMAP's options for every entry of a suite ("colmap": {...}, docs/gate.md),

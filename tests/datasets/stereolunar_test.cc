@@ -9,6 +9,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "tools/util/error.h"
 #include "datasets/dataset.h"
@@ -325,6 +326,41 @@ TEST(StereoLunar, CommandWritesADatasetThatChecks) {
       {"ingest", "stereolunar", (dir / "nowhere").string(), "--out", (dir / "c").string()}, dir);
   EXPECT_EQ(missing.exit_code, 3);
   EXPECT_NE(missing.err.find("nowhere: no such folder"), std::string::npos) << missing.err;
+}
+
+// With no parameter chosen by hand, the flight method's lengths follow the
+// geometry (30 km of range, 1.4-2.4 km of baseline, sparse texture): the site
+// grows to hold enough ORB keypoints and the relief band to the terrain's
+// scale, and at least half of the ROIs whose box reaches image 2 get a slope
+// (with the NOVA-C values: 3 of 1917 on paire1). Measured: 33/53, 30/50,
+// 34/55.
+TEST(StereoLunar, GeometryDefaultsEvaluateHalfTheRois) {
+  const fs::path dir = FreshTestDir();
+  for (int pair = 1; pair <= 3; ++pair) {
+    SCOPED_TRACE("paire" + std::to_string(pair));
+    const fs::path data = dir / ("sl" + std::to_string(pair));
+    const fs::path out = dir / ("run" + std::to_string(pair));
+    ASSERT_EQ(RunHdabench({"ingest", "stereolunar", PairDir(pair), "--out", data.string()}, dir).exit_code, 0);
+    const testing_support::CommandResult run = RunHdabench(
+        {"run", data.string(), "--out", out.string(), "--no-figures", "--no-report", "--budget-s", "10000"},
+        dir);
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_NE(run.err.find("from the geometry: quadtree.site_size_m"), std::string::npos) << run.err;
+    const nlohmann::json result = nlohmann::json::parse(ReadText(out / "result.json"));
+    ASSERT_TRUE(result.contains("options_from_geometry"));
+    int in_both = 0, with_slope = 0;
+    for (const nlohmann::json& roi : result["rois"]) {
+      const std::string status = roi["status"];
+      if (status == "not in image 2") continue;
+      ++in_both;
+      if (status == "evaluated" || status == "unsafe slope" || status == "unsafe roughness") ++with_slope;
+    }
+    EXPECT_GT(in_both, 20);
+    EXPECT_GE(2 * with_slope, in_both) << with_slope << " of " << in_both;
+    const double site = result["options"]["quadtree"]["site_size_m"];
+    EXPECT_GT(site, 1000.0);
+    EXPECT_LT(site, 5000.0);
+  }
 }
 
 }  // namespace

@@ -219,9 +219,9 @@ fs::path* CompareOnSyntheticScene::dir_ = nullptr;
 TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirGeometryBound) {
   const datasets::Dataset dataset = Load();
   CompareOptions options;
-  options.hda.quadtree.site_size_m = 20.0;
-  options.hda.quadtree.max_roi_stddev = 60.0;
-  options.hda.compute_budget_s = 1000.0;  // a loaded or sanitized build keeps every ROI
+  options.hda.Set("quadtree.site_size_m", 20.0, "test");
+  options.hda.Set("quadtree.max_roi_stddev", 60.0, "test");
+  options.hda.Set("compute_budget_s", 1000.0, "test");  // a loaded or sanitized build keeps every ROI
   const fs::path out = FreshTestDir();
   const CompareRun run = RunCompare(dataset, 0, 6, options, (out / "colmap").string());
   ASSERT_EQ(run.methods, AllMethodNames());
@@ -398,7 +398,7 @@ TEST_F(CompareOnSyntheticScene, EveryMethodGivesTheSameBytesTwice) {
   options.colmap.timeout_s = 120.0;
   // Which ROIs the flight's wall-time budget reaches depends on the machine's
   // load (docs/flight-method.md): an ample budget takes that out.
-  options.hda.compute_budget_s = 1000.0;
+  options.hda.Set("compute_budget_s", 1000.0, "test");
   const CompareRun first = RunCompare(dataset, 0, 6, options, (dir / "colmap1").string());
   const CompareRun second = RunCompare(dataset, 0, 6, options, (dir / "colmap2").string());
   for (size_t m = 0; m < first.methods.size(); ++m) {

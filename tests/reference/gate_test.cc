@@ -96,6 +96,25 @@ TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
             std::string::npos);
   EXPECT_NE(ErrorOf([&] { ReadGateSuite((dir / "missing.json").string()); }).find("missing.json: cannot read"),
             std::string::npos);
+  // An entry's flight-method parameters: "hda", every HdaOptions key, nested
+  // or dotted; unknown keys and bad values named.
+  EXPECT_EQ(suite(R"("methods": ["flight"], "entries": [{"name": "a", "synth": {"preset": "truck"}, )"
+                  R"("hda": {"max_relief_m": 0.5, "quadtree": {"max_block_stddev": 15}}}])"),
+            "no error");
+  const GateEntry entry = ReadGateSuite((dir / "suite.json").string()).entries[0];
+  EXPECT_EQ(entry.hda.options.max_relief_m, 0.5);
+  EXPECT_EQ(entry.hda.options.quadtree.max_block_stddev, 15.0);
+  EXPECT_EQ(entry.hda.given.size(), 2u);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "hda": {"relief": 1}}])")
+                .find("entries[0].hda: unknown flight-method parameter 'relief'; known: max_hazard_height_m"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "hda": {"min_points": 1}}])")
+                .find("entries[0]: unusable flight-method parameters: min_points = 1"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "site_size_m": 3, )"
+                  R"("hda": {"min_points": 12}}])")
+                .find("give the site size once"),
+            std::string::npos);
 }
 
 TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {

@@ -21,9 +21,21 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
+#include "tools/util/error.h"
+
 namespace hdabench::testing_support {
 
 namespace fs = std::filesystem;
+
+// The message of the InputError `f` throws; empty when it throws none.
+inline std::string InputErrorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
 
 // FNV-1a of a string: seeds derived from a test's name are stable across
 // runs, machines and standard libraries (std::hash is not).

@@ -95,6 +95,75 @@ TEST(RunCommand, BudgetFlagsReachTheResult) {
   EXPECT_NE(negative.err.find("processor_scale"), std::string::npos) << negative.err;
 }
 
+// --params, then the command's flags, then each --set; the lengths not given
+// follow the geometry and are listed in result.json with their rule.
+TEST(RunCommand, ParamsFileAndSetReachTheResult) {
+  const fs::path dir = FreshTestDir();
+  hdabench::testing_support::WriteText(
+      dir / "p.json",
+      R"({"format": "hdabench-flight-params", "parameters": {"max_relief_m": 20, "max_relief_m_why": "x",
+          "matching": {"ratio_test": 0.7}, "min_points": 12}})");
+  const CommandResult run = Hdabench(
+      {"run", Dataset().string(), "--out", (dir / "a").string(), "--no-figures", "--no-report",
+       "--params", (dir / "p.json").string(), "--set", "hda.min_points=15", "--set",
+       "hda.prediction.sigma_multiplier=2.5"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "a" / "result.json"));
+  const nlohmann::json& options = result["options"];
+  EXPECT_EQ(options["max_relief_m"], 20.0);
+  EXPECT_EQ(options["matching"]["ratio_test"], 0.7);
+  EXPECT_EQ(options["min_points"], 15);  // --set over --params
+  EXPECT_EQ(options["prediction"]["sigma_multiplier"], 2.5);
+  std::vector<std::string> derived;
+  for (const nlohmann::json& d : result["options_from_geometry"]) {
+    derived.push_back(d["key"]);
+    EXPECT_FALSE(d["rule"].get<std::string>().empty());
+  }
+  EXPECT_EQ(derived, (std::vector<std::string>{"quadtree.site_size_m", "prediction.range_sigma_m",
+                                               "prediction.nav_position_sigma_m"}));
+  EXPECT_NE(run.err.find("from the geometry: prediction.range_sigma_m"), std::string::npos) << run.err;
+
+  // The options a run used, written back as a parameter file, reproduce it.
+  hdabench::testing_support::WriteText(dir / "used.json", options.dump());
+  const CommandResult again = Hdabench({"run", Dataset().string(), "--out", (dir / "b").string(),
+                                        "--no-figures", "--no-report", "--quiet", "--params",
+                                        (dir / "used.json").string()});
+  ASSERT_EQ(again.exit_code, 0) << again.err;
+  nlohmann::json a = result, b = nlohmann::json::parse(ReadText(dir / "b" / "result.json"));
+  EXPECT_FALSE(b.contains("options_from_geometry"));
+  a.erase("options_from_geometry");
+  EXPECT_EQ(a.dump(), b.dump());
+}
+
+TEST(RunCommand, BadParamsAndSetAreNamed) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult unknown = Hdabench(
+      {"run", Dataset().string(), "--out", dir.string(), "--set", "hda.quadtree.site_sise_m=5"});
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("unknown flight-method parameter 'quadtree.site_sise_m'; known:"),
+            std::string::npos) << unknown.err;
+  EXPECT_NE(unknown.err.find("quadtree.site_size_m"), std::string::npos) << unknown.err;
+  const CommandResult form =
+      Hdabench({"run", Dataset().string(), "--out", dir.string(), "--set", "max_relief_m=5"});
+  EXPECT_EQ(form.exit_code, 2);
+  EXPECT_NE(form.err.find("expected hda.KEY=VALUE"), std::string::npos) << form.err;
+  const CommandResult value =
+      Hdabench({"run", Dataset().string(), "--out", dir.string(), "--set", "hda.max_relief_m=-5"});
+  EXPECT_EQ(value.exit_code, 2);
+  EXPECT_NE(value.err.find("max_relief_m = -5: expected >= 0"), std::string::npos) << value.err;
+  const CommandResult missing = Hdabench(
+      {"run", Dataset().string(), "--out", dir.string(), "--params", (dir / "nope.json").string()});
+  EXPECT_EQ(missing.exit_code, 3);
+  EXPECT_NE(missing.err.find("nope.json: cannot read the parameter file"), std::string::npos) << missing.err;
+  hdabench::testing_support::WriteText(dir / "bad.json", R"({"min_points": 2})");
+  const CommandResult bad = Hdabench(
+      {"run", Dataset().string(), "--out", dir.string(), "--params", (dir / "bad.json").string()});
+  EXPECT_EQ(bad.exit_code, 3);
+  EXPECT_NE(bad.err.find("bad.json"), std::string::npos) << bad.err;
+  EXPECT_NE(bad.err.find("min_points = 2"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(dir / "result.json"));
+}
+
 TEST(RunCommand, EqualFramesAreAUsageError) {
   const fs::path dir = FreshTestDir();
   const CommandResult run = Hdabench({"run", Dataset().string(), "--frames", "0,0", "--out", dir.string()});

@@ -32,8 +32,8 @@ Command AddCompareCommand(CLI::App& app);
 Command AddReportCommand(CLI::App& app);
 // gate (gate_command.cc).
 Command AddGateCommand(CLI::App& app);
-// ingest stereolunar (ingest_command.cc).
-Command AddIngestCommand(CLI::App& app);
+// ingest stereolunar, ingest field (ingest_command.cc).
+std::vector<Command> AddIngestCommands(CLI::App& app);
 // calibrate, calib-diff (calibrate_command.cc).
 std::vector<Command> AddCalibrateCommands(CLI::App& app);
 // demo (demo_command.cc).

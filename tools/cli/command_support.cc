@@ -118,4 +118,35 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
   return result;
 }
 
+int BuildHdaSettings(const std::string& params_file, const std::vector<HdaFlag>& flags,
+                     const std::vector<std::string>& sets, const std::string& command,
+                     std::ostream& err, reference::HdaSettings* settings) {
+  const std::string prefix = "hdabench " + command + ": ";
+  if (!params_file.empty()) {
+    try {
+      settings->ReadFile(params_file);
+      settings->Validate(params_file);
+    } catch (const InputError& e) {
+      err << prefix << "--params: " << e.what() << "\n";
+      return kExitInput;
+    }
+  }
+  try {
+    for (const HdaFlag& f : flags) settings->Set(f.key, f.value, f.flag);
+    for (const std::string& set : sets) {
+      const size_t equals = set.find('=');
+      const std::string where = "--set " + set;
+      if (set.rfind("hda.", 0) != 0 || equals == std::string::npos) {
+        throw InputError(where + ": expected hda.KEY=VALUE");
+      }
+      settings->SetText(set.substr(4, equals - 4), set.substr(equals + 1), where);
+    }
+    settings->Validate("hdabench " + command);
+  } catch (const InputError& e) {
+    err << prefix << e.what() << "\n";
+    return kExitUsage;
+  }
+  return kExitOk;
+}
+
 }  // namespace hdabench::tools

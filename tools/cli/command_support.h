@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "datasets/dataset.h"
+#include "reference/flight/hda_params.h"
 
 namespace hdabench::tools {
 
@@ -51,5 +52,29 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
                          const std::optional<std::pair<int, int>>& frames,
                          const std::string& out_dir, const std::string& command,
                          std::ostream& err, const std::function<void(const std::string&)>& progress);
+
+// The flight method's parameters of `run` and `compare`: the --params file
+// (when not empty, its values checked), then the command's own flags that
+// were given, then every --set in order ("hda.KEY=VALUE"), each over the
+// ones before; then HdaOptions::Validate. On a problem prints
+// "hdabench <command>: ..." and returns kExitInput (an unreadable or invalid
+// --params file) or kExitUsage (a bad --set or flag value); kExitOk otherwise.
+struct HdaFlag {
+  std::string flag;  // "--site-size-m"
+  std::string key;   // "quadtree.site_size_m"
+  double value = 0.0;
+};
+int BuildHdaSettings(const std::string& params_file, const std::vector<HdaFlag>& flags,
+                     const std::vector<std::string>& sets, const std::string& command,
+                     std::ostream& err, reference::HdaSettings* settings);
+
+// The help text of --params and --set.
+inline constexpr char kParamsHelp[] =
+    "JSON file of the flight method's parameters (docs/flight-parameters.md; presets in\n"
+    "params/): {\"quadtree\": {\"site_size_m\": 40}, \"max_relief_m\": 5, ...}";
+inline constexpr char kSetHelp[] =
+    "One flight-method parameter, over --params and the other flags: hda.KEY=VALUE\n"
+    "(hda.max_relief_m=5, hda.quadtree.site_size_m=40; repeatable). The lengths not\n"
+    "given follow the LRF range and the baseline (docs/flight-parameters.md)";
 
 }  // namespace hdabench::tools

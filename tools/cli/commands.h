@@ -53,7 +53,9 @@ struct RunFlightOptions {
   std::string out_dir;                        // created if missing; files of the same names replaced
   std::optional<double> processor_scale;      // HdaOptions::processor_scale; default: the options'
   std::optional<double> budget_s;             // HdaOptions::compute_budget_s; default: the options'
-  std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: the options'
+  std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: from the geometry
+  std::string params_file;                    // --params: JSON of HdaOptions keys (empty: none)
+  std::vector<std::string> hda_sets;          // --set hda.KEY=VALUE, in order
   bool figures = true;                        // write figures/ (PNG)
   bool report = true;                         // write report.html and report.md (docs/report.md)
   bool quiet = false;                         // no progress lines on err
@@ -68,8 +70,10 @@ struct CompareCommandOptions {
   std::optional<std::pair<int, int>> frames;  // default: reference::DefaultFramePair
   std::string methods = "all";                // comma-separated (reference::ParseMethodList) or "all"
   std::string out_dir;                        // created if missing; files of the same names replaced
-  std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: the options'
-  double fault_match_noise_px = 0.0;          // HdaOptions::fault_match_noise_px (gate tests only)
+  std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: from the geometry
+  std::string params_file;                    // --params: JSON of HdaOptions keys (empty: none)
+  std::vector<std::string> hda_sets;          // --set hda.KEY=VALUE, in order
+  std::optional<double> fault_match_noise_px;  // HdaOptions::fault_match_noise_px (gate tests only)
   std::string colmap_executable = "colmap";   // a name looked up on PATH, or a path
   double colmap_timeout_s = 600.0;            // per COLMAP step
   bool colmap_all_frames = false;             // colmap-free on every frame of the collection window
@@ -154,6 +158,26 @@ struct IngestStereoLunarOptions {
 // unusable source (the message names the file and line).
 int RunIngestStereoLunar(const IngestStereoLunarOptions& options, std::ostream& out,
                          std::ostream& err);
+
+struct IngestFieldOptions {
+  std::string log_file;  // the field log description (JSON, docs/field-ingest.md)
+  std::string out_dir;   // must not exist, or be empty
+};
+// hdabench ingest field: a campaign's images, navigation, LRF, camera model
+// and mount into a dataset. Exit codes: 0 written (and loads cleanly); 2 the
+// output folder exists and is not empty; 3 the log cannot be used (the file
+// and line named; nothing written); 70 the written dataset does not load.
+int RunIngestField(const IngestFieldOptions& options, std::ostream& out, std::ostream& err);
+
+struct ExportFieldOptions {
+  std::string dataset_dir;
+  std::string out_dir;                       // must not exist, or be empty
+  std::string origin_text = "0,0,0";         // LAT,LON,HEIGHT of the local origin (WGS84)
+  double clock_offset_s = 0.0;               // navigation time minus image time
+};
+// hdabench export field: a dataset as a field log. Exit codes: 0 written;
+// 2 a bad flag; 3 an unusable dataset or output folder.
+int RunExportField(const ExportFieldOptions& options, std::ostream& out, std::ostream& err);
 
 struct CalibrateCommandOptions {
   std::vector<std::string> images;       // camera 0's chessboard images

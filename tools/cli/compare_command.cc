@@ -36,8 +36,14 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
     err << "hdabench compare: --methods: " << e.what() << "\n";
     return kExitUsage;
   }
-  if (options.site_size_m.has_value()) compare.hda.quadtree.site_size_m = *options.site_size_m;
-  compare.hda.fault_match_noise_px = options.fault_match_noise_px;
+  std::vector<HdaFlag> flags;
+  if (options.site_size_m) flags.push_back({"--site-size-m", "quadtree.site_size_m", *options.site_size_m});
+  if (options.fault_match_noise_px) {
+    flags.push_back({"--fault-match-noise-px", "fault_match_noise_px", *options.fault_match_noise_px});
+  }
+  const int settings_code =
+      BuildHdaSettings(options.params_file, flags, options.hda_sets, "compare", err, &compare.hda);
+  if (settings_code != kExitOk) return settings_code;
   compare.colmap.executable = options.colmap_executable;
   compare.colmap.timeout_s = options.colmap_timeout_s;
   compare.colmap.use_all_frames = options.colmap_all_frames;
@@ -144,8 +150,9 @@ Command AddCompareCommand(CLI::App& app) {
       ->required();
   args->site_option =
       compare->add_option("--site-size-m", args->site_size_m,
-                          "Side of a landing site, metres (sets the quadtree's smallest ROI)")
-          ->capture_default_str();
+                          "Side of a landing site, metres (default: as hdabench run)");
+  compare->add_option("--params", options.params_file, kParamsHelp);
+  compare->add_option("--set", options.hda_sets, kSetHelp)->allow_extra_args(false);
   compare->add_option("--colmap", options.colmap_executable,
                       "The colmap program: a name on PATH or a path")
       ->capture_default_str();
@@ -186,8 +193,7 @@ Command AddCompareCommand(CLI::App& app) {
       ->capture_default_str();
   compare->add_option("--fault-match-noise-px", options.fault_match_noise_px,
                       "Fault injection for testing the gate: Gaussian noise added to the flight\n"
-                      "method's image-2 matches, pixels per axis (0: none)")
-      ->capture_default_str();
+                      "method's image-2 matches, pixels per axis (default 0: none)");
   compare->add_flag("--opengv-dense", options.opengv_dense,
                     "OpenGV on denser ORB matches (2000 keypoints per ROI, FAST threshold 5)\n"
                     "instead of the flight matcher's");

@@ -1,15 +1,24 @@
 // `hdabench ingest stereolunar`: convert a StereoLunar nadir pair
-// (datasets/stereolunar.h, docs/stereolunar.md) and write it as a dataset.
+// (datasets/stereolunar.h, docs/stereolunar.md) and write it as a dataset;
+// `hdabench ingest field`: a field campaign's log (datasets/field_log.h,
+// docs/field-ingest.md); `hdabench export field`: a dataset as such a log.
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
+#include <sstream>
 #include <string>
 #include <system_error>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/text.h"
+#include "tools/cli/command_support.h"
 #include "datasets/dataset.h"
+#include "datasets/field_log.h"
 #include "datasets/stereolunar.h"
 #include "tools/cli/command_line.h"
 #include "tools/cli/commands.h"
@@ -17,35 +26,48 @@
 
 namespace hdabench::tools {
 
-int RunIngestStereoLunar(const IngestStereoLunarOptions& options, std::ostream& out,
-                         std::ostream& err) {
+namespace {
+
+// kExitOk when `dir` does not exist or is an empty folder; otherwise says so
+// and returns kExitUsage.
+int RequireNewFolder(const std::string& dir, const std::string& command, std::ostream& err) {
   namespace fs = std::filesystem;
-  const std::string command = "hdabench ingest stereolunar: ";
-  const std::string& dir = options.out_dir;
   std::error_code ec;
   if (fs::exists(dir, ec) && (!fs::is_directory(dir, ec) || !fs::is_empty(dir, ec))) {
     err << command << dir << ": exists and is not an empty folder; choose a new folder\n";
     return kExitUsage;
   }
+  return kExitOk;
+}
+
+// What was written must load cleanly; anything else is a bug in the bench
+// (kExitInternal, the problems printed).
+int CheckWrittenDataset(const std::string& dir, const std::string& command, std::ostream& err) {
+  const datasets::DatasetLoadResult check = datasets::LoadDataset(dir);
+  if (check.Ok()) return kExitOk;
+  err << command << "internal error: the written dataset has " << check.problems.size() << " problem(s):\n";
+  for (const datasets::Problem& problem : check.problems) err << problem.ToString() << "\n";
+  return kExitInternal;
+}
+
+}  // namespace
+
+int RunIngestStereoLunar(const IngestStereoLunarOptions& options, std::ostream& out,
+                         std::ostream& err) {
+  const std::string command = "hdabench ingest stereolunar: ";
+  const std::string& dir = options.out_dir;
+  if (const int code = RequireNewFolder(dir, command, err); code != kExitOk) return code;
   if (options.sun < 0) {
     err << command << "--sun " << options.sun << ": expected 0, 1 or 2\n";
     return kExitUsage;
   }
-  const std::string cameras = options.cameras_file.empty()
-                                  ? datasets::DefaultStereoLunarCamerasFile(options.pair_dir)
-                                  : options.cameras_file;
+  // Empty: the frames' .npz, else the default cameras.txt.
+  const std::string cameras = options.cameras_file;
   try {
     const datasets::Dataset dataset =
         datasets::ConvertStereoLunarPair(options.pair_dir, cameras, options.sun);
     datasets::WriteDataset(dataset, dir);
-    // What was written must load cleanly; anything else is a bug in the bench.
-    const datasets::DatasetLoadResult check = datasets::LoadDataset(dir);
-    if (!check.Ok()) {
-      err << command << "internal error: the written dataset has " << check.problems.size()
-          << " problem(s):\n";
-      for (const datasets::Problem& problem : check.problems) err << problem.ToString() << "\n";
-      return kExitInternal;
-    }
+    if (const int code = CheckWrittenDataset(dir, command, err); code != kExitOk) return code;
     out << "wrote dataset '" << dataset.name << "' to " << dir << ": 2 frames ("
         << dataset.camera.WidthPx() << " x " << dataset.camera.HeightPx() << " px), baseline "
         << dataset.BaselineM(0, 1) << " m, LRF range " << dataset.lrf.front().range_m
@@ -57,8 +79,74 @@ int RunIngestStereoLunar(const IngestStereoLunarOptions& options, std::ostream& 
   return kExitOk;
 }
 
-// ingest, with its one subcommand stereolunar: PAIR_DIR, --out, --sun and --cameras.
-Command AddIngestCommand(CLI::App& app) {
+int RunIngestField(const IngestFieldOptions& options, std::ostream& out, std::ostream& err) {
+  const std::string command = "hdabench ingest field: ";
+  const std::string& dir = options.out_dir;
+  if (const int code = RequireNewFolder(dir, command, err); code != kExitOk) return code;
+  try {
+    datasets::FieldIngestReport report;
+    const datasets::Dataset dataset = datasets::IngestFieldLog(options.log_file, &report);
+    datasets::WriteDataset(dataset, dir);
+    if (const int code = CheckWrittenDataset(dir, command, err); code != kExitOk) return code;
+    for (const std::string& line : report.lines) out << "  " << line << "\n";
+    const int last = static_cast<int>(dataset.frames.size()) - 1;
+    out << "wrote dataset '" << dataset.name << "' to " << dir << ": " << report.frames_kept << " of "
+        << report.frames_found << " frames (" << dataset.camera.WidthPx() << " x "
+        << dataset.camera.HeightPx() << " px) over " << dataset.frames[static_cast<size_t>(last)].time_s -
+                                                          dataset.frames.front().time_s
+        << " s, first to last baseline " << dataset.BaselineM(0, last) << " m, LRF range at the first "
+        << dataset.LrfRangeAt(dataset.frames.front().time_s) << " m, no truth\n";
+  } catch (const InputError& e) {
+    err << command << e.what() << "\n";
+    return kExitInput;
+  }
+  return kExitOk;
+}
+
+int RunExportField(const ExportFieldOptions& options, std::ostream& out, std::ostream& err) {
+  const std::string command = "hdabench export field: ";
+  datasets::Geodetic origin;
+  {
+    std::vector<double> values;
+    std::stringstream text(options.origin_text);
+    std::string item;
+    while (std::getline(text, item, ',')) {
+      double v = 0.0;
+      if (util::ParseDouble(item, &v) != util::ParseStatus::kOk) values.push_back(std::nan(""));
+      else values.push_back(v);
+    }
+    if (values.size() != 3 || !std::isfinite(values[0]) || !std::isfinite(values[1]) || !std::isfinite(values[2]) ||
+        std::abs(values[0]) > 90.0 || std::abs(values[1]) > 180.0) {
+      err << command << "--origin '" << options.origin_text
+          << "': expected LAT,LON,HEIGHT (degrees in [-90, 90] and [-180, 180], metres)\n";
+      return kExitUsage;
+    }
+    origin = {values[0], values[1], values[2]};
+  }
+  if (!std::isfinite(options.clock_offset_s)) {
+    err << command << "--clock-offset-s: expected a finite number\n";
+    return kExitUsage;
+  }
+  datasets::LoadOptions load;
+  load.keep_images = true;
+  const std::optional<datasets::Dataset> dataset =
+      LoadDatasetOrReport(options.dataset_dir, load, "export field", err);
+  if (!dataset) return kExitInput;
+  try {
+    datasets::WriteFieldLog(*dataset, options.out_dir, origin, options.clock_offset_s);
+  } catch (const InputError& e) {
+    err << command << e.what() << "\n";
+    return kExitInput;
+  }
+  out << "wrote the field log of '" << dataset->name << "' to " << options.out_dir << ": "
+      << dataset->frames.size() << " images, " << dataset->nav.size() << " navigation and "
+      << dataset->lrf.size() << " LRF samples (log.json; hdabench ingest field reads it back)\n";
+  return kExitOk;
+}
+
+// ingest: stereolunar (PAIR_DIR, --out, --sun, --cameras) and field (LOG, --out);
+// export: field (DATASET, --out, --origin, --clock-offset-s).
+std::vector<Command> AddIngestCommands(CLI::App& app) {
   CLI::App* ingest = app.add_subcommand("ingest", "Convert outside data into a dataset");
   ingest->require_subcommand(1);
   const auto options = std::make_shared<IngestStereoLunarOptions>();
@@ -75,9 +163,40 @@ Command AddIngestCommand(CLI::App& app) {
       ->capture_default_str();
   stereolunar->add_option(
       "--cameras", options->cameras_file,
-      "cameras.txt (default: PAIR_DIR/cameras.txt, else PAIR_DIR/../cameras.txt)");
-  return {stereolunar,
-          [options] { return RunIngestStereoLunar(*options, std::cout, std::cerr); }};
+      "cameras.txt instead of the frames' .npz (default: each frame's im_NNNNN.npz, as the dataset\n"
+      "ships; without them PAIR_DIR/cameras.txt, else PAIR_DIR/../cameras.txt)");
+  Command stereolunar_command{stereolunar,
+                             [options] { return RunIngestStereoLunar(*options, std::cout, std::cerr); }};
+  const auto field_options = std::make_shared<IngestFieldOptions>();
+  CLI::App* field = ingest->add_subcommand(
+      "field",
+      "Convert a field campaign's log (images, navigation, LRF, camera model, mount; described by\n"
+      "one JSON file, docs/field-ingest.md) into a dataset");
+  field->add_option("LOG", field_options->log_file, "The field log description (JSON)")->required();
+  field->add_option("--out", field_options->out_dir, "Folder to create (must not exist, or be empty)")
+      ->required();
+  Command field_command{field, [field_options] { return RunIngestField(*field_options, std::cout, std::cerr); }};
+
+  // export field: the opposite, a dataset as a field log.
+  CLI::App* export_app = app.add_subcommand("export", "Write a dataset in an outside format");
+  export_app->require_subcommand(1);
+  const auto export_options = std::make_shared<ExportFieldOptions>();
+  CLI::App* export_field = export_app->add_subcommand(
+      "field",
+      "Write a dataset as a field log (docs/field-ingest.md) that hdabench ingest field reads back:\n"
+      "WGS84 navigation, Euler angles, the clock offset, the LRF log, images named by time");
+  export_field->add_option("DATASET", export_options->dataset_dir, "Dataset folder")->required();
+  export_field->add_option("--out", export_options->out_dir, "Folder to create (must not exist, or be empty)")
+      ->required();
+  export_field->add_option("--origin", export_options->origin_text,
+                           "WGS84 latitude (deg), longitude (deg), height (m) of the dataset's local origin")
+      ->capture_default_str();
+  export_field->add_option("--clock-offset-s", export_options->clock_offset_s,
+                           "Navigation time minus image time written into the log, seconds")
+      ->capture_default_str();
+  Command export_command{export_field,
+                         [export_options] { return RunExportField(*export_options, std::cout, std::cerr); }};
+  return {stereolunar_command, field_command, export_command};
 }
 
 }  // namespace hdabench::tools

@@ -42,7 +42,7 @@ std::vector<Command> AddCommands(CLI::App& app) {
   commands.push_back(AddCompareCommand(app));
   commands.push_back(AddReportCommand(app));
   commands.push_back(AddGateCommand(app));
-  commands.push_back(AddIngestCommand(app));
+  Append(commands, AddIngestCommands(app));
   Append(commands, AddCalibrateCommands(app));
   commands.push_back(AddDemoCommand(app));
   return commands;

@@ -11,6 +11,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/text.h"
 #include "datasets/dataset.h"
 #include "hda/hda_options.h"
 #include "hda/pipeline.h"
@@ -27,16 +28,14 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   const auto progress = [&](const std::string& line) {
     if (!options.quiet) err << "hdabench run: " << line << "\n";
   };
-  hda::HdaOptions hda_options;
-  if (options.processor_scale.has_value()) hda_options.processor_scale = *options.processor_scale;
-  if (options.budget_s.has_value()) hda_options.compute_budget_s = *options.budget_s;
-  if (options.site_size_m.has_value()) hda_options.quadtree.site_size_m = *options.site_size_m;
-  const std::vector<std::string> invalid = hda_options.Validate();
-  if (!invalid.empty()) {
-    err << "hdabench run: unusable options (--processor-scale, --budget-s, --site-size-m):\n";
-    for (const std::string& problem : invalid) err << "  " << problem << "\n";
-    return kExitUsage;
-  }
+  std::vector<HdaFlag> flags;
+  if (options.processor_scale) flags.push_back({"--processor-scale", "processor_scale", *options.processor_scale});
+  if (options.budget_s) flags.push_back({"--budget-s", "compute_budget_s", *options.budget_s});
+  if (options.site_size_m) flags.push_back({"--site-size-m", "quadtree.site_size_m", *options.site_size_m});
+  reference::HdaSettings hda_settings;
+  const int settings_code =
+      BuildHdaSettings(options.params_file, flags, options.hda_sets, "run", err, &hda_settings);
+  if (settings_code != kExitOk) return settings_code;
 
   const PairLoad pair = LoadDatasetPair(options.dataset_dir, options.frames, options.out_dir, "run",
                                         err, progress);
@@ -49,8 +48,16 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   // The flight method runs on one core, as on the flight computer (OpenCV's
   // parallel loops would otherwise use every core; results do not change).
   cv::setNumThreads(1);
-  const reference::FlightRun run =
-      reference::RunFlight(dataset, frames.first, frames.second, hda_options);
+  reference::FlightRun run;
+  try {
+    run = reference::RunFlight(dataset, frames.first, frames.second, hda_settings);
+  } catch (const InputError& e) {
+    err << "hdabench run: " << e.what() << "\n";
+    return kExitInput;
+  }
+  for (const reference::DerivedParam& d : run.derived_options) {
+    progress("from the geometry: " + d.key + " = " + util::ShortestText(d.value) + " (" + d.rule + ")");
+  }
 
   progress("writing " + options.out_dir);
   std::vector<std::string> written;
@@ -128,8 +135,11 @@ Command AddRunCommand(CLI::App& app) {
           ->capture_default_str();
   args->site_option =
       run->add_option("--site-size-m", args->site_size_m,
-                      "Side of a landing site, metres (sets the quadtree's smallest ROI)")
-          ->capture_default_str();
+                      "Side of a landing site, metres (sets the quadtree's smallest ROI; default:\n"
+                      "the lander's 10 m, scaled when its image is under one ORB patch or over a\n"
+                      "quarter of the image)");
+  run->add_option("--params", args->options.params_file, kParamsHelp);
+  run->add_option("--set", args->options.hda_sets, kSetHelp)->allow_extra_args(false);
   run->add_flag("--no-figures", args->no_figures, "Do not write figures/");
   run->add_flag("--no-report", args->no_report, "Do not write report.html and report.md");
   run->add_flag("--quiet", args->options.quiet, "No progress lines");

@@ -1,0 +1,774 @@
+#include "datasets/field_log.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "tools/util/angles.h"
+#include "tools/util/error.h"
+#include "tools/util/text.h"
+#include "datasets/internal/csv.h"
+
+namespace hdabench::datasets {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::ordered_json;
+
+constexpr double kWgs84A = 6378137.0;
+constexpr double kWgs84F = 1.0 / 298.257223563;
+constexpr double kWgs84E2 = kWgs84F * (2.0 - kWgs84F);
+constexpr double kDegToRad = util::kDegToRad;
+constexpr int kMaxListedProblems = 20;
+
+// ---------------------------------------------------------------------------
+// The description file
+
+std::string Text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot be read");
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Field access that names the path of the field: "log.json: navigation.position.frame".
+class Fields {
+ public:
+  // `root`: `where` is the file, and keys follow ": "; else a key path, and keys follow ".".
+  Fields(const Json& j, std::string where, bool root = false) : j_(j), where_(std::move(where)), root_(root) {}
+  bool Has(const std::string& key) const { return j_.contains(key); }
+  std::string Where(const std::string& key) const { return where_ + (root_ ? ": " : ".") + key; }
+  Fields Object(const std::string& key) const {
+    if (!j_.contains(key) || !j_.at(key).is_object()) throw InputError(Where(key) + ": expected an object");
+    return Fields(j_.at(key), Where(key));
+  }
+  std::string String(const std::string& key) const {
+    if (!j_.contains(key) || !j_.at(key).is_string() || j_.at(key).get<std::string>().empty()) {
+      throw InputError(Where(key) + ": expected a non-empty string");
+    }
+    return j_.at(key).get<std::string>();
+  }
+  double Number(const std::string& key) const {
+    if (!j_.contains(key) || !j_.at(key).is_number() || !std::isfinite(j_.at(key).get<double>())) {
+      throw InputError(Where(key) + ": expected a finite number");
+    }
+    return j_.at(key).get<double>();
+  }
+  double Number(const std::string& key, double fallback) const { return Has(key) ? Number(key) : fallback; }
+  std::vector<std::string> Strings(const std::string& key, size_t count) const {
+    if (!j_.contains(key) || !j_.at(key).is_array() || j_.at(key).size() != count) {
+      throw InputError(Where(key) + ": expected a list of " + std::to_string(count) + " column names");
+    }
+    std::vector<std::string> out;
+    for (const Json& v : j_.at(key)) {
+      if (!v.is_string() || v.get<std::string>().empty()) {
+        throw InputError(Where(key) + ": expected a list of " + std::to_string(count) + " column names");
+      }
+      out.push_back(v.get<std::string>());
+    }
+    return out;
+  }
+  Eigen::Vector3d Vector3(const std::string& key) const {
+    if (!j_.contains(key) || !j_.at(key).is_array() || j_.at(key).size() != 3) {
+      throw InputError(Where(key) + ": expected a list of 3 numbers");
+    }
+    Eigen::Vector3d v;
+    for (int i = 0; i < 3; ++i) {
+      if (!j_.at(key)[i].is_number() || !std::isfinite(j_.at(key)[i].get<double>())) {
+        throw InputError(Where(key) + ": expected a list of 3 finite numbers");
+      }
+      v[i] = j_.at(key)[i].get<double>();
+    }
+    return v;
+  }
+  void OnlyKeys(const std::set<std::string>& allowed) const {
+    for (const auto& item : j_.items()) {
+      if (allowed.count(item.key()) == 0) {
+        std::string list;
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        throw InputError(Where(item.key()) + ": unknown field; expected " + list);
+      }
+    }
+  }
+  std::string OneOf(const std::string& key, const std::vector<std::string>& choices) const {
+    const std::string value = String(key);
+    if (std::find(choices.begin(), choices.end(), value) == choices.end()) {
+      std::string list;
+      for (const std::string& c : choices) list += (list.empty() ? "" : ", ") + c;
+      throw InputError(Where(key) + ": '" + value + "' is not a known convention; expected one of " + list);
+    }
+    return value;
+  }
+
+ private:
+  const Json& j_;
+  std::string where_;
+  bool root_ = false;
+};
+
+// ---------------------------------------------------------------------------
+// Tables
+
+// A table's rows with the problems of every row collected; throws listing
+// them (at most kMaxListedProblems) when there is any.
+struct Table {
+  std::string file;
+  internal::CsvTable csv;
+};
+
+void ThrowProblems(const std::vector<Problem>& problems) {
+  if (problems.empty()) return;
+  std::string text = std::to_string(problems.size()) + " problem(s) in the field log:";
+  for (size_t i = 0; i < problems.size() && i < static_cast<size_t>(kMaxListedProblems); ++i) {
+    text += "\n  " + problems[i].ToString();
+  }
+  if (problems.size() > static_cast<size_t>(kMaxListedProblems)) {
+    text += "\n  ... and " + std::to_string(problems.size() - kMaxListedProblems) + " more";
+  }
+  throw InputError(text);
+}
+
+Table ReadTable(const std::string& path, const std::vector<std::string>& columns) {
+  Table table;
+  table.file = path;
+  internal::CsvSchema schema;
+  schema.required = columns;
+  schema.allow_other_columns = true;
+  std::vector<Problem> problems;
+  internal::ParseCsv(path, Text(path), schema, &table.csv, &problems);
+  ThrowProblems(problems);
+  if (table.csv.rows.empty()) throw InputError(path + ": no data row");
+  return table;
+}
+
+// Times strictly increasing, each problem at its line.
+void CheckIncreasing(const std::string& file, const std::vector<int>& lines, const std::vector<double>& times,
+                     std::vector<Problem>* problems) {
+  for (size_t i = 1; i < times.size(); ++i) {
+    if (!(times[i] > times[i - 1])) {
+      problems->push_back({file + ":" + std::to_string(lines[i]),
+                           "time " + util::ShortestText(times[i]) + " s is not after the previous row's " +
+                               util::ShortestText(times[i - 1]) + " s (line " + std::to_string(lines[i - 1]) +
+                               "): times must increase"});
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
+// Images and their times
+
+struct ImageFile {
+  std::string path;   // as found
+  std::string where;  // file:line of its time, or the file name it was read from
+  double camera_time_s = 0.0;
+};
+
+// Files of `folder` whose name matches `pattern` ("frame_{time_ns}.png"):
+// one placeholder, {time_s} (a decimal number), {time_ms}, {time_us} or
+// {time_ns} (whole numbers); the rest literal.
+std::vector<ImageFile> ImagesFromPattern(const fs::path& folder, const std::string& pattern,
+                                         const std::string& where) {
+  static const std::vector<std::pair<std::string, double>> units = {
+      {"{time_s}", 1.0}, {"{time_ms}", 1e-3}, {"{time_us}", 1e-6}, {"{time_ns}", 1e-9}};
+  size_t at = std::string::npos;
+  std::string placeholder;
+  double scale = 1.0;
+  for (const auto& [name, s] : units) {
+    const size_t found = pattern.find(name);
+    if (found == std::string::npos) continue;
+    if (at != std::string::npos) throw InputError(where + ": '" + pattern + "' has more than one time placeholder");
+    at = found;
+    placeholder = name;
+    scale = s;
+  }
+  if (at == std::string::npos) {
+    throw InputError(where + ": '" + pattern +
+                     "' has no time placeholder; expected one of {time_s}, {time_ms}, {time_us}, {time_ns}");
+  }
+  const std::string prefix = pattern.substr(0, at);
+  const std::string suffix = pattern.substr(at + placeholder.size());
+  std::error_code ec;
+  if (!fs::is_directory(folder, ec)) throw InputError(folder.string() + ": no such folder (the images)");
+  std::vector<ImageFile> images;
+  for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.size() <= prefix.size() + suffix.size() || name.compare(0, prefix.size(), prefix) != 0 ||
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) != 0) {
+      continue;
+    }
+    const std::string digits = name.substr(prefix.size(), name.size() - prefix.size() - suffix.size());
+    double value = 0.0;
+    bool ok = false;
+    if (placeholder == "{time_s}") {
+      ok = util::ParseDouble(digits, &value) == util::ParseStatus::kOk;
+    } else {
+      // Whole numbers, optionally negative.
+      const size_t first = !digits.empty() && digits[0] == '-' ? 1 : 0;
+      ok = digits.size() > first && digits.size() - first <= 18 &&
+           std::all_of(digits.begin() + static_cast<std::ptrdiff_t>(first), digits.end(),
+                       [](char c) { return c >= '0' && c <= '9'; });
+      if (ok) value = static_cast<double>(std::stoll(digits));
+    }
+    if (!ok) {
+      throw InputError((folder / name).string() + ": the name matches '" + pattern + "' but '" + digits +
+                       "' is not a time for " + placeholder);
+    }
+    images.push_back({(folder / name).string(), (folder / name).string(), value * scale});
+  }
+  if (images.empty()) throw InputError(folder.string() + ": no file matches '" + pattern + "'");
+  std::sort(images.begin(), images.end(),
+            [](const ImageFile& a, const ImageFile& b) { return a.camera_time_s < b.camera_time_s; });
+  for (size_t i = 1; i < images.size(); ++i) {
+    if (images[i].camera_time_s == images[i - 1].camera_time_s) {
+      throw InputError(images[i].path + ": the same time as " + images[i - 1].path);
+    }
+  }
+  return images;
+}
+
+std::vector<ImageFile> ImagesFromCsv(const fs::path& folder, const std::string& csv_path,
+                                     const std::string& file_column, const std::string& time_column,
+                                     double time_scale) {
+  const Table table = ReadTable(csv_path, {file_column, time_column});
+  std::vector<Problem> problems;
+  std::vector<ImageFile> images;
+  std::vector<int> lines;
+  std::vector<double> times;
+  std::set<std::string> listed;
+  for (const internal::CsvRow& row : table.csv.rows) {
+    internal::CsvRowReader reader(csv_path, table.csv, row, &problems);
+    const std::string file = reader.Text(file_column);
+    const double time = reader.Double(time_column) * time_scale;
+    if (!reader.ok()) continue;
+    std::error_code ec;
+    const fs::path path = folder / file;
+    if (!fs::is_regular_file(path, ec)) {
+      reader.Fail("image '" + file + "' not found in " + folder.string());
+      continue;
+    }
+    listed.insert(fs::path(file).filename().string());
+    images.push_back({path.string(), reader.Where(), time});
+    lines.push_back(row.line);
+    times.push_back(time);
+  }
+  CheckIncreasing(csv_path, lines, times, &problems);
+  // An image of the folder that the table does not list has no time.
+  std::error_code ec;
+  static const std::set<std::string> kImageExtensions = {".png", ".jpg", ".jpeg", ".tif", ".tiff", ".pgm", ".bmp"};
+  for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    std::string extension = it->path().extension().string();
+    std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (kImageExtensions.count(extension) == 0) continue;
+    if (listed.count(it->path().filename().string()) == 0) {
+      problems.push_back({it->path().string(), "image without a time: not listed in " + csv_path});
+    }
+  }
+  ThrowProblems(problems);
+  return images;
+}
+
+cv::Mat ReadGreyImage(const ImageFile& image, std::vector<std::string>* notes) {
+  cv::Mat pixels = cv::imread(image.path, cv::IMREAD_UNCHANGED);
+  if (pixels.empty()) throw InputError(image.path + ": not an image OpenCV can read");
+  if (pixels.depth() != CV_8U && pixels.depth() != CV_16U) {
+    throw InputError(image.path + ": pixels are neither 8-bit nor 16-bit");
+  }
+  if (pixels.channels() == 3 || pixels.channels() == 4) {
+    cv::Mat grey;
+    cv::cvtColor(pixels, grey, pixels.channels() == 3 ? cv::COLOR_BGR2GRAY : cv::COLOR_BGRA2GRAY);
+    if (notes->empty() || notes->back().find("colour") == std::string::npos) {
+      notes->push_back("colour images converted to grey (OpenCV's BT.601 weights), first: " + image.path);
+    }
+    pixels = grey;
+  } else if (pixels.channels() != 1) {
+    throw InputError(image.path + ": " + std::to_string(pixels.channels()) + " channels; expected 1 or 3");
+  }
+  return pixels;
+}
+
+// ---------------------------------------------------------------------------
+// Navigation
+
+struct NavConvention {
+  std::string position_frame;  // "wgs84", "enu", "ned"
+  std::vector<std::string> position_columns;
+  std::string attitude_kind;   // "euler_zyx_deg", "quaternion_wxyz", "quaternion_xyzw"
+  std::string attitude_frame;  // "ned", "enu"
+  std::vector<std::string> attitude_columns;
+};
+
+const Eigen::Matrix3d& EnuFromNed() {
+  static const Eigen::Matrix3d m = (Eigen::Matrix3d() << 0, 1, 0, 1, 0, 0, 0, 0, -1).finished();
+  return m;
+}
+
+Eigen::Quaterniond ProjectToRotation(const Eigen::Matrix3d& m) {
+  return Eigen::Quaterniond(m).normalized();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+
+Eigen::Vector3d EcefFromGeodetic(const Geodetic& p) {
+  const double lat = p.lat_deg * kDegToRad, lon = p.lon_deg * kDegToRad;
+  const double s = std::sin(lat), c = std::cos(lat);
+  const double n = kWgs84A / std::sqrt(1.0 - kWgs84E2 * s * s);
+  return {(n + p.height_m) * c * std::cos(lon), (n + p.height_m) * c * std::sin(lon),
+          (n * (1.0 - kWgs84E2) + p.height_m) * s};
+}
+
+Geodetic GeodeticFromEcef(const Eigen::Vector3d& e) {
+  const double p = std::hypot(e.x(), e.y());
+  Geodetic out;
+  out.lon_deg = std::atan2(e.y(), e.x()) / kDegToRad;
+  double lat = std::atan2(e.z(), p * (1.0 - kWgs84E2));
+  double height = 0.0;
+  for (int i = 0; i < 10; ++i) {
+    const double s = std::sin(lat);
+    const double n = kWgs84A / std::sqrt(1.0 - kWgs84E2 * s * s);
+    height = std::abs(std::cos(lat)) > 1e-12 ? p / std::cos(lat) - n : std::abs(e.z()) - n * (1.0 - kWgs84E2);
+    lat = std::atan2(e.z(), p * (1.0 - kWgs84E2 * n / (n + height)));
+  }
+  out.lat_deg = lat / kDegToRad;
+  out.height_m = height;
+  return out;
+}
+
+Eigen::Matrix3d EnuFromEcef(double lat_deg, double lon_deg) {
+  const double lat = lat_deg * kDegToRad, lon = lon_deg * kDegToRad;
+  const double sl = std::sin(lat), cl = std::cos(lat), so = std::sin(lon), co = std::cos(lon);
+  Eigen::Matrix3d m;
+  m << -so, co, 0.0,            //
+      -sl * co, -sl * so, cl,   //
+      cl * co, cl * so, sl;
+  return m;
+}
+
+double NormalGravityMps2(double lat_deg, double height_m) {
+  constexpr double kGammaEquator = 9.7803253359;
+  constexpr double kSomiglianaK = 0.00193185265241;
+  constexpr double kM = 0.00344978650684;  // omega^2 a^2 b / GM
+  const double s2 = std::pow(std::sin(lat_deg * kDegToRad), 2);
+  const double surface = kGammaEquator * (1.0 + kSomiglianaK * s2) / std::sqrt(1.0 - kWgs84E2 * s2);
+  return surface * (1.0 - 2.0 / kWgs84A * (1.0 + kWgs84F + kM - 2.0 * kWgs84F * s2) * height_m +
+                    3.0 * height_m * height_m / (kWgs84A * kWgs84A));
+}
+
+Eigen::Matrix3d FrameFromBodyZyx(double yaw_deg, double pitch_deg, double roll_deg) {
+  return (Eigen::AngleAxisd(yaw_deg * kDegToRad, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(pitch_deg * kDegToRad, Eigen::Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll_deg * kDegToRad, Eigen::Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+Eigen::Vector3d ZyxAnglesDeg(const Eigen::Matrix3d& r) {
+  const double pitch = std::asin(std::clamp(-r(2, 0), -1.0, 1.0));
+  const double yaw = std::atan2(r(1, 0), r(0, 0));
+  const double roll = std::atan2(r(2, 1), r(2, 2));
+  return Eigen::Vector3d(yaw, pitch, roll) / kDegToRad;
+}
+
+Eigen::Matrix3d BodyFromCamPointing(double azimuth_deg, double depression_deg, double roll_deg) {
+  // A forward-looking camera: image x = body y, image y = body z, optical axis = body x.
+  Eigen::Matrix3d forward;
+  forward.col(0) = Eigen::Vector3d::UnitY();
+  forward.col(1) = Eigen::Vector3d::UnitZ();
+  forward.col(2) = Eigen::Vector3d::UnitX();
+  return (Eigen::AngleAxisd(azimuth_deg * kDegToRad, Eigen::Vector3d::UnitZ()) *
+          Eigen::AngleAxisd(-depression_deg * kDegToRad, Eigen::Vector3d::UnitY()))
+             .toRotationMatrix() *
+         forward * Eigen::AngleAxisd(roll_deg * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
+Dataset IngestFieldLog(const std::string& config_path, FieldIngestReport* report) {
+  FieldIngestReport local_report;
+  if (report == nullptr) report = &local_report;
+  Json j;
+  try {
+    j = Json::parse(Text(config_path));
+  } catch (const Json::parse_error& e) {
+    throw InputError(config_path + ": not valid JSON: " + e.what());
+  }
+  if (!j.is_object()) throw InputError(config_path + ": expected a JSON object");
+  const Fields top(j, config_path, true);
+  const auto where = [&](const std::string& key) { return config_path + ": " + key; };
+  top.OnlyKeys({"format", "format_version", "name", "description", "camera_model", "mount", "images",
+                "clock_offset_s", "navigation", "origin", "ils_in_local_m", "gravity_mps2", "lrf"});
+  if (top.String("format") != kFieldLogFormatName) {
+    throw InputError(where("format") + ": expected \"" + std::string(kFieldLogFormatName) + "\"");
+  }
+  if (top.Number("format_version") != kFieldLogFormatVersion) {
+    throw InputError(where("format_version") + ": expected " + std::to_string(kFieldLogFormatVersion));
+  }
+  const fs::path base = fs::path(config_path).parent_path();
+  const auto resolve = [&](const std::string& relative) { return (base / relative).lexically_normal().string(); };
+
+  // The camera and its mount.
+  const std::string model_path = resolve(top.String("camera_model"));
+  calib::CameraModel camera = [&] {
+    try {
+      return calib::CameraModel::Load(model_path);
+    } catch (const std::exception& e) {
+      throw InputError(model_path + ": " + e.what());
+    }
+  }();
+  const Fields mount = top.Object("mount");
+  mount.OnlyKeys({"azimuth_deg", "depression_deg", "roll_deg", "body_from_cam", "position_in_body_m"});
+  Eigen::Matrix3d body_from_cam;
+  if (mount.Has("body_from_cam")) {
+    if (mount.Has("azimuth_deg") || mount.Has("depression_deg") || mount.Has("roll_deg")) {
+      throw InputError(mount.Where("body_from_cam") + ": give either the pointing angles or the matrix");
+    }
+    const Json& m = j["mount"]["body_from_cam"];
+    if (!m.is_array() || m.size() != 3) throw InputError(mount.Where("body_from_cam") + ": expected 3 rows of 3 numbers");
+    for (int r = 0; r < 3; ++r) {
+      if (!m[r].is_array() || m[r].size() != 3) throw InputError(mount.Where("body_from_cam") + ": expected 3 rows of 3 numbers");
+      for (int c = 0; c < 3; ++c) {
+        if (!m[r][c].is_number()) throw InputError(mount.Where("body_from_cam") + ": expected 3 rows of 3 numbers");
+        body_from_cam(r, c) = m[r][c].get<double>();
+      }
+    }
+    const double error = (body_from_cam.transpose() * body_from_cam - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+    if (!(error < 1e-6) || !(body_from_cam.determinant() > 0)) {
+      throw InputError(mount.Where("body_from_cam") + ": not a rotation (orthonormal within 1e-6, det +1)");
+    }
+  } else {
+    body_from_cam = BodyFromCamPointing(mount.Number("azimuth_deg"), mount.Number("depression_deg"),
+                                        mount.Number("roll_deg", 0.0));
+  }
+  const Eigen::Vector3d cam_in_body =
+      mount.Has("position_in_body_m") ? mount.Vector3("position_in_body_m") : Eigen::Vector3d::Zero();
+  const Eigen::Quaterniond body_from_cam_q = ProjectToRotation(body_from_cam);
+  const Rigid3d cam_from_body = Rigid3d(body_from_cam_q, cam_in_body).Inverse();
+
+  // Navigation.
+  const Fields nav_fields = top.Object("navigation");
+  nav_fields.OnlyKeys({"csv", "time_column", "time_unit", "position", "attitude", "max_gap_s"});
+  const Fields position_fields = nav_fields.Object("position");
+  position_fields.OnlyKeys({"frame", "columns"});
+  const Fields attitude = nav_fields.Object("attitude");
+  attitude.OnlyKeys({"kind", "frame", "columns"});
+  NavConvention convention;
+  convention.position_frame = position_fields.OneOf("frame", {"wgs84", "enu", "ned"});
+  convention.position_columns = position_fields.Strings("columns", 3);
+  convention.attitude_kind = attitude.OneOf("kind", {"euler_zyx_deg", "quaternion_wxyz", "quaternion_xyzw"});
+  convention.attitude_frame = attitude.OneOf("frame", {"ned", "enu"});
+  convention.attitude_columns =
+      attitude.Strings("columns", convention.attitude_kind == "euler_zyx_deg" ? 3 : 4);
+  const std::map<std::string, double> time_units = {{"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}, {"ns", 1e-9}};
+  const auto time_scale = [&](const Fields& f) {
+    if (!f.Has("time_unit")) return 1.0;
+    return time_units.at(f.OneOf("time_unit", {"s", "ms", "us", "ns"}));
+  };
+  const double nav_time_scale = time_scale(nav_fields);
+  const double max_gap_s = nav_fields.Number("max_gap_s", 1.0);
+  if (!(max_gap_s > 0)) throw InputError(nav_fields.Where("max_gap_s") + ": expected > 0");
+  const std::string nav_path = resolve(nav_fields.String("csv"));
+  const std::string nav_time_column = nav_fields.String("time_column");
+  std::vector<std::string> nav_columns = {nav_time_column};
+  nav_columns.insert(nav_columns.end(), convention.position_columns.begin(), convention.position_columns.end());
+  nav_columns.insert(nav_columns.end(), convention.attitude_columns.begin(), convention.attitude_columns.end());
+  const Table nav_table = ReadTable(nav_path, nav_columns);
+
+  struct RawNav {
+    int line;
+    double time_s;
+    Eigen::Vector3d position;  // geodetic (lat, lon, h) or local ENU/NED metres
+    Eigen::Matrix3d frame_from_body;
+  };
+  std::vector<Problem> problems;
+  std::vector<RawNav> raw;
+  for (const internal::CsvRow& row : nav_table.csv.rows) {
+    internal::CsvRowReader reader(nav_path, nav_table.csv, row, &problems);
+    RawNav n;
+    n.line = row.line;
+    n.time_s = reader.Double(nav_time_column) * nav_time_scale;
+    for (int i = 0; i < 3; ++i) n.position[i] = reader.Double(convention.position_columns[static_cast<size_t>(i)]);
+    std::vector<double> a;
+    for (const std::string& c : convention.attitude_columns) a.push_back(reader.Double(c));
+    if (!reader.ok()) continue;
+    if (convention.position_frame == "wgs84" && (std::abs(n.position[0]) > 90.0 || std::abs(n.position[1]) > 360.0)) {
+      reader.Fail("latitude " + util::ShortestText(n.position[0]) + " or longitude " +
+                  util::ShortestText(n.position[1]) + " deg out of range");
+      continue;
+    }
+    if (convention.attitude_kind == "euler_zyx_deg") {
+      n.frame_from_body = FrameFromBodyZyx(a[0], a[1], a[2]);
+    } else {
+      const bool w_first = convention.attitude_kind == "quaternion_wxyz";
+      const Eigen::Quaterniond q = w_first ? Eigen::Quaterniond(a[0], a[1], a[2], a[3])
+                                           : Eigen::Quaterniond(a[3], a[0], a[1], a[2]);
+      if (!(std::abs(q.norm() - 1.0) <= 1e-3)) {
+        reader.Fail("quaternion norm " + util::ShortestText(q.norm()) + "; expected 1 within 1e-3");
+        continue;
+      }
+      n.frame_from_body = q.normalized().toRotationMatrix();
+    }
+    raw.push_back(n);
+  }
+  {
+    std::vector<int> lines;
+    std::vector<double> times;
+    for (const RawNav& n : raw) {
+      lines.push_back(n.line);
+      times.push_back(n.time_s);
+    }
+    CheckIncreasing(nav_path, lines, times, &problems);
+  }
+  ThrowProblems(problems);
+  if (raw.size() < 2) throw InputError(nav_path + ": " + std::to_string(raw.size()) + " row(s); at least 2 needed");
+
+  // The local frame: ENU at the origin (wgs84), or the table's own axes.
+  Geodetic origin;
+  Eigen::Matrix3d local_from_ecef = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d origin_ecef = Eigen::Vector3d::Zero();
+  double gravity = 9.80665;
+  std::string gravity_why = "standard gravity 9.80665 m/s^2 (positions in a local frame: no latitude)";
+  if (convention.position_frame == "wgs84") {
+    if (top.Has("origin")) {
+      const Fields o = top.Object("origin");
+      o.OnlyKeys({"lat_deg", "lon_deg", "height_m"});
+      origin = {o.Number("lat_deg"), o.Number("lon_deg"), o.Number("height_m")};
+    } else {
+      origin = {raw.front().position[0], raw.front().position[1], raw.front().position[2]};
+    }
+    local_from_ecef = EnuFromEcef(origin.lat_deg, origin.lon_deg);
+    origin_ecef = EcefFromGeodetic(origin);
+    gravity = NormalGravityMps2(origin.lat_deg, origin.height_m);
+    gravity_why = "WGS84 normal gravity at the origin: " + util::ShortestText(gravity) + " m/s^2";
+    report->lines.push_back("local frame: east-north-up at lat " + util::ShortestText(origin.lat_deg) + " deg, lon " +
+                            util::ShortestText(origin.lon_deg) + " deg, height " + util::ShortestText(origin.height_m) +
+                            " m (WGS84)" + (top.Has("origin") ? "" : ", the first navigation sample"));
+  } else {
+    if (top.Has("origin")) throw InputError(where("origin") + ": only for wgs84 positions");
+    report->lines.push_back(std::string("local frame: east-north-up, the navigation table's ") +
+                            (convention.position_frame == "ned" ? "north-east-down axes turned to ENU" : "axes"));
+  }
+  if (top.Has("gravity_mps2")) {
+    gravity = top.Number("gravity_mps2");
+    if (!(gravity > 0)) throw InputError(where("gravity_mps2") + ": expected > 0");
+    gravity_why = "given: " + util::ShortestText(gravity) + " m/s^2";
+  }
+  report->lines.push_back("gravity: " + gravity_why);
+
+  Dataset dataset(std::move(camera));
+  dataset.name = top.Has("name") ? top.String("name") : fs::path(config_path).stem().string();
+  dataset.description = top.Has("description") ? top.String("description") : "field log " + config_path;
+  dataset.cam_from_body = cam_from_body;
+  dataset.gravity_in_local_mps2 = Eigen::Vector3d(0.0, 0.0, -gravity);
+  dataset.ils_in_local_m = top.Has("ils_in_local_m") ? top.Vector3("ils_in_local_m") : Eigen::Vector3d::Zero();
+  for (const RawNav& n : raw) {
+    NavSample s;
+    s.time_s = n.time_s;
+    Eigen::Vector3d position;
+    Eigen::Matrix3d local_from_frame;
+    if (convention.position_frame == "wgs84") {
+      const Geodetic g{n.position[0], n.position[1], n.position[2]};
+      position = local_from_ecef * (EcefFromGeodetic(g) - origin_ecef);
+      // The attitude's NED or ENU axes are those at the sample's own position.
+      const Eigen::Matrix3d ecef_from_enu_here = EnuFromEcef(g.lat_deg, g.lon_deg).transpose();
+      local_from_frame = local_from_ecef * ecef_from_enu_here *
+                         (convention.attitude_frame == "ned" ? EnuFromNed() : Eigen::Matrix3d::Identity());
+    } else {
+      position = convention.position_frame == "ned" ? Eigen::Vector3d(EnuFromNed() * n.position) : n.position;
+      local_from_frame = convention.attitude_frame == "ned" ? EnuFromNed() : Eigen::Matrix3d::Identity();
+    }
+    s.local_from_body = Rigid3d(ProjectToRotation(local_from_frame * n.frame_from_body), position);
+    dataset.nav.push_back(s);
+  }
+
+  // The LRF.
+  const Fields lrf_fields = top.Object("lrf");
+  lrf_fields.OnlyKeys({"csv", "time_column", "time_unit", "range_column", "beam_in_body", "origin_in_body_m"});
+  const std::string lrf_path = resolve(lrf_fields.String("csv"));
+  const std::string lrf_time_column = lrf_fields.String("time_column");
+  const std::string range_column = lrf_fields.String("range_column");
+  const double lrf_time_scale = time_scale(lrf_fields);
+  Eigen::Vector3d beam = body_from_cam_q * Eigen::Vector3d::UnitZ();
+  if (lrf_fields.Has("beam_in_body")) {
+    beam = lrf_fields.Vector3("beam_in_body");
+    if (!(beam.norm() > 0)) throw InputError(lrf_fields.Where("beam_in_body") + ": a zero vector");
+    beam.normalize();
+  }
+  dataset.lrf_origin_in_body_m =
+      lrf_fields.Has("origin_in_body_m") ? lrf_fields.Vector3("origin_in_body_m") : cam_in_body;
+  const Table lrf_table = ReadTable(lrf_path, {lrf_time_column, range_column});
+  std::vector<int> lrf_lines;
+  std::vector<double> lrf_times;
+  for (const internal::CsvRow& row : lrf_table.csv.rows) {
+    internal::CsvRowReader reader(lrf_path, lrf_table.csv, row, &problems);
+    LrfSample s;
+    s.time_s = reader.Double(lrf_time_column) * lrf_time_scale;
+    s.range_m = reader.Double(range_column);
+    s.boresight_in_body = beam;
+    if (!reader.ok()) continue;
+    if (!(s.range_m > 0)) {
+      reader.Fail("range " + util::ShortestText(s.range_m) + " m; expected > 0");
+      continue;
+    }
+    dataset.lrf.push_back(s);
+    lrf_lines.push_back(row.line);
+    lrf_times.push_back(s.time_s);
+  }
+  CheckIncreasing(lrf_path, lrf_lines, lrf_times, &problems);
+  ThrowProblems(problems);
+  report->lines.push_back(
+      "LRF: " + std::to_string(dataset.lrf.size()) + " samples, beam in body (" + util::ShortestText(beam.x()) + ", " +
+      util::ShortestText(beam.y()) + ", " + util::ShortestText(beam.z()) + ")" +
+      (lrf_fields.Has("beam_in_body") ? "" : " (the camera's optical axis)"));
+
+  // Images: times, the clock offset, the spans.
+  const Fields images = top.Object("images");
+  images.OnlyKeys({"folder", "pattern", "times_csv", "file_column", "time_column", "time_unit"});
+  const fs::path folder = resolve(images.String("folder"));
+  std::vector<ImageFile> files;
+  if (images.Has("pattern") == images.Has("times_csv")) {
+    throw InputError(images.Where("pattern") + ": give exactly one of 'pattern' and 'times_csv'");
+  }
+  if (images.Has("pattern")) {
+    files = ImagesFromPattern(folder, images.String("pattern"), images.Where("pattern"));
+  } else {
+    files = ImagesFromCsv(folder, resolve(images.String("times_csv")), images.String("file_column"),
+                          images.String("time_column"), time_scale(images));
+  }
+  const double offset_s = top.Number("clock_offset_s", 0.0);
+  report->frames_found = static_cast<int>(files.size());
+  report->lines.push_back("images: " + std::to_string(files.size()) + " in " + folder.string() +
+                          "; navigation time = image time + " + util::ShortestText(offset_s) + " s");
+  std::vector<std::string> notes;
+  const double nav_begin = dataset.nav.front().time_s, nav_end = dataset.nav.back().time_s;
+  const double lrf_begin = dataset.lrf.front().time_s, lrf_end = dataset.lrf.back().time_s;
+  for (const ImageFile& file : files) {
+    const double t = file.camera_time_s + offset_s;
+    std::string dropped;
+    if (t < nav_begin || t > nav_end) {
+      dropped = "outside the navigation span [" + util::ShortestText(nav_begin) + ", " + util::ShortestText(nav_end) + "] s";
+    } else if (t < lrf_begin || t > lrf_end) {
+      dropped = "outside the LRF span [" + util::ShortestText(lrf_begin) + ", " + util::ShortestText(lrf_end) + "] s";
+    } else {
+      const auto after = std::lower_bound(dataset.nav.begin(), dataset.nav.end(), t,
+                                          [](const NavSample& s, double time) { return s.time_s < time; });
+      if (after != dataset.nav.begin() && after->time_s != t && after->time_s - (after - 1)->time_s > max_gap_s) {
+        dropped = "in a navigation gap of " + util::ShortestText(after->time_s - (after - 1)->time_s) + " s (" +
+                  util::ShortestText((after - 1)->time_s) + " to " + util::ShortestText(after->time_s) +
+                  " s; max_gap_s " + util::ShortestText(max_gap_s) + ")";
+      }
+    }
+    if (!dropped.empty()) {
+      report->lines.push_back("left out: " + file.where + " at " + util::ShortestText(t) + " s: " + dropped);
+      continue;
+    }
+    FrameRecord frame;
+    frame.index = static_cast<int>(dataset.frames.size());
+    frame.time_s = t;
+    char name[32];
+    std::snprintf(name, sizeof(name), "images/frame_%06d.png", frame.index);
+    frame.image_path = name;
+    frame.image = ReadGreyImage(file, &notes);
+    if (frame.image.cols != dataset.camera.WidthPx() || frame.image.rows != dataset.camera.HeightPx()) {
+      throw InputError(file.path + ": " + std::to_string(frame.image.cols) + " x " + std::to_string(frame.image.rows) +
+                       " px; the camera model " + model_path + " is " + std::to_string(dataset.camera.WidthPx()) +
+                       " x " + std::to_string(dataset.camera.HeightPx()));
+    }
+    if (!dataset.frames.empty() && frame.image.type() != dataset.frames.front().image.type()) {
+      throw InputError(file.path + ": a different bit depth from " + files.front().path);
+    }
+    dataset.frames.push_back(std::move(frame));
+  }
+  report->lines.insert(report->lines.end(), notes.begin(), notes.end());
+  report->frames_kept = static_cast<int>(dataset.frames.size());
+  if (dataset.frames.size() < 2) {
+    throw InputError(config_path + ": " + std::to_string(dataset.frames.size()) + " of " +
+                     std::to_string(files.size()) +
+                     " image(s) fall inside the navigation and LRF spans; the flight method needs 2" +
+                     (report->lines.empty() ? "" : " (" + report->lines.back() + ")"));
+  }
+  return dataset;
+}
+
+void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodetic& origin, double clock_offset_s) {
+  std::error_code ec;
+  if (fs::exists(dir, ec) && (!fs::is_directory(dir, ec) || !fs::is_empty(dir, ec))) {
+    throw InputError(dir + ": exists and is not an empty folder");
+  }
+  if (dataset.lrf.empty() || dataset.nav.empty()) throw InputError("the dataset has no LRF or navigation samples");
+  const Eigen::Vector3d beam = dataset.lrf.front().boresight_in_body;
+  for (const LrfSample& s : dataset.lrf) {
+    if ((s.boresight_in_body - beam).norm() > 1e-12) {
+      throw InputError("the dataset's LRF beam changes between samples; a field log holds one beam");
+    }
+  }
+  fs::create_directories(fs::path(dir) / "images", ec);
+  if (ec) throw InputError(dir + ": cannot be created: " + ec.message());
+  const auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream out(fs::path(dir) / name, std::ios::binary);
+    out << text;
+    if (!out) throw InputError((fs::path(dir) / name).string() + ": cannot be written");
+  };
+  dataset.camera.Save((fs::path(dir) / "camera.cameramodel").string());
+  for (const FrameRecord& frame : dataset.frames) {
+    if (frame.image.empty()) throw InputError("the dataset's images are not loaded");
+    const long long ns = std::llround((frame.time_s - clock_offset_s) * 1e9);
+    const fs::path path = fs::path(dir) / "images" / ("img_" + std::to_string(ns) + ".png");
+    if (!cv::imwrite(path.string(), frame.image)) throw InputError(path.string() + ": cannot be written");
+  }
+  const Eigen::Matrix3d local_from_ecef = EnuFromEcef(origin.lat_deg, origin.lon_deg);
+  const Eigen::Vector3d origin_ecef = EcefFromGeodetic(origin);
+  const auto text = [](double v) { return util::ShortestText(v); };
+  std::string nav = "time_s,lat_deg,lon_deg,height_m,yaw_deg,pitch_deg,roll_deg\n";
+  for (const NavSample& s : dataset.nav) {
+    const Eigen::Vector3d ecef = origin_ecef + local_from_ecef.transpose() * s.local_from_body.translation;
+    const Geodetic g = GeodeticFromEcef(ecef);
+    const Eigen::Matrix3d ned_here_from_ecef = EnuFromNed().transpose() * EnuFromEcef(g.lat_deg, g.lon_deg);
+    const Eigen::Vector3d ypr =
+        ZyxAnglesDeg(ned_here_from_ecef * local_from_ecef.transpose() * s.local_from_body.rotation.toRotationMatrix());
+    nav += text(s.time_s) + "," + text(g.lat_deg) + "," + text(g.lon_deg) + "," + text(g.height_m) + "," +
+           text(ypr[0]) + "," + text(ypr[1]) + "," + text(ypr[2]) + "\n";
+  }
+  write("nav.csv", nav);
+  std::string lrf = "time_s,range_m\n";
+  for (const LrfSample& s : dataset.lrf) lrf += text(s.time_s) + "," + text(s.range_m) + "\n";
+  write("lrf.csv", lrf);
+  const Rigid3d body_from_cam = dataset.cam_from_body.Inverse();
+  const Eigen::Matrix3d r = body_from_cam.rotation.toRotationMatrix();
+  Json log;
+  log["format"] = kFieldLogFormatName;
+  log["format_version"] = kFieldLogFormatVersion;
+  log["name"] = dataset.name;
+  log["description"] = "field log written from dataset " + dataset.name;
+  log["camera_model"] = "camera.cameramodel";
+  log["mount"] = {{"body_from_cam", {{r(0, 0), r(0, 1), r(0, 2)}, {r(1, 0), r(1, 1), r(1, 2)}, {r(2, 0), r(2, 1), r(2, 2)}}},
+                  {"position_in_body_m", {body_from_cam.translation.x(), body_from_cam.translation.y(),
+                                          body_from_cam.translation.z()}}};
+  log["images"] = {{"folder", "images"}, {"pattern", "img_{time_ns}.png"}};
+  log["clock_offset_s"] = clock_offset_s;
+  log["navigation"] = {{"csv", "nav.csv"},
+                       {"time_column", "time_s"},
+                       {"position", {{"frame", "wgs84"}, {"columns", {"lat_deg", "lon_deg", "height_m"}}}},
+                       {"attitude", {{"kind", "euler_zyx_deg"}, {"frame", "ned"}, {"columns", {"yaw_deg", "pitch_deg", "roll_deg"}}}}};
+  log["origin"] = {{"lat_deg", origin.lat_deg}, {"lon_deg", origin.lon_deg}, {"height_m", origin.height_m}};
+  log["ils_in_local_m"] = {dataset.ils_in_local_m.x(), dataset.ils_in_local_m.y(), dataset.ils_in_local_m.z()};
+  log["gravity_mps2"] = dataset.gravity_in_local_mps2.norm();
+  log["lrf"] = {{"csv", "lrf.csv"},
+                {"time_column", "time_s"},
+                {"range_column", "range_m"},
+                {"beam_in_body", {beam.x(), beam.y(), beam.z()}},
+                {"origin_in_body_m", {dataset.lrf_origin_in_body_m.x(), dataset.lrf_origin_in_body_m.y(),
+                                      dataset.lrf_origin_in_body_m.z()}}};
+  write("log.json", log.dump(1) + "\n");
+}
+
+}  // namespace hdabench::datasets

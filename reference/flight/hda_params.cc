@@ -1,0 +1,317 @@
+#include "reference/flight/hda_params.h"
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include <opencv2/features2d.hpp>
+
+#include "hda/pipeline.h"
+#include "hda/quadtree.h"
+#include "tools/util/error.h"
+#include "tools/util/options_check.h"
+
+namespace hdabench::reference {
+
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// Calls visit(key, field) for every field of HdaOptions, in result.json's
+// order; `Options` is HdaOptions or const HdaOptions. The one list of keys.
+template <class Options, class Visit>
+void ForEachField(Options& o, Visit&& visit) {
+  visit("max_hazard_height_m", o.max_hazard_height_m);
+  visit("max_slope_deg", o.max_slope_deg);
+  visit("quadtree.site_size_m", o.quadtree.site_size_m);
+  visit("quadtree.min_block_fraction", o.quadtree.min_block_fraction);
+  visit("quadtree.max_block_stddev", o.quadtree.max_block_stddev);
+  visit("quadtree.min_block_mean", o.quadtree.min_block_mean);
+  visit("quadtree.max_roi_stddev", o.quadtree.max_roi_stddev);
+  visit("prediction.nav_position_sigma_m", o.prediction.nav_position_sigma_m);
+  visit("prediction.nav_attitude_sigma_deg", o.prediction.nav_attitude_sigma_deg);
+  visit("prediction.range_sigma_m", o.prediction.range_sigma_m);
+  visit("prediction.sigma_multiplier", o.prediction.sigma_multiplier);
+  visit("prediction.min_margin_px", o.prediction.min_margin_px);
+  visit("matching.orb_features_per_roi", o.matching.orb_features_per_roi);
+  visit("matching.orb_levels", o.matching.orb_levels);
+  visit("matching.orb_scale_factor", o.matching.orb_scale_factor);
+  visit("matching.orb_fast_threshold", o.matching.orb_fast_threshold);
+  visit("matching.orb_patch_size_px", o.matching.orb_patch_size_px);
+  visit("matching.ratio_test", o.matching.ratio_test);
+  visit("matching.cross_check", o.matching.cross_check);
+  visit("matching.subpixel_refine", o.matching.subpixel_refine);
+  visit("matching.refine_window_px", o.matching.refine_window_px);
+  visit("matching.max_refine_shift_px", o.matching.max_refine_shift_px);
+  visit("matching.warp_refine", o.matching.warp_refine);
+  visit("matching.warp_refine_window_px", o.matching.warp_refine_window_px);
+  visit("matching.ransac_threshold_px", o.matching.ransac_threshold_px);
+  visit("matching.ransac_confidence", o.matching.ransac_confidence);
+  visit("matching.ransac_max_iterations", o.matching.ransac_max_iterations);
+  visit("triangulation.min_parallax_deg", o.triangulation.min_parallax_deg);
+  visit("assumed_pixel_sigma_px", o.assumed_pixel_sigma_px);
+  visit("max_relief_m", o.max_relief_m);
+  visit("min_points", o.min_points);
+  visit("pixel_sigma_floor_px", o.pixel_sigma_floor_px);
+  visit("max_slope_sigma_deg", o.max_slope_sigma_deg);
+  visit("max_roughness_rms_m", o.max_roughness_rms_m);
+  visit("compute_budget_s", o.compute_budget_s);
+  visit("processor_scale", o.processor_scale);
+  visit("fault_match_noise_px", o.fault_match_noise_px);
+}
+
+std::string KnownKeys() {
+  std::string list;
+  for (const std::string& key : HdaParamKeys()) list += (list.empty() ? "" : ", ") + key;
+  return list;
+}
+
+// A comment in a parameter file: the file's own labels and each value's reason.
+bool IsComment(const std::string& key) {
+  const std::string suffix = "_why";
+  return key == "format" || key == "description" || key == "why" ||
+         (key.size() > suffix.size() && key.compare(key.size() - suffix.size(), suffix.size(), suffix) == 0);
+}
+
+void SetField(double* field, const Json& value, const std::string& where) {
+  if (!value.is_number() || !std::isfinite(value.get<double>())) {
+    throw InputError(where + ": expected a finite number, got " + value.dump());
+  }
+  *field = value.get<double>();
+}
+
+void SetField(int* field, const Json& value, const std::string& where) {
+  if (!value.is_number_integer() || value.get<std::int64_t>() < -1000000000 ||
+      value.get<std::int64_t>() > 1000000000) {
+    throw InputError(where + ": expected a whole number, got " + value.dump());
+  }
+  *field = value.get<int>();
+}
+
+void SetField(bool* field, const Json& value, const std::string& where) {
+  if (!value.is_boolean()) throw InputError(where + ": expected true or false, got " + value.dump());
+  *field = value.get<bool>();
+}
+
+// Text to the JSON value Set takes: true/false, else a number (the whole
+// text; an integer when it has no '.', 'e' or 'E').
+Json ParseValueText(const std::string& text, const std::string& where) {
+  if (text == "true") return true;
+  if (text == "false") return false;
+  if (text.empty()) throw InputError(where + ": no value");
+  const bool integer = text.find_first_of(".eE") == std::string::npos &&
+                       text.find_first_of("nNiI") == std::string::npos;
+  errno = 0;
+  char* end = nullptr;
+  if (integer) {
+    const long long value = std::strtoll(text.c_str(), &end, 10);
+    if (*end == '\0' && errno == 0) return value;
+  } else {
+    const double value = std::strtod(text.c_str(), &end);
+    if (*end == '\0' && errno == 0 && std::isfinite(value)) return value;
+  }
+  throw InputError(where + ": '" + text + "' is not a number or true/false");
+}
+
+std::string Format(double value) {
+  std::ostringstream text;
+  text.precision(6);
+  text << value;
+  return text.str();
+}
+
+}  // namespace
+
+const std::vector<std::string>& HdaParamKeys() {
+  static const std::vector<std::string> keys = [] {
+    std::vector<std::string> list;
+    hda::HdaOptions options;
+    ForEachField(options, [&](const char* key, auto&) { list.emplace_back(key); });
+    return list;
+  }();
+  return keys;
+}
+
+Json HdaOptionsJson(const hda::HdaOptions& options) {
+  Json j = Json::object();
+  ForEachField(options, [&](const std::string& key, const auto& value) {
+    const size_t dot = key.find('.');
+    if (dot == std::string::npos) {
+      j[key] = value;
+    } else {
+      j[key.substr(0, dot)][key.substr(dot + 1)] = value;
+    }
+  });
+  return j;
+}
+
+void HdaSettings::Set(const std::string& key, const Json& value, const std::string& where) {
+  bool found = false;
+  ForEachField(options, [&](const char* name, auto& field) {
+    if (key != name) return;
+    found = true;
+    SetField(&field, value, where + ": " + key);
+  });
+  if (!found) {
+    throw InputError(where + ": unknown flight-method parameter '" + key + "'; known: " + KnownKeys());
+  }
+  given.insert(key);
+}
+
+void HdaSettings::SetText(const std::string& key, const std::string& value, const std::string& where) {
+  Set(key, ParseValueText(value, where + ": " + key), where);
+}
+
+void HdaSettings::SetAll(const Json& object, const std::string& where) {
+  if (!object.is_object()) throw InputError(where + ": expected a JSON object of parameter: value");
+  for (const auto& item : object.items()) {
+    if (IsComment(item.key())) continue;
+    if (item.value().is_object()) {
+      for (const auto& inner : item.value().items()) {
+        if (IsComment(inner.key())) continue;
+        Set(item.key() + "." + inner.key(), inner.value(), where);
+      }
+    } else {
+      Set(item.key(), item.value(), where);
+    }
+  }
+}
+
+Json HdaSettings::GivenJson() const {
+  Json j = Json::object();
+  ForEachField(options, [&](const std::string& key, const auto& value) {
+    if (given.count(key) > 0) j[key] = value;
+  });
+  return j;
+}
+
+void HdaSettings::ReadFile(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read the parameter file");
+  std::stringstream text;
+  text << in.rdbuf();
+  Json j;
+  try {
+    j = Json::parse(text.str());
+  } catch (const Json::parse_error& e) {
+    throw InputError(path + ": not valid JSON: " + e.what());
+  }
+  if (j.is_object() && j.contains("format") && j["format"] != "hdabench-flight-params") {
+    throw InputError(path + ": field 'format' must be \"hdabench-flight-params\"");
+  }
+  if (j.is_object() && j.contains("parameters")) {
+    SetAll(j["parameters"], path + ": parameters");
+    return;
+  }
+  SetAll(j, path);
+}
+
+void HdaSettings::Validate(const std::string& where) const {
+  ThrowIfInvalid(where + ": unusable flight-method parameters: ", options.Validate());
+}
+
+double OrbKeypointDensity(const cv::Mat& image, const hda::MatchingOptions& matching, double min_lit_dn) {
+  const cv::Mat eight = hda::ToEightBit(image, "image 1");
+  const int lit = cv::countNonZero(eight >= min_lit_dn);
+  if (lit == 0) return 0.0;
+  const cv::Ptr<cv::ORB> orb = cv::ORB::create(
+      /*nfeatures=*/std::numeric_limits<int>::max() / 4, static_cast<float>(matching.orb_scale_factor),
+      matching.orb_levels, matching.orb_patch_size_px, /*firstLevel=*/0, /*WTA_K=*/2,
+      cv::ORB::HARRIS_SCORE, matching.orb_patch_size_px, matching.orb_fast_threshold);
+  std::vector<cv::KeyPoint> keypoints;
+  orb->detect(eight, keypoints);
+  return static_cast<double>(keypoints.size()) / lit;
+}
+
+const std::vector<std::string>& GeometryScaledKeys() {
+  static const std::vector<std::string> keys = {"quadtree.site_size_m", "max_relief_m",
+                                                "prediction.range_sigma_m",
+                                                "prediction.nav_position_sigma_m"};
+  return keys;
+}
+
+hda::HdaOptions ResolveHdaOptions(const HdaSettings& settings, const calib::CameraModel& camera,
+                                  const PairGeometry& geometry, std::vector<DerivedParam>* derived) {
+  const double range = geometry.lrf_range_m;
+  const double baseline = geometry.baseline_m;
+  if (!(std::isfinite(range) && range > 0)) {
+    throw InputError("flight-method parameters from the geometry: LRF range " + Format(range) +
+                     " m: expected finite and > 0");
+  }
+  hda::HdaOptions o = settings.options;
+  const hda::HdaOptions defaults;
+  std::vector<DerivedParam> out;
+  const auto free = [&](const std::string& key) { return settings.given.count(key) == 0; };
+  const double range_scale = range / kDesignRangeM;
+  // A pair without a baseline keeps the default nav sigma; its ROIs end
+  // degenerate in the method itself.
+  const double baseline_scale = baseline / kDesignBaselineM;
+
+  if (free("quadtree.site_size_m")) {
+    // The lander's site, unless its image is smaller than one ORB patch (it
+    // could hold no keypoint of its own) or than the side that holds
+    // kSiteKeypointsPerFitPoint * min_points keypoints at image 1's density,
+    // or larger than a quarter of the image's smaller side (the quadtree
+    // could place too few sites); the last bound over the others.
+    const double lander_m = defaults.quadtree.site_size_m;
+    const double lander_px =
+        hda::ProjectedSiteSidePx(camera, range, lander_m, "flight-method site size from the geometry");
+    double lo_px = o.matching.orb_patch_size_px;
+    std::string lo_why = "one ORB patch";
+    const double density = geometry.keypoints_per_px;
+    if (std::isfinite(density) && density > 0) {
+      const double texture_px = std::sqrt(kSiteKeypointsPerFitPoint * o.min_points / density);
+      if (texture_px > lo_px) {
+        lo_px = texture_px;
+        lo_why = "the side holding " + Format(kSiteKeypointsPerFitPoint * o.min_points) +
+                 " ORB keypoints at image 1's " + Format(1000.0 * density) + " per 1000 lit px^2";
+      }
+    }
+    const double hi_px = 0.25 * std::min(camera.WidthPx(), camera.HeightPx());
+    const std::string hi_why = "a quarter of the image's smaller side";
+    double site = lander_m;
+    std::string why = "the lander's " + Format(lander_m) + " m site: " + Format(lander_px) +
+                      " px at " + Format(range) + " m, within [" + Format(lo_px) + ", " + Format(hi_px) +
+                      "] px";
+    // The upper bound wins: an image too small for the lower one still gets
+    // sites, whose ROIs then say why they fail.
+    const double target_px = std::min(std::max(lander_px, lo_px), hi_px);
+    if (target_px != lander_px) {
+      site = lander_m * target_px / lander_px;
+      const bool up = target_px > lander_px;
+      why = "the lander's " + Format(lander_m) + " m site is " + Format(lander_px) + " px at " +
+            Format(range) + " m, " + (up ? "under " + lo_why : "over " + hi_why) +
+            (lo_px > hi_px ? " (" + lo_why + " is " + Format(lo_px) + " px, over " + hi_why + ")" : "") +
+            ": the site scaled to " + Format(target_px) + " px";
+    }
+    o.quadtree.site_size_m = site;
+    out.push_back({"quadtree.site_size_m", site, why});
+  }
+  if (free("max_relief_m")) {
+    o.max_relief_m = defaults.max_relief_m * range_scale;
+    out.push_back({"max_relief_m", o.max_relief_m,
+                   Format(defaults.max_relief_m) + " m at " + Format(kDesignRangeM) +
+                       " m of range, scaled with the LRF range " + Format(range) + " m"});
+  }
+  if (free("prediction.range_sigma_m")) {
+    o.prediction.range_sigma_m = defaults.prediction.range_sigma_m * range_scale;
+    out.push_back({"prediction.range_sigma_m", o.prediction.range_sigma_m,
+                   Format(defaults.prediction.range_sigma_m) + " m at " + Format(kDesignRangeM) +
+                       " m of range, scaled with the LRF range " + Format(range) + " m"});
+  }
+  if (free("prediction.nav_position_sigma_m") && std::isfinite(baseline) && baseline > 0) {
+    o.prediction.nav_position_sigma_m = defaults.prediction.nav_position_sigma_m * baseline_scale;
+    out.push_back({"prediction.nav_position_sigma_m", o.prediction.nav_position_sigma_m,
+                   Format(defaults.prediction.nav_position_sigma_m) + " m over " +
+                       Format(kDesignBaselineM) + " m of baseline, scaled with the baseline " +
+                       Format(baseline) + " m"});
+  }
+  if (derived != nullptr) *derived = std::move(out);
+  return o;
+}
+
+}  // namespace hdabench::reference

@@ -1,6 +1,7 @@
 #include "datasets/field_log.h"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -214,12 +215,12 @@ std::vector<ImageFile> ImagesFromPattern(const fs::path& folder, const std::stri
     if (placeholder == "{time_s}") {
       ok = util::ParseDouble(digits, &value) == util::ParseStatus::kOk;
     } else {
-      // Whole numbers, optionally negative.
-      const size_t first = !digits.empty() && digits[0] == '-' ? 1 : 0;
-      ok = digits.size() > first && digits.size() - first <= 18 &&
-           std::all_of(digits.begin() + static_cast<std::ptrdiff_t>(first), digits.end(),
-                       [](char c) { return c >= '0' && c <= '9'; });
-      if (ok) value = static_cast<double>(std::stoll(digits));
+      // Whole numbers, optionally negative, within 64 bits (epoch nanoseconds have 19 digits).
+      std::int64_t whole = 0;
+      const char* digits_end = digits.data() + digits.size();
+      const std::from_chars_result parsed = std::from_chars(digits.data(), digits_end, whole);
+      ok = !digits.empty() && parsed.ec == std::errc() && parsed.ptr == digits_end;
+      value = static_cast<double>(whole);
     }
     if (!ok) {
       throw InputError((folder / name).string() + ": the name matches '" + pattern + "' but '" + digits +
@@ -711,6 +712,9 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
       throw InputError("the dataset's LRF beam changes between samples; a field log holds one beam");
     }
   }
+  for (const FrameRecord& frame : dataset.frames) {
+    if (frame.image.empty()) throw InputError("the dataset's images are not loaded");
+  }
   fs::create_directories(fs::path(dir) / "images", ec);
   if (ec) throw InputError(dir + ": cannot be created: " + ec.message());
   const auto write = [&](const std::string& name, const std::string& text) {
@@ -723,7 +727,13 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
     if (frame.image.empty()) throw InputError("the dataset's images are not loaded");
     const long long ns = std::llround((frame.time_s - clock_offset_s) * 1e9);
     const fs::path path = fs::path(dir) / "images" / ("img_" + std::to_string(ns) + ".png");
-    if (!cv::imwrite(path.string(), frame.image)) throw InputError(path.string() + ": cannot be written");
+    bool written = false;
+    try {
+      written = cv::imwrite(path.string(), frame.image);
+    } catch (const cv::Exception& e) {
+      throw InputError(path.string() + ": cannot be written: " + e.what());
+    }
+    if (!written) throw InputError(path.string() + ": cannot be written");
   }
   const Eigen::Matrix3d local_from_ecef = EnuFromEcef(origin.lat_deg, origin.lon_deg);
   const Eigen::Vector3d origin_ecef = EcefFromGeodetic(origin);

@@ -99,6 +99,7 @@ bool ParseZipMembers(const std::string& bytes, std::map<std::string, std::string
     }
   }
   std::uint64_t at = directory_offset;
+  std::uint64_t total_bytes = 0;  // uncompressed, over every member
   for (std::uint64_t i = 0; i < entries; ++i) {
     const std::string which = "central directory entry " + std::to_string(i + 1);
     std::uint32_t signature = 0, crc = 0, compressed32 = 0, size32 = 0, local32 = 0;
@@ -141,11 +142,13 @@ bool ParseZipMembers(const std::string& bytes, std::map<std::string, std::string
                       "; expected stored (0) or deflate (8)",
                   error);
     }
-    if (size > max_member_bytes) {
+    if (size > max_member_bytes - total_bytes) {
       return Fail(member + " holds " + std::to_string(size) + " bytes; at most " +
-                      std::to_string(max_member_bytes) + " are read",
+                      std::to_string(max_member_bytes) + " are read from an archive",
                   error);
     }
+    total_bytes += size;
+    if (members->count(name) != 0) return Fail(member + " is repeated", error);
     std::uint16_t local_name = 0, local_extra = 0;
     if (!r.U32(local, &signature) || signature != kLocalHeader || !r.U16(local + 26, &local_name) ||
         !r.U16(local + 28, &local_extra)) {
@@ -166,7 +169,7 @@ bool ParseZipMembers(const std::string& bytes, std::map<std::string, std::string
     const uLong actual = crc32(crc32(0L, Z_NULL, 0), reinterpret_cast<const Bytef*>(content.data()),
                                static_cast<uInt>(content.size()));
     if (actual != crc) return Fail(member + " fails its CRC-32 check", error);
-    if (!members->emplace(name, std::move(content)).second) return Fail(member + " is repeated", error);
+    members->emplace(name, std::move(content));
   }
   return true;
 }

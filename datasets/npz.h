@@ -15,8 +15,8 @@ namespace hdabench::datasets {
 // `error` (without the file name) for a missing end-of-central-directory
 // record, a record or member outside the bytes, an encrypted member, a
 // compression method other than stored (0) or deflate (8), a member whose
-// size or CRC-32 does not match its record, or a repeated name. Members are
-// limited to `max_member_bytes` each.
+// size or CRC-32 does not match its record, or a repeated name. The members
+// together are limited to `max_member_bytes` uncompressed.
 bool ParseZipMembers(const std::string& bytes, std::map<std::string, std::string>* members,
                      std::string* error, std::size_t max_member_bytes = std::size_t{1} << 28);
 

@@ -155,7 +155,13 @@ PairReconstruction FlightRefined(const FlightRun& flight, const CompareOptions& 
       pixels1.emplace_back(r.points1_px[k].x, r.points1_px[k].y);
     }
   }
-  const CeresRefineResult refined = RefineTwoView(input, options.refine);
+  // The prior's sigmas are the flight method's own, as resolved for this pair
+  // (they follow the geometry, --params and --set).
+  CeresRefineOptions refine = options.refine;
+  refine.nav_position_sigma_m = flight.options.prediction.nav_position_sigma_m;
+  refine.nav_attitude_sigma_deg = flight.options.prediction.nav_attitude_sigma_deg;
+  refine.pixel_sigma_px = flight.options.pixel_sigma_floor_px;
+  const CeresRefineResult refined = RefineTwoView(input, refine);
   recon.wall_s = SecondsSince(start);
   // Any status but invalid input or too few points leaves a usable state
   // (the initial one when Ceres made it worse or failed).

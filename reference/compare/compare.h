@@ -68,7 +68,9 @@ std::vector<std::string> ParseMethodList(const std::string& comma_separated);
 
 // The refinement's defaults for the comparison: the nav prior with the flight
 // method's own nav sigmas (hda::PredictionOptions) and the pixel noise its
-// matches are measured to have (HdaOptions::pixel_sigma_floor_px).
+// matches are measured to have (HdaOptions::pixel_sigma_floor_px). RunCompare
+// replaces these three with the flight method's options as resolved for the
+// pair (FlightRun::options).
 CeresRefineOptions DefaultRefineOptions();
 
 struct CompareOptions {

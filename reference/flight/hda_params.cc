@@ -1,6 +1,7 @@
 #include "reference/flight/hda_params.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -85,8 +86,11 @@ void SetField(double* field, const Json& value, const std::string& where) {
 }
 
 void SetField(int* field, const Json& value, const std::string& where) {
-  if (!value.is_number_integer() || value.get<std::int64_t>() < -1000000000 ||
-      value.get<std::int64_t>() > 1000000000) {
+  const bool in_range = value.is_number_unsigned() ? value.get<std::uint64_t>() <= 1000000000u
+                                                   : value.is_number_integer() &&
+                                                         value.get<std::int64_t>() >= -1000000000 &&
+                                                         value.get<std::int64_t>() <= 1000000000;
+  if (!in_range) {
     throw InputError(where + ": expected a whole number, got " + value.dump());
   }
   *field = value.get<int>();
@@ -103,6 +107,9 @@ Json ParseValueText(const std::string& text, const std::string& where) {
   if (text == "true") return true;
   if (text == "false") return false;
   if (text.empty()) throw InputError(where + ": no value");
+  if (std::isspace(static_cast<unsigned char>(text.front())) != 0) {
+    throw InputError(where + ": '" + text + "' is not a number or true/false");
+  }
   const bool integer = text.find_first_of(".eE") == std::string::npos &&
                        text.find_first_of("nNiI") == std::string::npos;
   errno = 0;
@@ -204,6 +211,12 @@ void HdaSettings::ReadFile(const std::string& path) {
     throw InputError(path + ": field 'format' must be \"hdabench-flight-params\"");
   }
   if (j.is_object() && j.contains("parameters")) {
+    for (const auto& item : j.items()) {
+      if (item.key() != "parameters" && !IsComment(item.key())) {
+        throw InputError(path + ": field '" + item.key() +
+                         "' beside 'parameters'; expected format, description or comments (*_why)");
+      }
+    }
     SetAll(j["parameters"], path + ": parameters");
     return;
   }

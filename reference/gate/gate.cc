@@ -179,7 +179,9 @@ std::uint64_t Fnv1a(const std::string& text) {
 // tests, with a fake clock.
 constexpr double kGateComputeBudgetS = 1.0e6;
 
-Json EntrySpecJson(const GateEntry& e) {
+// What an entry's dataset is made from (its folder name hashes this): the
+// source, not the flight method's parameters.
+Json EntryDatasetSpecJson(const GateEntry& e) {
   Json j;
   j["name"] = e.name;
   if (e.synth_preset) {
@@ -190,7 +192,15 @@ Json EntrySpecJson(const GateEntry& e) {
                   {"set", overrides}};
   }
   if (e.dataset_dir) j["dataset"] = *e.dataset_dir;
-  if (e.stereolunar_pair_dir) j["stereolunar"] = {{"pair", *e.stereolunar_pair_dir}, {"sun", e.stereolunar_sun}};
+  if (e.stereolunar_pair_dir) {
+    j["stereolunar"] = {{"pair", *e.stereolunar_pair_dir}, {"sun", e.stereolunar_sun}, {"cameras", "npz"}};
+  }
+  return j;
+}
+
+// The entry as read: its dataset's source and its flight-method parameters.
+Json EntrySpecJson(const GateEntry& e) {
+  Json j = EntryDatasetSpecJson(e);
   const Json given = e.hda.GivenJson();
   // site_size_m alone keeps the record of suites written before "hda".
   if (given.size() == 1 && given.contains("quadtree.site_size_m")) {
@@ -238,7 +248,7 @@ std::string EntryDataset(const GateEntry& e, const GateSuite& suite, const GateR
   const fs::path suite_dir = fs::path(suite.file).parent_path();
   if (e.dataset_dir) return (suite_dir / *e.dataset_dir).lexically_normal().string();
   const fs::path made = fs::path(o.out_dir) / "datasets" /
-                        (e.name + "-" + Hex(Fnv1a(EntrySpecJson(e).dump())).substr(0, 8));
+                        (e.name + "-" + Hex(Fnv1a(EntryDatasetSpecJson(e).dump())).substr(0, 8));
   if (fs::exists(made / "manifest.json")) return made.string();
   const fs::path staging = made.string() + ".partial-" + std::to_string(::getpid());
   fs::remove_all(staging);
@@ -444,6 +454,12 @@ GateSuite ReadGateSuite(const std::string& path) {
         throw InputError(where + ": give the site size once: 'site_size_m' or 'hda'");
       }
       e.hda.SetAll(ej["hda"], where + ".hda");
+      for (const char* key : {"compute_budget_s", "processor_scale", "fault_match_noise_px"}) {
+        if (e.hda.given.count(key) != 0) {
+          throw InputError(where + ".hda: '" + key + "' is the gate's own (gate --processor-scale, " +
+                           "--fault-match-noise-px; an unlimited budget), not an entry's");
+        }
+      }
     }
     e.hda.Validate(where);
     suite.entries.push_back(e);

@@ -190,6 +190,27 @@ TEST(FieldLog, GeodeticNavMountClockOffsetAndLrfMatchTheTruth) {
   EXPECT_NEAR(dataset.BaselineM(0, 1), std::hypot(80.0, 10.0) * 0.4, 0.01);
 }
 
+// Image names with epoch nanoseconds (19 digits) and a clock offset that
+// brings them onto the navigation's clock.
+TEST(FieldLog, EpochNanosecondNames) {
+  FieldLog log;
+  log.dir = FreshTestDir();
+  log.Write();
+  for (const double t : log.camera_times) {
+    const std::string ms = std::to_string(static_cast<long>(std::lround(t * 1000)));
+    fs::rename(log.dir / "images" / ("cam_" + ms + ".png"),
+               log.dir / "images" / ("cam_" + std::to_string(1700000000000000000LL + std::llround(t * 1e9)) + ".png"));
+  }
+  std::string config = ReadText(log.dir / "log.json");
+  config.replace(config.find("cam_{time_ms}.png"), 17, "cam_{time_ns}.png");
+  config.replace(config.find("\"clock_offset_s\": 0.05"), 22, "\"clock_offset_s\": -1699999999.95");
+  WriteText(log.dir / "log.json", config);
+  const Dataset dataset = IngestFieldLog((log.dir / "log.json").string(), nullptr);
+  ASSERT_EQ(dataset.frames.size(), 5u);
+  // Epoch seconds as doubles: steps of 2.4e-7 s.
+  for (size_t i = 0; i < dataset.frames.size(); ++i) EXPECT_NEAR(dataset.frames[i].time_s, log.camera_times[i] + 0.05, 1e-6);
+}
+
 TEST(FieldLog, AGapLeavesTheFrameOutAndSaysSo) {
   FieldLog log;
   log.dir = FreshTestDir();

@@ -77,6 +77,10 @@ TEST(Npz, DamagedArchivesNameTheProblem) {
   method[central + 10] = 12;
   EXPECT_FALSE(ParseZipMembers(method, &members, &error));
   EXPECT_NE(error.find("compression method 12"), std::string::npos) << error;
+  // The members together within the budget: 200 + 256 bytes here.
+  EXPECT_TRUE(ParseZipMembers(good, &members, &error, 456)) << error;
+  EXPECT_FALSE(ParseZipMembers(good, &members, &error, 455));
+  EXPECT_NE(error.find("at most 455 are read from an archive"), std::string::npos) << error;
   EXPECT_FALSE(ParseZipMembers("not a zip archive at all, just text", &members, &error));
   EXPECT_NE(error.find("not a zip archive"), std::string::npos) << error;
 

@@ -111,6 +111,9 @@ TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
   EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "hda": {"min_points": 1}}])")
                 .find("entries[0]: unusable flight-method parameters: min_points = 1"),
             std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "hda": {"processor_scale": 1}}])")
+                .find("entries[0].hda: 'processor_scale' is the gate's own"),
+            std::string::npos);
   EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "site_size_m": 3, )"
                   R"("hda": {"min_points": 12}}])")
                 .find("give the site size once"),

@@ -111,6 +111,19 @@ TEST(HdaParams, FileNestedOrDottedWithReasons) {
   EXPECT_NE(InputErrorOf([&] { HdaSettings().ReadFile(path); }).find("not valid JSON"), std::string::npos);
   EXPECT_NE(InputErrorOf([&] { HdaSettings().ReadFile((dir / "missing.json").string()); }).find("cannot read"),
             std::string::npos);
+  // A key beside "parameters" is not silently dropped.
+  {
+    std::ofstream out(path);
+    out << R"({"parameters": {"min_points": 12}, "max_relief_m": 5})";
+  }
+  EXPECT_NE(InputErrorOf([&] { HdaSettings().ReadFile(path); }).find("field 'max_relief_m' beside 'parameters'"),
+            std::string::npos);
+  // A whole number beyond 64 bits signed is refused, not wrapped.
+  HdaSettings huge;
+  EXPECT_NE(InputErrorOf([&] { huge.Set("min_points", Json::parse("18446744073709551615"), "w"); })
+                .find("expected a whole number"),
+            std::string::npos);
+  EXPECT_EQ(huge.options.min_points, hda::HdaOptions().min_points);
 }
 
 PairGeometry Geometry(double range_m, double baseline_m, double keypoints_per_1000_px2 = 0.0) {

@@ -51,6 +51,8 @@ class Fields {
   Fields(const Json& j, std::string where, bool root = false) : j_(j), where_(std::move(where)), root_(root) {}
   bool Has(const std::string& key) const { return j_.contains(key); }
   std::string Where(const std::string& key) const { return where_ + (root_ ? ": " : ".") + key; }
+  const Json& Value(const std::string& key) const { return j_.at(key); }
+  const std::string& Path() const { return where_; }
   Fields Object(const std::string& key) const {
     if (!j_.contains(key) || !j_.at(key).is_object()) throw InputError(Where(key) + ": expected an object");
     return Fields(j_.at(key), Where(key));
@@ -319,6 +321,318 @@ Eigen::Quaterniond ProjectToRotation(const Eigen::Matrix3d& m) {
   return Eigen::Quaterniond(m).normalized();
 }
 
+std::string Resolve(const fs::path& base, const std::string& relative) {
+  return (base / relative).lexically_normal().string();
+}
+
+double TimeScale(const Fields& f) {
+  static const std::map<std::string, double> units = {{"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}, {"ns", 1e-9}};
+  if (!f.Has("time_unit")) return 1.0;
+  return units.at(f.OneOf("time_unit", {"s", "ms", "us", "ns"}));
+}
+
+// The camera on the body: "mount" as pointing angles or a matrix.
+struct Mount {
+  Eigen::Quaterniond body_from_cam = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d cam_in_body = Eigen::Vector3d::Zero();
+};
+
+Mount ReadMount(const Fields& top) {
+  const Fields mount = top.Object("mount");
+  mount.OnlyKeys({"azimuth_deg", "depression_deg", "roll_deg", "body_from_cam", "position_in_body_m"});
+  Eigen::Matrix3d body_from_cam;
+  if (mount.Has("body_from_cam")) {
+    if (mount.Has("azimuth_deg") || mount.Has("depression_deg") || mount.Has("roll_deg")) {
+      throw InputError(mount.Where("body_from_cam") + ": give either the pointing angles or the matrix");
+    }
+    const std::string bad = mount.Where("body_from_cam") + ": expected 3 rows of 3 numbers";
+    const Json& m = mount.Value("body_from_cam");
+    if (!m.is_array() || m.size() != 3) throw InputError(bad);
+    for (int r = 0; r < 3; ++r) {
+      if (!m[r].is_array() || m[r].size() != 3) throw InputError(bad);
+      for (int c = 0; c < 3; ++c) {
+        if (!m[r][c].is_number()) throw InputError(bad);
+        body_from_cam(r, c) = m[r][c].get<double>();
+      }
+    }
+    const double error = (body_from_cam.transpose() * body_from_cam - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+    if (!(error < 1e-6) || !(body_from_cam.determinant() > 0)) {
+      throw InputError(mount.Where("body_from_cam") + ": not a rotation (orthonormal within 1e-6, det +1)");
+    }
+  } else {
+    body_from_cam = BodyFromCamPointing(mount.Number("azimuth_deg"), mount.Number("depression_deg"),
+                                        mount.Number("roll_deg", 0.0));
+  }
+  Mount out;
+  out.body_from_cam = ProjectToRotation(body_from_cam);
+  if (mount.Has("position_in_body_m")) out.cam_in_body = mount.Vector3("position_in_body_m");
+  return out;
+}
+
+// One navigation row as logged: position and attitude in the table's conventions.
+struct RawNav {
+  int line;
+  double time_s;
+  Eigen::Vector3d position;  // geodetic (lat, lon, h) or local ENU/NED metres
+  Eigen::Matrix3d frame_from_body;
+};
+
+struct NavLog {
+  NavConvention convention;
+  std::vector<RawNav> rows;  // strictly increasing times, at least 2
+  double max_gap_s = 1.0;
+};
+
+// "navigation": its conventions and every row, each malformed row named.
+NavLog ReadNavigation(const Fields& top, const fs::path& base) {
+  const Fields nav_fields = top.Object("navigation");
+  nav_fields.OnlyKeys({"csv", "time_column", "time_unit", "position", "attitude", "max_gap_s"});
+  const Fields position_fields = nav_fields.Object("position");
+  position_fields.OnlyKeys({"frame", "columns"});
+  const Fields attitude = nav_fields.Object("attitude");
+  attitude.OnlyKeys({"kind", "frame", "columns"});
+  NavLog log;
+  NavConvention& convention = log.convention;
+  convention.position_frame = position_fields.OneOf("frame", {"wgs84", "enu", "ned"});
+  convention.position_columns = position_fields.Strings("columns", 3);
+  convention.attitude_kind = attitude.OneOf("kind", {"euler_zyx_deg", "quaternion_wxyz", "quaternion_xyzw"});
+  convention.attitude_frame = attitude.OneOf("frame", {"ned", "enu"});
+  convention.attitude_columns =
+      attitude.Strings("columns", convention.attitude_kind == "euler_zyx_deg" ? 3 : 4);
+  const double time_scale = TimeScale(nav_fields);
+  log.max_gap_s = nav_fields.Number("max_gap_s", 1.0);
+  if (!(log.max_gap_s > 0)) throw InputError(nav_fields.Where("max_gap_s") + ": expected > 0");
+  const std::string path = Resolve(base, nav_fields.String("csv"));
+  const std::string time_column = nav_fields.String("time_column");
+  std::vector<std::string> columns = {time_column};
+  columns.insert(columns.end(), convention.position_columns.begin(), convention.position_columns.end());
+  columns.insert(columns.end(), convention.attitude_columns.begin(), convention.attitude_columns.end());
+  const Table table = ReadTable(path, columns);
+
+  std::vector<Problem> problems;
+  for (const internal::CsvRow& row : table.csv.rows) {
+    internal::CsvRowReader reader(path, table.csv, row, &problems);
+    RawNav n;
+    n.line = row.line;
+    n.time_s = reader.Double(time_column) * time_scale;
+    for (int i = 0; i < 3; ++i) n.position[i] = reader.Double(convention.position_columns[static_cast<size_t>(i)]);
+    std::vector<double> a;
+    for (const std::string& c : convention.attitude_columns) a.push_back(reader.Double(c));
+    if (!reader.ok()) continue;
+    if (convention.position_frame == "wgs84" && (std::abs(n.position[0]) > 90.0 || std::abs(n.position[1]) > 360.0)) {
+      reader.Fail("latitude " + util::ShortestText(n.position[0]) + " or longitude " +
+                  util::ShortestText(n.position[1]) + " deg out of range");
+      continue;
+    }
+    if (convention.attitude_kind == "euler_zyx_deg") {
+      n.frame_from_body = FrameFromBodyZyx(a[0], a[1], a[2]);
+    } else {
+      const bool w_first = convention.attitude_kind == "quaternion_wxyz";
+      const Eigen::Quaterniond q = w_first ? Eigen::Quaterniond(a[0], a[1], a[2], a[3])
+                                           : Eigen::Quaterniond(a[3], a[0], a[1], a[2]);
+      if (!(std::abs(q.norm() - 1.0) <= 1e-3)) {
+        reader.Fail("quaternion norm " + util::ShortestText(q.norm()) + "; expected 1 within 1e-3");
+        continue;
+      }
+      n.frame_from_body = q.normalized().toRotationMatrix();
+    }
+    log.rows.push_back(n);
+  }
+  std::vector<int> lines;
+  std::vector<double> times;
+  for (const RawNav& n : log.rows) {
+    lines.push_back(n.line);
+    times.push_back(n.time_s);
+  }
+  CheckIncreasing(path, lines, times, &problems);
+  ThrowProblems(problems);
+  if (log.rows.size() < 2) {
+    throw InputError(path + ": " + std::to_string(log.rows.size()) + " row(s); at least 2 needed");
+  }
+  return log;
+}
+
+// The local frame (ENU at the origin for wgs84, else the table's own axes),
+// gravity there, and the navigation samples in it.
+void PlaceNavigation(const Fields& top, const NavLog& log, FieldIngestReport* report, Dataset* dataset) {
+  const NavConvention& convention = log.convention;
+  Geodetic origin;
+  Eigen::Matrix3d local_from_ecef = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d origin_ecef = Eigen::Vector3d::Zero();
+  double gravity = 9.80665;
+  std::string gravity_why = "standard gravity 9.80665 m/s^2 (positions in a local frame: no latitude)";
+  if (convention.position_frame == "wgs84") {
+    if (top.Has("origin")) {
+      const Fields o = top.Object("origin");
+      o.OnlyKeys({"lat_deg", "lon_deg", "height_m"});
+      origin = {o.Number("lat_deg"), o.Number("lon_deg"), o.Number("height_m")};
+    } else {
+      const Eigen::Vector3d& first = log.rows.front().position;
+      origin = {first[0], first[1], first[2]};
+    }
+    local_from_ecef = EnuFromEcef(origin.lat_deg, origin.lon_deg);
+    origin_ecef = EcefFromGeodetic(origin);
+    gravity = NormalGravityMps2(origin.lat_deg, origin.height_m);
+    gravity_why = "WGS84 normal gravity at the origin: " + util::ShortestText(gravity) + " m/s^2";
+    report->lines.push_back("local frame: east-north-up at lat " + util::ShortestText(origin.lat_deg) + " deg, lon " +
+                            util::ShortestText(origin.lon_deg) + " deg, height " + util::ShortestText(origin.height_m) +
+                            " m (WGS84)" + (top.Has("origin") ? "" : ", the first navigation sample"));
+  } else {
+    if (top.Has("origin")) throw InputError(top.Where("origin") + ": only for wgs84 positions");
+    report->lines.push_back(std::string("local frame: east-north-up, the navigation table's ") +
+                            (convention.position_frame == "ned" ? "north-east-down axes turned to ENU" : "axes"));
+  }
+  if (top.Has("gravity_mps2")) {
+    gravity = top.Number("gravity_mps2");
+    if (!(gravity > 0)) throw InputError(top.Where("gravity_mps2") + ": expected > 0");
+    gravity_why = "given: " + util::ShortestText(gravity) + " m/s^2";
+  }
+  report->lines.push_back("gravity: " + gravity_why);
+  dataset->gravity_in_local_mps2 = Eigen::Vector3d(0.0, 0.0, -gravity);
+
+  for (const RawNav& n : log.rows) {
+    NavSample s;
+    s.time_s = n.time_s;
+    Eigen::Vector3d position;
+    Eigen::Matrix3d local_from_frame;
+    if (convention.position_frame == "wgs84") {
+      const Geodetic g{n.position[0], n.position[1], n.position[2]};
+      position = local_from_ecef * (EcefFromGeodetic(g) - origin_ecef);
+      // The attitude's NED or ENU axes are those at the sample's own position.
+      const Eigen::Matrix3d ecef_from_enu_here = EnuFromEcef(g.lat_deg, g.lon_deg).transpose();
+      local_from_frame = local_from_ecef * ecef_from_enu_here *
+                         (convention.attitude_frame == "ned" ? EnuFromNed() : Eigen::Matrix3d::Identity());
+    } else {
+      position = convention.position_frame == "ned" ? Eigen::Vector3d(EnuFromNed() * n.position) : n.position;
+      local_from_frame = convention.attitude_frame == "ned" ? EnuFromNed() : Eigen::Matrix3d::Identity();
+    }
+    s.local_from_body = Rigid3d(ProjectToRotation(local_from_frame * n.frame_from_body), position);
+    dataset->nav.push_back(s);
+  }
+}
+
+// "lrf": the samples, the beam (default: the optical axis) and its origin
+// (default: the camera's centre).
+void ReadLrf(const Fields& top, const fs::path& base, const Mount& mount, FieldIngestReport* report,
+             Dataset* dataset) {
+  const Fields lrf_fields = top.Object("lrf");
+  lrf_fields.OnlyKeys({"csv", "time_column", "time_unit", "range_column", "beam_in_body", "origin_in_body_m"});
+  const std::string path = Resolve(base, lrf_fields.String("csv"));
+  const std::string time_column = lrf_fields.String("time_column");
+  const std::string range_column = lrf_fields.String("range_column");
+  const double time_scale = TimeScale(lrf_fields);
+  Eigen::Vector3d beam = mount.body_from_cam * Eigen::Vector3d::UnitZ();
+  if (lrf_fields.Has("beam_in_body")) {
+    beam = lrf_fields.Vector3("beam_in_body");
+    if (!(beam.norm() > 0)) throw InputError(lrf_fields.Where("beam_in_body") + ": a zero vector");
+    beam.normalize();
+  }
+  dataset->lrf_origin_in_body_m =
+      lrf_fields.Has("origin_in_body_m") ? lrf_fields.Vector3("origin_in_body_m") : mount.cam_in_body;
+  const Table table = ReadTable(path, {time_column, range_column});
+  std::vector<Problem> problems;
+  std::vector<int> lines;
+  std::vector<double> times;
+  for (const internal::CsvRow& row : table.csv.rows) {
+    internal::CsvRowReader reader(path, table.csv, row, &problems);
+    LrfSample s;
+    s.time_s = reader.Double(time_column) * time_scale;
+    s.range_m = reader.Double(range_column);
+    s.boresight_in_body = beam;
+    if (!reader.ok()) continue;
+    if (!(s.range_m > 0)) {
+      reader.Fail("range " + util::ShortestText(s.range_m) + " m; expected > 0");
+      continue;
+    }
+    dataset->lrf.push_back(s);
+    lines.push_back(row.line);
+    times.push_back(s.time_s);
+  }
+  CheckIncreasing(path, lines, times, &problems);
+  ThrowProblems(problems);
+  report->lines.push_back(
+      "LRF: " + std::to_string(dataset->lrf.size()) + " samples, beam in body (" + util::ShortestText(beam.x()) + ", " +
+      util::ShortestText(beam.y()) + ", " + util::ShortestText(beam.z()) + ")" +
+      (lrf_fields.Has("beam_in_body") ? "" : " (the camera's optical axis)"));
+}
+
+// Why a frame at navigation time t is left out (empty: kept): outside the
+// navigation or LRF span, or in a navigation gap longer than max_gap_s.
+std::string WhyLeftOut(const Dataset& dataset, double t, double max_gap_s) {
+  const double nav_begin = dataset.nav.front().time_s, nav_end = dataset.nav.back().time_s;
+  const double lrf_begin = dataset.lrf.front().time_s, lrf_end = dataset.lrf.back().time_s;
+  if (t < nav_begin || t > nav_end) {
+    return "outside the navigation span [" + util::ShortestText(nav_begin) + ", " + util::ShortestText(nav_end) + "] s";
+  }
+  if (t < lrf_begin || t > lrf_end) {
+    return "outside the LRF span [" + util::ShortestText(lrf_begin) + ", " + util::ShortestText(lrf_end) + "] s";
+  }
+  const auto after = std::lower_bound(dataset.nav.begin(), dataset.nav.end(), t,
+                                      [](const NavSample& s, double time) { return s.time_s < time; });
+  if (after != dataset.nav.begin() && after->time_s != t && after->time_s - (after - 1)->time_s > max_gap_s) {
+    return "in a navigation gap of " + util::ShortestText(after->time_s - (after - 1)->time_s) + " s (" +
+           util::ShortestText((after - 1)->time_s) + " to " + util::ShortestText(after->time_s) +
+           " s; max_gap_s " + util::ShortestText(max_gap_s) + ")";
+  }
+  return "";
+}
+
+// "images" and "clock_offset_s": the frames inside the logs, with their
+// pixels; the others reported.
+void AddFrames(const Fields& top, const fs::path& base, double max_gap_s, const std::string& model_path,
+               FieldIngestReport* report, Dataset* dataset) {
+  const Fields images = top.Object("images");
+  images.OnlyKeys({"folder", "pattern", "times_csv", "file_column", "time_column", "time_unit"});
+  const fs::path folder = Resolve(base, images.String("folder"));
+  std::vector<ImageFile> files;
+  if (images.Has("pattern") == images.Has("times_csv")) {
+    throw InputError(images.Where("pattern") + ": give exactly one of 'pattern' and 'times_csv'");
+  }
+  if (images.Has("pattern")) {
+    files = ImagesFromPattern(folder, images.String("pattern"), images.Where("pattern"));
+  } else {
+    files = ImagesFromCsv(folder, Resolve(base, images.String("times_csv")), images.String("file_column"),
+                          images.String("time_column"), TimeScale(images));
+  }
+  const double offset_s = top.Number("clock_offset_s", 0.0);
+  report->frames_found = static_cast<int>(files.size());
+  report->lines.push_back("images: " + std::to_string(files.size()) + " in " + folder.string() +
+                          "; navigation time = image time + " + util::ShortestText(offset_s) + " s");
+  std::vector<std::string> notes;
+  for (const ImageFile& file : files) {
+    const double t = file.camera_time_s + offset_s;
+    const std::string dropped = WhyLeftOut(*dataset, t, max_gap_s);
+    if (!dropped.empty()) {
+      report->lines.push_back("left out: " + file.where + " at " + util::ShortestText(t) + " s: " + dropped);
+      continue;
+    }
+    FrameRecord frame;
+    frame.index = static_cast<int>(dataset->frames.size());
+    frame.time_s = t;
+    char name[32];
+    std::snprintf(name, sizeof(name), "images/frame_%06d.png", frame.index);
+    frame.image_path = name;
+    frame.image = ReadGreyImage(file, &notes);
+    if (frame.image.cols != dataset->camera.WidthPx() || frame.image.rows != dataset->camera.HeightPx()) {
+      throw InputError(file.path + ": " + std::to_string(frame.image.cols) + " x " + std::to_string(frame.image.rows) +
+                       " px; the camera model " + model_path + " is " + std::to_string(dataset->camera.WidthPx()) +
+                       " x " + std::to_string(dataset->camera.HeightPx()));
+    }
+    if (!dataset->frames.empty() && frame.image.type() != dataset->frames.front().image.type()) {
+      throw InputError(file.path + ": a different bit depth from " + files.front().path);
+    }
+    dataset->frames.push_back(std::move(frame));
+  }
+  report->lines.insert(report->lines.end(), notes.begin(), notes.end());
+  report->frames_kept = static_cast<int>(dataset->frames.size());
+  if (dataset->frames.size() < 2) {
+    throw InputError(top.Path() + ": " + std::to_string(dataset->frames.size()) + " of " +
+                     std::to_string(files.size()) +
+                     " image(s) fall inside the navigation and LRF spans; the flight method needs 2" +
+                     (report->lines.empty() ? "" : " (" + report->lines.back() + ")"));
+  }
+}
+
 }  // namespace
 
 // ---------------------------------------------------------------------------
@@ -405,20 +719,17 @@ Dataset IngestFieldLog(const std::string& config_path, FieldIngestReport* report
   }
   if (!j.is_object()) throw InputError(config_path + ": expected a JSON object");
   const Fields top(j, config_path, true);
-  const auto where = [&](const std::string& key) { return config_path + ": " + key; };
   top.OnlyKeys({"format", "format_version", "name", "description", "camera_model", "mount", "images",
                 "clock_offset_s", "navigation", "origin", "ils_in_local_m", "gravity_mps2", "lrf"});
   if (top.String("format") != kFieldLogFormatName) {
-    throw InputError(where("format") + ": expected \"" + std::string(kFieldLogFormatName) + "\"");
+    throw InputError(top.Where("format") + ": expected \"" + std::string(kFieldLogFormatName) + "\"");
   }
   if (top.Number("format_version") != kFieldLogFormatVersion) {
-    throw InputError(where("format_version") + ": expected " + std::to_string(kFieldLogFormatVersion));
+    throw InputError(top.Where("format_version") + ": expected " + std::to_string(kFieldLogFormatVersion));
   }
   const fs::path base = fs::path(config_path).parent_path();
-  const auto resolve = [&](const std::string& relative) { return (base / relative).lexically_normal().string(); };
 
-  // The camera and its mount.
-  const std::string model_path = resolve(top.String("camera_model"));
+  const std::string model_path = Resolve(base, top.String("camera_model"));
   calib::CameraModel camera = [&] {
     try {
       return calib::CameraModel::Load(model_path);
@@ -426,277 +737,17 @@ Dataset IngestFieldLog(const std::string& config_path, FieldIngestReport* report
       throw InputError(model_path + ": " + e.what());
     }
   }();
-  const Fields mount = top.Object("mount");
-  mount.OnlyKeys({"azimuth_deg", "depression_deg", "roll_deg", "body_from_cam", "position_in_body_m"});
-  Eigen::Matrix3d body_from_cam;
-  if (mount.Has("body_from_cam")) {
-    if (mount.Has("azimuth_deg") || mount.Has("depression_deg") || mount.Has("roll_deg")) {
-      throw InputError(mount.Where("body_from_cam") + ": give either the pointing angles or the matrix");
-    }
-    const Json& m = j["mount"]["body_from_cam"];
-    if (!m.is_array() || m.size() != 3) throw InputError(mount.Where("body_from_cam") + ": expected 3 rows of 3 numbers");
-    for (int r = 0; r < 3; ++r) {
-      if (!m[r].is_array() || m[r].size() != 3) throw InputError(mount.Where("body_from_cam") + ": expected 3 rows of 3 numbers");
-      for (int c = 0; c < 3; ++c) {
-        if (!m[r][c].is_number()) throw InputError(mount.Where("body_from_cam") + ": expected 3 rows of 3 numbers");
-        body_from_cam(r, c) = m[r][c].get<double>();
-      }
-    }
-    const double error = (body_from_cam.transpose() * body_from_cam - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-    if (!(error < 1e-6) || !(body_from_cam.determinant() > 0)) {
-      throw InputError(mount.Where("body_from_cam") + ": not a rotation (orthonormal within 1e-6, det +1)");
-    }
-  } else {
-    body_from_cam = BodyFromCamPointing(mount.Number("azimuth_deg"), mount.Number("depression_deg"),
-                                        mount.Number("roll_deg", 0.0));
-  }
-  const Eigen::Vector3d cam_in_body =
-      mount.Has("position_in_body_m") ? mount.Vector3("position_in_body_m") : Eigen::Vector3d::Zero();
-  const Eigen::Quaterniond body_from_cam_q = ProjectToRotation(body_from_cam);
-  const Rigid3d cam_from_body = Rigid3d(body_from_cam_q, cam_in_body).Inverse();
-
-  // Navigation.
-  const Fields nav_fields = top.Object("navigation");
-  nav_fields.OnlyKeys({"csv", "time_column", "time_unit", "position", "attitude", "max_gap_s"});
-  const Fields position_fields = nav_fields.Object("position");
-  position_fields.OnlyKeys({"frame", "columns"});
-  const Fields attitude = nav_fields.Object("attitude");
-  attitude.OnlyKeys({"kind", "frame", "columns"});
-  NavConvention convention;
-  convention.position_frame = position_fields.OneOf("frame", {"wgs84", "enu", "ned"});
-  convention.position_columns = position_fields.Strings("columns", 3);
-  convention.attitude_kind = attitude.OneOf("kind", {"euler_zyx_deg", "quaternion_wxyz", "quaternion_xyzw"});
-  convention.attitude_frame = attitude.OneOf("frame", {"ned", "enu"});
-  convention.attitude_columns =
-      attitude.Strings("columns", convention.attitude_kind == "euler_zyx_deg" ? 3 : 4);
-  const std::map<std::string, double> time_units = {{"s", 1.0}, {"ms", 1e-3}, {"us", 1e-6}, {"ns", 1e-9}};
-  const auto time_scale = [&](const Fields& f) {
-    if (!f.Has("time_unit")) return 1.0;
-    return time_units.at(f.OneOf("time_unit", {"s", "ms", "us", "ns"}));
-  };
-  const double nav_time_scale = time_scale(nav_fields);
-  const double max_gap_s = nav_fields.Number("max_gap_s", 1.0);
-  if (!(max_gap_s > 0)) throw InputError(nav_fields.Where("max_gap_s") + ": expected > 0");
-  const std::string nav_path = resolve(nav_fields.String("csv"));
-  const std::string nav_time_column = nav_fields.String("time_column");
-  std::vector<std::string> nav_columns = {nav_time_column};
-  nav_columns.insert(nav_columns.end(), convention.position_columns.begin(), convention.position_columns.end());
-  nav_columns.insert(nav_columns.end(), convention.attitude_columns.begin(), convention.attitude_columns.end());
-  const Table nav_table = ReadTable(nav_path, nav_columns);
-
-  struct RawNav {
-    int line;
-    double time_s;
-    Eigen::Vector3d position;  // geodetic (lat, lon, h) or local ENU/NED metres
-    Eigen::Matrix3d frame_from_body;
-  };
-  std::vector<Problem> problems;
-  std::vector<RawNav> raw;
-  for (const internal::CsvRow& row : nav_table.csv.rows) {
-    internal::CsvRowReader reader(nav_path, nav_table.csv, row, &problems);
-    RawNav n;
-    n.line = row.line;
-    n.time_s = reader.Double(nav_time_column) * nav_time_scale;
-    for (int i = 0; i < 3; ++i) n.position[i] = reader.Double(convention.position_columns[static_cast<size_t>(i)]);
-    std::vector<double> a;
-    for (const std::string& c : convention.attitude_columns) a.push_back(reader.Double(c));
-    if (!reader.ok()) continue;
-    if (convention.position_frame == "wgs84" && (std::abs(n.position[0]) > 90.0 || std::abs(n.position[1]) > 360.0)) {
-      reader.Fail("latitude " + util::ShortestText(n.position[0]) + " or longitude " +
-                  util::ShortestText(n.position[1]) + " deg out of range");
-      continue;
-    }
-    if (convention.attitude_kind == "euler_zyx_deg") {
-      n.frame_from_body = FrameFromBodyZyx(a[0], a[1], a[2]);
-    } else {
-      const bool w_first = convention.attitude_kind == "quaternion_wxyz";
-      const Eigen::Quaterniond q = w_first ? Eigen::Quaterniond(a[0], a[1], a[2], a[3])
-                                           : Eigen::Quaterniond(a[3], a[0], a[1], a[2]);
-      if (!(std::abs(q.norm() - 1.0) <= 1e-3)) {
-        reader.Fail("quaternion norm " + util::ShortestText(q.norm()) + "; expected 1 within 1e-3");
-        continue;
-      }
-      n.frame_from_body = q.normalized().toRotationMatrix();
-    }
-    raw.push_back(n);
-  }
-  {
-    std::vector<int> lines;
-    std::vector<double> times;
-    for (const RawNav& n : raw) {
-      lines.push_back(n.line);
-      times.push_back(n.time_s);
-    }
-    CheckIncreasing(nav_path, lines, times, &problems);
-  }
-  ThrowProblems(problems);
-  if (raw.size() < 2) throw InputError(nav_path + ": " + std::to_string(raw.size()) + " row(s); at least 2 needed");
-
-  // The local frame: ENU at the origin (wgs84), or the table's own axes.
-  Geodetic origin;
-  Eigen::Matrix3d local_from_ecef = Eigen::Matrix3d::Identity();
-  Eigen::Vector3d origin_ecef = Eigen::Vector3d::Zero();
-  double gravity = 9.80665;
-  std::string gravity_why = "standard gravity 9.80665 m/s^2 (positions in a local frame: no latitude)";
-  if (convention.position_frame == "wgs84") {
-    if (top.Has("origin")) {
-      const Fields o = top.Object("origin");
-      o.OnlyKeys({"lat_deg", "lon_deg", "height_m"});
-      origin = {o.Number("lat_deg"), o.Number("lon_deg"), o.Number("height_m")};
-    } else {
-      origin = {raw.front().position[0], raw.front().position[1], raw.front().position[2]};
-    }
-    local_from_ecef = EnuFromEcef(origin.lat_deg, origin.lon_deg);
-    origin_ecef = EcefFromGeodetic(origin);
-    gravity = NormalGravityMps2(origin.lat_deg, origin.height_m);
-    gravity_why = "WGS84 normal gravity at the origin: " + util::ShortestText(gravity) + " m/s^2";
-    report->lines.push_back("local frame: east-north-up at lat " + util::ShortestText(origin.lat_deg) + " deg, lon " +
-                            util::ShortestText(origin.lon_deg) + " deg, height " + util::ShortestText(origin.height_m) +
-                            " m (WGS84)" + (top.Has("origin") ? "" : ", the first navigation sample"));
-  } else {
-    if (top.Has("origin")) throw InputError(where("origin") + ": only for wgs84 positions");
-    report->lines.push_back(std::string("local frame: east-north-up, the navigation table's ") +
-                            (convention.position_frame == "ned" ? "north-east-down axes turned to ENU" : "axes"));
-  }
-  if (top.Has("gravity_mps2")) {
-    gravity = top.Number("gravity_mps2");
-    if (!(gravity > 0)) throw InputError(where("gravity_mps2") + ": expected > 0");
-    gravity_why = "given: " + util::ShortestText(gravity) + " m/s^2";
-  }
-  report->lines.push_back("gravity: " + gravity_why);
+  const Mount mount = ReadMount(top);
+  const NavLog nav = ReadNavigation(top, base);
 
   Dataset dataset(std::move(camera));
   dataset.name = top.Has("name") ? top.String("name") : fs::path(config_path).stem().string();
   dataset.description = top.Has("description") ? top.String("description") : "field log " + config_path;
-  dataset.cam_from_body = cam_from_body;
-  dataset.gravity_in_local_mps2 = Eigen::Vector3d(0.0, 0.0, -gravity);
+  dataset.cam_from_body = Rigid3d(mount.body_from_cam, mount.cam_in_body).Inverse();
+  PlaceNavigation(top, nav, report, &dataset);
   dataset.ils_in_local_m = top.Has("ils_in_local_m") ? top.Vector3("ils_in_local_m") : Eigen::Vector3d::Zero();
-  for (const RawNav& n : raw) {
-    NavSample s;
-    s.time_s = n.time_s;
-    Eigen::Vector3d position;
-    Eigen::Matrix3d local_from_frame;
-    if (convention.position_frame == "wgs84") {
-      const Geodetic g{n.position[0], n.position[1], n.position[2]};
-      position = local_from_ecef * (EcefFromGeodetic(g) - origin_ecef);
-      // The attitude's NED or ENU axes are those at the sample's own position.
-      const Eigen::Matrix3d ecef_from_enu_here = EnuFromEcef(g.lat_deg, g.lon_deg).transpose();
-      local_from_frame = local_from_ecef * ecef_from_enu_here *
-                         (convention.attitude_frame == "ned" ? EnuFromNed() : Eigen::Matrix3d::Identity());
-    } else {
-      position = convention.position_frame == "ned" ? Eigen::Vector3d(EnuFromNed() * n.position) : n.position;
-      local_from_frame = convention.attitude_frame == "ned" ? EnuFromNed() : Eigen::Matrix3d::Identity();
-    }
-    s.local_from_body = Rigid3d(ProjectToRotation(local_from_frame * n.frame_from_body), position);
-    dataset.nav.push_back(s);
-  }
-
-  // The LRF.
-  const Fields lrf_fields = top.Object("lrf");
-  lrf_fields.OnlyKeys({"csv", "time_column", "time_unit", "range_column", "beam_in_body", "origin_in_body_m"});
-  const std::string lrf_path = resolve(lrf_fields.String("csv"));
-  const std::string lrf_time_column = lrf_fields.String("time_column");
-  const std::string range_column = lrf_fields.String("range_column");
-  const double lrf_time_scale = time_scale(lrf_fields);
-  Eigen::Vector3d beam = body_from_cam_q * Eigen::Vector3d::UnitZ();
-  if (lrf_fields.Has("beam_in_body")) {
-    beam = lrf_fields.Vector3("beam_in_body");
-    if (!(beam.norm() > 0)) throw InputError(lrf_fields.Where("beam_in_body") + ": a zero vector");
-    beam.normalize();
-  }
-  dataset.lrf_origin_in_body_m =
-      lrf_fields.Has("origin_in_body_m") ? lrf_fields.Vector3("origin_in_body_m") : cam_in_body;
-  const Table lrf_table = ReadTable(lrf_path, {lrf_time_column, range_column});
-  std::vector<int> lrf_lines;
-  std::vector<double> lrf_times;
-  for (const internal::CsvRow& row : lrf_table.csv.rows) {
-    internal::CsvRowReader reader(lrf_path, lrf_table.csv, row, &problems);
-    LrfSample s;
-    s.time_s = reader.Double(lrf_time_column) * lrf_time_scale;
-    s.range_m = reader.Double(range_column);
-    s.boresight_in_body = beam;
-    if (!reader.ok()) continue;
-    if (!(s.range_m > 0)) {
-      reader.Fail("range " + util::ShortestText(s.range_m) + " m; expected > 0");
-      continue;
-    }
-    dataset.lrf.push_back(s);
-    lrf_lines.push_back(row.line);
-    lrf_times.push_back(s.time_s);
-  }
-  CheckIncreasing(lrf_path, lrf_lines, lrf_times, &problems);
-  ThrowProblems(problems);
-  report->lines.push_back(
-      "LRF: " + std::to_string(dataset.lrf.size()) + " samples, beam in body (" + util::ShortestText(beam.x()) + ", " +
-      util::ShortestText(beam.y()) + ", " + util::ShortestText(beam.z()) + ")" +
-      (lrf_fields.Has("beam_in_body") ? "" : " (the camera's optical axis)"));
-
-  // Images: times, the clock offset, the spans.
-  const Fields images = top.Object("images");
-  images.OnlyKeys({"folder", "pattern", "times_csv", "file_column", "time_column", "time_unit"});
-  const fs::path folder = resolve(images.String("folder"));
-  std::vector<ImageFile> files;
-  if (images.Has("pattern") == images.Has("times_csv")) {
-    throw InputError(images.Where("pattern") + ": give exactly one of 'pattern' and 'times_csv'");
-  }
-  if (images.Has("pattern")) {
-    files = ImagesFromPattern(folder, images.String("pattern"), images.Where("pattern"));
-  } else {
-    files = ImagesFromCsv(folder, resolve(images.String("times_csv")), images.String("file_column"),
-                          images.String("time_column"), time_scale(images));
-  }
-  const double offset_s = top.Number("clock_offset_s", 0.0);
-  report->frames_found = static_cast<int>(files.size());
-  report->lines.push_back("images: " + std::to_string(files.size()) + " in " + folder.string() +
-                          "; navigation time = image time + " + util::ShortestText(offset_s) + " s");
-  std::vector<std::string> notes;
-  const double nav_begin = dataset.nav.front().time_s, nav_end = dataset.nav.back().time_s;
-  const double lrf_begin = dataset.lrf.front().time_s, lrf_end = dataset.lrf.back().time_s;
-  for (const ImageFile& file : files) {
-    const double t = file.camera_time_s + offset_s;
-    std::string dropped;
-    if (t < nav_begin || t > nav_end) {
-      dropped = "outside the navigation span [" + util::ShortestText(nav_begin) + ", " + util::ShortestText(nav_end) + "] s";
-    } else if (t < lrf_begin || t > lrf_end) {
-      dropped = "outside the LRF span [" + util::ShortestText(lrf_begin) + ", " + util::ShortestText(lrf_end) + "] s";
-    } else {
-      const auto after = std::lower_bound(dataset.nav.begin(), dataset.nav.end(), t,
-                                          [](const NavSample& s, double time) { return s.time_s < time; });
-      if (after != dataset.nav.begin() && after->time_s != t && after->time_s - (after - 1)->time_s > max_gap_s) {
-        dropped = "in a navigation gap of " + util::ShortestText(after->time_s - (after - 1)->time_s) + " s (" +
-                  util::ShortestText((after - 1)->time_s) + " to " + util::ShortestText(after->time_s) +
-                  " s; max_gap_s " + util::ShortestText(max_gap_s) + ")";
-      }
-    }
-    if (!dropped.empty()) {
-      report->lines.push_back("left out: " + file.where + " at " + util::ShortestText(t) + " s: " + dropped);
-      continue;
-    }
-    FrameRecord frame;
-    frame.index = static_cast<int>(dataset.frames.size());
-    frame.time_s = t;
-    char name[32];
-    std::snprintf(name, sizeof(name), "images/frame_%06d.png", frame.index);
-    frame.image_path = name;
-    frame.image = ReadGreyImage(file, &notes);
-    if (frame.image.cols != dataset.camera.WidthPx() || frame.image.rows != dataset.camera.HeightPx()) {
-      throw InputError(file.path + ": " + std::to_string(frame.image.cols) + " x " + std::to_string(frame.image.rows) +
-                       " px; the camera model " + model_path + " is " + std::to_string(dataset.camera.WidthPx()) +
-                       " x " + std::to_string(dataset.camera.HeightPx()));
-    }
-    if (!dataset.frames.empty() && frame.image.type() != dataset.frames.front().image.type()) {
-      throw InputError(file.path + ": a different bit depth from " + files.front().path);
-    }
-    dataset.frames.push_back(std::move(frame));
-  }
-  report->lines.insert(report->lines.end(), notes.begin(), notes.end());
-  report->frames_kept = static_cast<int>(dataset.frames.size());
-  if (dataset.frames.size() < 2) {
-    throw InputError(config_path + ": " + std::to_string(dataset.frames.size()) + " of " +
-                     std::to_string(files.size()) +
-                     " image(s) fall inside the navigation and LRF spans; the flight method needs 2" +
-                     (report->lines.empty() ? "" : " (" + report->lines.back() + ")"));
-  }
+  ReadLrf(top, base, mount, report, &dataset);
+  AddFrames(top, base, nav.max_gap_s, model_path, report, &dataset);
   return dataset;
 }
 

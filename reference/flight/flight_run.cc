@@ -124,7 +124,8 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   geometry.lrf_range_m = dataset.LrfRangeAt(dataset.frames[static_cast<size_t>(frame1)].time_s);
   geometry.baseline_m = dataset.BaselineM(frame1, frame2);
   const cv::Mat& image1 = dataset.frames[static_cast<size_t>(frame1)].image;
-  if (!image1.empty()) {
+  // The texture only sets the site size: not counted when the site is given.
+  if (!image1.empty() && settings.given.count("quadtree.site_size_m") == 0) {
     geometry.keypoints_per_px = OrbKeypointDensity(image1, settings.options.matching,
                                                    settings.options.quadtree.min_block_mean);
   }

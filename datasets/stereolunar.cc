@@ -21,6 +21,7 @@
 
 #include "tools/util/error.h"
 #include "tools/util/text.h"
+#include "datasets/internal/pair_frames.h"
 #include "datasets/npz.h"
 
 namespace hdabench::datasets {
@@ -31,7 +32,6 @@ namespace fs = std::filesystem;
 
 constexpr int kCamerasFields = 1 + 9 + 16;  // key, K, cam2world
 constexpr double kOrthonormalTolerance = 1e-4;
-constexpr double kFrameStepS = 1.0;  // frame 1 is 1 s after frame 0
 
 // Parses a whole field as a finite double; false otherwise.
 bool ParseFinite(const std::string& text, double* value) {
@@ -283,31 +283,13 @@ void DescribeDataset(const std::string& folder, int sun, const PairFrames& pair,
       "metres (docs/stereolunar.md).";
 }
 
-// Adds frame i at time i * kFrameStepS: its record, its navigation sample (also
-// the truth navigation: body = camera, exact poses) and the LRF sample along
-// the centre pixel's ray.
+// Adds frame i at time i * kPairFrameStepS: its record, its navigation sample
+// (also the truth navigation: body = camera, exact poses) and the LRF sample
+// along the centre pixel's ray.
 void AddFrameRecords(int i, const cv::Mat& image, const Rigid3d& local_from_cam,
                      double centre_depth, const Eigen::Vector3d& centre_ray, Dataset* dataset) {
-  const double time_s = i * kFrameStepS;
-
-  FrameRecord frame;
-  frame.index = i;
-  frame.time_s = time_s;
-  frame.image_path = "images/frame_00000" + std::to_string(i) + ".png";
-  frame.image = image;
-  dataset->frames.push_back(frame);
-
-  NavSample nav;
-  nav.time_s = time_s;
-  nav.local_from_body = local_from_cam;  // body = camera
-  dataset->nav.push_back(nav);
-  dataset->truth.navigation.push_back(nav);
-
-  LrfSample lrf;
-  lrf.time_s = time_s;
-  lrf.range_m = centre_depth * centre_ray.norm();
-  lrf.boresight_in_body = centre_ray.normalized();
-  dataset->lrf.push_back(lrf);
+  dataset->truth.navigation.push_back(internal::AddPairFrame(
+      i, image, local_from_cam, centre_depth * centre_ray.norm(), centre_ray.normalized(), dataset));
 }
 
 // The truth points of a frame: each pixel's depth along its ray, in the local

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <optional>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
@@ -131,8 +132,23 @@ inline int HammingDistance(const std::uint64_t* a, const std::uint64_t* b) {
 // The same matches as cv::BFMatcher(NORM_HAMMING) knnMatch(k = 2) and match()
 // the other way, at a quarter of the cost (one pass instead of two, no call
 // per pair).
+// Nav-guided matching's candidates: pair (i, j) is allowed when keypoint j of
+// image 2 lies within `radius_px` of keypoint i's expected position.
+struct MatchGuide {
+  std::vector<cv::Point2d> expected;       // per image-1 keypoint
+  std::vector<unsigned char> valid;        // 0: no expectation, no candidate
+  std::vector<cv::Point2d> positions2;     // image-2 keypoints
+  double radius_px = 0.0;
+  bool Allows(size_t i, size_t j) const {
+    if (!valid[i]) return false;
+    const cv::Point2d d = positions2[j] - expected[i];
+    return d.dot(d) <= radius_px * radius_px;
+  }
+};
+
 std::vector<cv::DMatch> MatchDescriptors(const cv::Mat& descriptors1, const cv::Mat& descriptors2,
-                                         const MatchingOptions& options) {
+                                         const MatchingOptions& options,
+                                         const MatchGuide* guide = nullptr) {
   std::vector<cv::DMatch> kept;
   if (descriptors1.empty() || descriptors2.empty()) return kept;
   CV_Assert(descriptors1.type() == CV_8UC1 && descriptors1.cols == kOrbDescriptorBytes &&
@@ -158,6 +174,7 @@ std::vector<cv::DMatch> MatchDescriptors(const cv::Mat& descriptors1, const cv::
     const std::uint64_t* a = &words1[i * kOrbDescriptorWords];
     Candidates& c = candidates[i];
     for (size_t j = 0; j < count2; ++j) {
+      if (guide != nullptr && !guide->Allows(i, j)) continue;
       const int d = HammingDistance(a, &words2[j * kOrbDescriptorWords]);
       if (d < c.second) {
         if (d < c.best) {
@@ -176,6 +193,7 @@ std::vector<cv::DMatch> MatchDescriptors(const cv::Mat& descriptors1, const cv::
   }
   for (size_t i = 0; i < count1; ++i) {
     const Candidates& c = candidates[i];
+    if (c.index < 0) continue;  // no candidate (nav-guided matching)
     // Only one candidate in image 2 (second == kNone): nothing to be ambiguous with.
     if (c.second != kNone && !(c.best < options.ratio_test * c.second)) continue;
     if (options.cross_check &&
@@ -411,6 +429,8 @@ std::vector<std::string> MatchingOptions::Validate() const {
   RequireOption(orb_patch_size_px >= 5 && orb_patch_size_px <= kMaxWindowPx, "orb_patch_size_px",
                 orb_patch_size_px, "in [5, 255]", &errors);
   RequireOption(ratio_test > 0 && ratio_test <= 1, "ratio_test", ratio_test, "in (0, 1]", &errors);
+  RequireOption(guide_radius_px >= 0 && std::isfinite(guide_radius_px), "guide_radius_px", guide_radius_px,
+                ">= 0 (0: not guided)", &errors);
   RequireOption(
       refine_window_px >= 5 && refine_window_px <= kMaxWindowPx && refine_window_px % 2 == 1,
       "refine_window_px", refine_window_px, "odd, in [5, 255]", &errors);
@@ -442,7 +462,8 @@ const char* ToString(MatchingStatus status) {
 
 RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1_px,
                         const cv::Rect& box2_px, const calib::CameraModel& camera,
-                        const MatchingOptions& options, const cv::Matx22d& motion_jacobian) {
+                        const MatchingOptions& options, const cv::Matx22d& motion_jacobian,
+                        const ExpectedPositions& expected) {
   ThrowIfInvalid(options.Validate());
   CheckImage(image1, "image1", camera);
   CheckImage(image2, "image2", camera);
@@ -455,8 +476,17 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
   const BoxFeatures features2 = DetectInBox(image2, box2, options);
   result.keypoints1 = static_cast<int>(features1.keypoints.size());
   result.keypoints2 = static_cast<int>(features2.keypoints.size());
-  const std::vector<cv::DMatch> matches =
-      MatchDescriptors(features1.descriptors, features2.descriptors, options);
+  std::optional<MatchGuide> guide;
+  if (options.guide_radius_px > 0.0 && expected) {
+    guide.emplace();
+    std::vector<cv::Point2d> pixels1;
+    for (const cv::KeyPoint& k : features1.keypoints) pixels1.emplace_back(k.pt.x, k.pt.y);
+    expected(pixels1, &guide->expected, &guide->valid);
+    for (const cv::KeyPoint& k : features2.keypoints) guide->positions2.emplace_back(k.pt.x, k.pt.y);
+    guide->radius_px = options.guide_radius_px;
+  }
+  const std::vector<cv::DMatch> matches = MatchDescriptors(
+      features1.descriptors, features2.descriptors, options, guide ? &*guide : nullptr);
   result.matches = static_cast<int>(matches.size());
 
   std::vector<cv::Point2d> points1, points2;

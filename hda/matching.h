@@ -12,6 +12,7 @@
 #pragma once
 
 #include <string>
+#include <functional>
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
@@ -33,6 +34,14 @@ struct MatchingOptions {
   // Descriptor matching (Hamming distance).
   double ratio_test = 0.8;    // keep a match when best < ratio_test * second best, in (0, 1]
   bool cross_check = true;    // keep a match only when it is also image 2's best for that keypoint
+  // Nav-guided matching: when > 0 (and MatchRoiPair is given the expected
+  // positions), an image-1 keypoint's candidates are only the image-2
+  // keypoints within this radius, pixels, of where navigation puts it (the
+  // level ground through the LRF spot); the ratio test and the cross-check
+  // then compare those candidates only. For periodic texture (a chessboard,
+  // regular patterns), where every period of the box looks alike. 0: every
+  // keypoint of the image-2 box is a candidate.
+  double guide_radius_px = 0.0;
 
   // Sub-pixel refinement: pyramidal Lucas-Kanade (cv::calcOpticalFlowPyrLK)
   // tracks each image-1 keypoint from its matched position in image 2. A match
@@ -90,6 +99,12 @@ struct RoiMatches {
   int ransac_inliers = 0;    // == points1_px.size()
 };
 
+// Where navigation expects image-1 pixels in image 2: fills `pixels2` and
+// `valid` (0 where there is no expectation) parallel to `pixels1`.
+using ExpectedPositions = std::function<void(const std::vector<cv::Point2d>& pixels1,
+                                             std::vector<cv::Point2d>* pixels2,
+                                             std::vector<unsigned char>* valid)>;
+
 // Matches ROI `box1_px` of image 1 with box `box2_px` of image 2. The images
 // are CV_8UC1 (callers convert 16-bit images once: ToEightBit in
 // hda/pipeline.h), of the camera's imager size; the boxes must lie inside their images (a box that does not is
@@ -97,11 +112,15 @@ struct RoiMatches {
 // motion_jacobian: d(image-2 pixel) / d(image-1 pixel) expected around the ROI
 // (RunHda gives the level ground's under the nav pose); the nav-aided
 // refinement maps its windows with it. The identity means a pure translation.
+// expected: where each image-1 keypoint should be in image 2, for nav-guided
+// matching (options.guide_radius_px > 0); without it every keypoint of the
+// box is a candidate whatever the radius.
 // Throws InputError for invalid options, an unsupported image type, or images
 // whose size differs from the camera's imager.
 RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1_px,
                         const cv::Rect& box2_px, const calib::CameraModel& camera,
                         const MatchingOptions& options,
-                        const cv::Matx22d& motion_jacobian = cv::Matx22d::eye());
+                        const cv::Matx22d& motion_jacobian = cv::Matx22d::eye(),
+                        const ExpectedPositions& expected = nullptr);
 
 }  // namespace hdabench::hda

@@ -174,6 +174,26 @@ cv::Matx22d GroundMotionJacobian(const Context& ctx, const Eigen::Vector2d& cent
   return std::isfinite(det) && det > 0.0 ? jacobian : cv::Matx22d::eye();
 }
 
+// Where image-1 pixels fall in image 2 when they lie on the level ground
+// through the LRF spot, moved with the nav relative pose (nav-guided matching).
+void ExpectOnGround(const Context& ctx, const std::vector<cv::Point2d>& pixels1,
+                    std::vector<cv::Point2d>* pixels2, std::vector<unsigned char>* valid) {
+  std::vector<Eigen::Vector2d> pixels;
+  for (const cv::Point2d& p : pixels1) pixels.emplace_back(p.x, p.y);
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<unsigned char> unprojected;
+  ctx.camera->Unproject(pixels, &bearings, &unprojected);
+  std::vector<Eigen::Vector3d> points_in_cam2(pixels.size(), Eigen::Vector3d::Zero());
+  for (size_t i = 0; i < pixels.size(); ++i) {
+    const double depth = unprojected[i] ? ctx.ground.DepthAlong(bearings[i]) : kInfinity;
+    if (std::isfinite(depth)) points_in_cam2[i] = ctx.cam2_from_cam1 * (depth * bearings[i]);
+  }
+  std::vector<Eigen::Vector2d> projected;
+  ctx.camera->Project(points_in_cam2, &projected, valid);  // the zero point (no depth) is invalid
+  pixels2->resize(pixels.size());
+  for (size_t i = 0; i < pixels.size(); ++i) (*pixels2)[i] = cv::Point2d(projected[i].x(), projected[i].y());
+}
+
 // Nav-based rejection and triangulation of one ROI's matches. Fills counts,
 // points, the pixel lists of the survivors, their bearings and parallaxes.
 void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double roi_range_m,
@@ -594,7 +614,9 @@ RoiMatches MatchRoi(const Context& ctx, const RoiResult& roi, const Eigen::Vecto
   const bool warp = options.matching.subpixel_refine && options.matching.warp_refine;
   RoiMatches matches =
       MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, *ctx.camera, options.matching,
-                   warp ? GroundMotionJacobian(ctx, centre) : cv::Matx22d::eye());
+                   warp ? GroundMotionJacobian(ctx, centre) : cv::Matx22d::eye(),
+                   [&ctx](const std::vector<cv::Point2d>& pixels1, std::vector<cv::Point2d>* pixels2,
+                          std::vector<unsigned char>* valid) { ExpectOnGround(ctx, pixels1, pixels2, valid); });
   if (options.fault_match_noise_px > 0.0) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(roi.id));
     std::normal_distribution<double> noise(0.0, options.fault_match_noise_px);
@@ -709,9 +731,13 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
   timer.Lap(&result.times.convert_s);
   const Eigen::Vector3d spot_in_cam1 = SetUpGeometry(input, &ctx);
 
-  // Quadtree on image 1.
-  const int min_block_px = MinimumBlockSizePx(camera, spot_in_cam1.norm(), options.quadtree);
-  result.quadtree = RunQuadtree(ctx.image1, min_block_px, options.quadtree);
+  // Quadtree on image 1, unless the ROIs are given.
+  if (input.given_rois_px.empty()) {
+    const int min_block_px = MinimumBlockSizePx(camera, spot_in_cam1.norm(), options.quadtree);
+    result.quadtree = RunQuadtree(ctx.image1, min_block_px, options.quadtree);
+  } else {
+    result.quadtree = GivenRois(ctx.image1, input.given_rois_px);
+  }
   timer.Lap(&result.times.quadtree_s);
   if (result.quadtree.rois.empty()) {
     result.note = "the quadtree kept no block: " + result.quadtree.Summary();

@@ -42,6 +42,9 @@ struct HdaInput {
   Eigen::Vector3d lrf_origin_in_cam1_m = Eigen::Vector3d::Zero();  // start of the beam
   Eigen::Vector3d lrf_beam_in_cam1 = Eigen::Vector3d::UnitZ();     // direction (normalised here)
   Eigen::Vector3d ils_in_local_m = Eigen::Vector3d::Zero();  // intended landing site
+  // ROIs given in image 1's pixels (a test target, a surveyed site): when not
+  // empty the quadtree is not run and these are the ROIs (GivenRois).
+  std::vector<cv::Rect> given_rois_px;
 };
 
 // Status of one ROI, in the order the method decides it.

@@ -105,6 +105,36 @@ BlockStats BlockStatsFromIntegral(const cv::Mat& sum, const cv::Mat& sqsum, cons
   return BlockStats{mean * scale, std::sqrt(variance) * scale};
 }
 
+QuadtreeResult GivenRois(const cv::Mat& image, const std::vector<cv::Rect>& boxes_px) {
+  if (image.type() != CV_8UC1 && image.type() != CV_16UC1) {
+    throw InputError("GivenRois: image type " + cv::typeToString(image.type()) +
+                     " is not supported: expected CV_8UC1 or CV_16UC1");
+  }
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  QuadtreeResult result;
+  cv::Mat sum, sqsum;
+  cv::integral(image, sum, sqsum, CV_64F, CV_64F);
+  const double scale = image.type() == CV_16UC1 ? 1.0 / 257.0 : 1.0;
+  for (size_t i = 0; i < boxes_px.size(); ++i) {
+    const cv::Rect& box = boxes_px[i];
+    if (box.width <= 0 || box.height <= 0 || (box & whole) != box) {
+      throw InputError("given ROI " + std::to_string(i + 1) + " (x " + std::to_string(box.x) + ", y " +
+                       std::to_string(box.y) + ", " + std::to_string(box.width) + " x " +
+                       std::to_string(box.height) + " px) is " +
+                       (box.width <= 0 || box.height <= 0
+                            ? std::string("empty")
+                            : "not inside image 1 (" + std::to_string(image.cols) + " x " +
+                                  std::to_string(image.rows) + " px)"));
+    }
+    const BlockStats stats = BlockStatsFromIntegral(sum, sqsum, box, scale);
+    result.rois.push_back({static_cast<int>(i) + 1, box, stats.mean_dn, stats.stddev_dn});
+    result.min_block_px = i == 0 ? std::min(box.width, box.height)
+                                 : std::min({result.min_block_px, box.width, box.height});
+  }
+  result.blocks_visited = static_cast<int>(boxes_px.size());
+  return result;
+}
+
 QuadtreeResult RunQuadtree(const cv::Mat& image, int min_block_px, const QuadtreeOptions& options) {
   ThrowIfInvalid("RunQuadtree", options.Validate());
   if (min_block_px < 1) {

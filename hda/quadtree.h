@@ -101,6 +101,13 @@ struct QuadtreeResult {
 // invalid options.
 QuadtreeResult RunQuadtree(const cv::Mat& image, int min_block_px, const QuadtreeOptions& options);
 
+// ROIs given by the caller instead of the quadtree's (a test target, a
+// surveyed site): ids 1..N in the order given, each box's mean and stddev as
+// RunQuadtree computes them; blocks_visited = N, min_block_px = the smallest
+// side, nothing rejected. Throws InputError naming the box (1-based) when it
+// is empty or not inside the image, or for an image type RunQuadtree refuses.
+QuadtreeResult GivenRois(const cv::Mat& image, const std::vector<cv::Rect>& boxes_px);
+
 // Mean and population standard deviation (8-bit levels) of `box_px` in an
 // image, from its integral images (cv::integral(image, sum, sqsum, CV_64F,
 // CV_64F)); `scale` is 1 for 8-bit images and 1/257 for 16-bit ones. The box

@@ -390,6 +390,7 @@ std::string FlightResultJson(const FlightRun& run) {
                    {"rejected_variable", q.rejected_variable},
                    {"rejected_small", q.rejected_small},
                    {"rejected_boxes", rejected}};
+  if (run.given_rois) j["quadtree"]["given_rois"] = true;  // the ROIs were given, the quadtree not run
   j["budget_s"] = Number(result.budget_s);
   j["budget_exhausted"] = result.budget_exhausted;
   Json status_counts = Json::object();

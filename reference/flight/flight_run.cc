@@ -97,8 +97,9 @@ std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int fra
 }
 
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
-                    const hda::HdaOptions& options) {
-  const hda::HdaInput input = MakeHdaInput(dataset, frame1, frame2);
+                    const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px) {
+  hda::HdaInput input = MakeHdaInput(dataset, frame1, frame2);
+  input.given_rois_px = given_rois_px;
   FlightRun run;
   run.dataset_name = dataset.name;
   run.frame1 = frame1;
@@ -109,16 +110,17 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   run.baseline_m = dataset.BaselineM(frame1, frame2);
   run.lrf_range_m = input.lrf_range_m;
   run.options = options;
+  run.given_rois = !given_rois_px.empty();
   run.result = hda::RunHda(input, dataset.camera, options);
   run.truths = TruthOfRois(dataset, frame1, run.result);
   return run;
 }
 
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
-                    const HdaSettings& settings) {
+                    const HdaSettings& settings, const std::vector<cv::Rect>& given_rois_px) {
   const int n = static_cast<int>(dataset.frames.size());
   if (frame1 < 0 || frame1 >= n || frame2 < 0 || frame2 >= n) {
-    return RunFlight(dataset, frame1, frame2, settings.options);  // MakeHdaInput names the frame
+    return RunFlight(dataset, frame1, frame2, settings.options, given_rois_px);  // MakeHdaInput names the frame
   }
   PairGeometry geometry;
   geometry.lrf_range_m = dataset.LrfRangeAt(dataset.frames[static_cast<size_t>(frame1)].time_s);
@@ -134,7 +136,7 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   ThrowIfInvalid("flight-method parameters for frames " + std::to_string(frame1) + "," +
                      std::to_string(frame2) + ": ",
                  options.Validate());
-  FlightRun run = RunFlight(dataset, frame1, frame2, options);
+  FlightRun run = RunFlight(dataset, frame1, frame2, options, given_rois_px);
   run.derived_options = std::move(derived);
   return run;
 }

@@ -74,6 +74,7 @@ struct FlightRun {
   // The values of `options` set from the pair's geometry (ResolveHdaOptions);
   // empty when the options were given whole.
   std::vector<DerivedParam> derived_options;
+  bool given_rois = false;        // the ROIs were given, not found by the quadtree
   hda::HdaResult result;
   // Truth per ROI, parallel to result.rois (TruthOfRois). Empty, or all
   // unavailable, when the dataset has no truth.
@@ -86,14 +87,16 @@ struct FlightRun {
 // its images (and its truth, for the truth of the ROIs): MakeHdaInput, RunHda,
 // TruthOfRois, and what the run was made on. Throws InputError as
 // MakeHdaInput and RunHda do.
+// `given_rois_px`, when not empty, are the ROIs instead of the quadtree's
+// (hda::HdaInput::given_rois_px).
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
-                    const hda::HdaOptions& options);
+                    const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px = {});
 
 // The same with the options resolved for this pair (ResolveHdaOptions: the
 // keys not given follow the LRF range at frame 1 and the navigation
 // baseline), recorded in FlightRun::derived_options. Throws InputError also
 // when the resolved options are unusable.
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
-                    const HdaSettings& settings);
+                    const HdaSettings& settings, const std::vector<cv::Rect>& given_rois_px = {});
 
 }  // namespace hdabench::reference

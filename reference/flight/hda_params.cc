@@ -45,6 +45,7 @@ void ForEachField(Options& o, Visit&& visit) {
   visit("matching.orb_patch_size_px", o.matching.orb_patch_size_px);
   visit("matching.ratio_test", o.matching.ratio_test);
   visit("matching.cross_check", o.matching.cross_check);
+  visit("matching.guide_radius_px", o.matching.guide_radius_px);
   visit("matching.subpixel_refine", o.matching.subpixel_refine);
   visit("matching.refine_window_px", o.matching.refine_window_px);
   visit("matching.max_refine_shift_px", o.matching.max_refine_shift_px);

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "tools/util/error.h"
 #include "tests/support/test_support.h"
@@ -191,6 +192,7 @@ TEST(MatchingOptionsValidate, DefaultsAreValidAndEveryBadFieldIsNamed) {
   options.orb_fast_threshold = 0;
   options.orb_patch_size_px = 3;
   options.ratio_test = 1.5;
+  options.guide_radius_px = -1.0;
   options.refine_window_px = 10;
   options.max_refine_shift_px = 0;
   options.warp_refine_window_px = 4;
@@ -204,6 +206,7 @@ TEST(MatchingOptionsValidate, DefaultsAreValidAndEveryBadFieldIsNamed) {
       "orb_fast_threshold = 0: expected in [1, 255]",
       "orb_patch_size_px = 3: expected in [5, 255]",
       "ratio_test = 1.5: expected in (0, 1]",
+      "guide_radius_px = -1: expected >= 0 (0: not guided)",
       "refine_window_px = 10: expected odd, in [5, 255]",
       "max_refine_shift_px = 0: expected > 0",
       "warp_refine_window_px = 4: expected odd, in [5, 255]",
@@ -402,6 +405,57 @@ TEST(MatchingRoiPair, RansacDropsMatchesOffTheirEpipolarLines) {
   // 2 for 1.
   EXPECT_LE(count_outliers(result), 1);
   EXPECT_LT(result.ransac_inliers, unfiltered.ransac_inliers);
+}
+
+// A periodic texture (one random 24 px tile repeated) and image 2 moved by a
+// whole (5, 3) px: every period of the box looks alike. Matching over the
+// whole box pairs keypoints with their twins a period away; guided by the
+// true motion within 6 px, every match is right.
+TEST(MatchingRoiPair, NavGuidedMatchingResolvesAPeriodicTexture) {
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<int> level(0, 255);
+  cv::Mat tile(24, 24, CV_8UC1);
+  for (int r = 0; r < tile.rows; ++r) {
+    for (int c = 0; c < tile.cols; ++c) tile.at<unsigned char>(r, c) = static_cast<unsigned char>(level(rng));
+  }
+  cv::GaussianBlur(tile, tile, cv::Size(3, 3), 0.8, 0.8, cv::BORDER_WRAP);
+  cv::Mat big;
+  cv::repeat(tile, 12, 12, big);  // 288 x 288
+  const int dx = 5, dy = 3;
+  const cv::Mat image1 = big(cv::Rect(16, 16, 256, 256)).clone();
+  const cv::Mat image2 = big(cv::Rect(16 - dx, 16 - dy, 256, 256)).clone();  // image2(p + d) = image1(p)
+  const cv::Rect box2(kBox1.x + dx - 20, kBox1.y + dy - 20, kBox1.width + 40, kBox1.height + 40);
+  MatchingOptions options;
+  options.guide_radius_px = 6.0;
+  const ExpectedPositions truth = [&](const std::vector<cv::Point2d>& p1, std::vector<cv::Point2d>* p2,
+                                      std::vector<unsigned char>* valid) {
+    p2->clear();
+    for (const cv::Point2d& p : p1) p2->emplace_back(p.x + dx, p.y + dy);
+    valid->assign(p1.size(), 1);
+  };
+  const auto wrong = [&](const RoiMatches& result) {
+    int count = 0;
+    for (size_t i = 0; i < result.points1_px.size(); ++i) {
+      const cv::Point2d d = result.points2_px[i] - result.points1_px[i] - cv::Point2d(dx, dy);
+      if (std::hypot(d.x, d.y) > 1.0) ++count;
+    }
+    return count;
+  };
+  const RoiMatches guided = MatchRoiPair(image1, image2, kBox1, box2, Pinhole(), options, cv::Matx22d::eye(), truth);
+  const RoiMatches unguided = MatchRoiPair(image1, image2, kBox1, box2, Pinhole(), MatchingOptions());
+  ASSERT_EQ(guided.status, MatchingStatus::kOk);
+  EXPECT_GE(guided.ransac_inliers, 2 * std::max(unguided.ransac_inliers, 10));
+  EXPECT_EQ(wrong(guided), 0);
+  // The radius without expectations matches as unguided; expectations that
+  // hold nothing leave no candidate.
+  ExpectSameResult(MatchRoiPair(image1, image2, kBox1, box2, Pinhole(), options), unguided);
+  const ExpectedPositions none = [](const std::vector<cv::Point2d>& p1, std::vector<cv::Point2d>* p2,
+                                    std::vector<unsigned char>* valid) {
+    p2->assign(p1.size(), cv::Point2d());
+    valid->assign(p1.size(), 0);
+  };
+  const RoiMatches nothing = MatchRoiPair(image1, image2, kBox1, box2, Pinhole(), options, cv::Matx22d::eye(), none);
+  EXPECT_EQ(nothing.matches, 0);
 }
 
 TEST(MatchingRoiPair, UniformImagesGiveNoKeypoints) {

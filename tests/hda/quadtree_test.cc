@@ -14,6 +14,7 @@ namespace hdabench::hda {
 namespace {
 
 using testing_support::CurrentTestSeed;
+using testing_support::InputErrorOf;
 
 // Pinhole 1024 x 1024 with f = 1000 px and the principal point at the centre.
 calib::CameraModel Pinhole1000() {
@@ -207,6 +208,30 @@ TEST(RunQuadtree, ImageSmallerThanMinimumBlockIsRejectedAsSmall) {
   EXPECT_TRUE(result.rois.empty());
   EXPECT_EQ(result.rejected_small, 1);
   EXPECT_EQ(result.rejected_boxes, std::vector<cv::Rect>({cv::Rect(0, 0, 40, 10)}));
+}
+
+TEST(GivenRois, BoxesKeepTheirOrderAndStatisticsAndOutsideOnesAreNamed) {
+  cv::Mat image(60, 80, CV_8UC1);
+  cv::randu(image, 0, 256);
+  const std::vector<cv::Rect> boxes = {{40, 10, 30, 20}, {0, 0, 10, 10}};
+  const QuadtreeResult result = GivenRois(image, boxes);
+  ASSERT_EQ(result.rois.size(), 2u);
+  cv::Mat sum, sqsum;
+  cv::integral(image, sum, sqsum, CV_64F, CV_64F);
+  for (size_t i = 0; i < boxes.size(); ++i) {
+    EXPECT_EQ(result.rois[i].id, static_cast<int>(i) + 1);
+    EXPECT_EQ(result.rois[i].box_px, boxes[i]);
+    const BlockStats stats = BlockStatsFromIntegral(sum, sqsum, boxes[i], 1.0);
+    EXPECT_EQ(result.rois[i].mean_dn, stats.mean_dn);
+    EXPECT_EQ(result.rois[i].stddev_dn, stats.stddev_dn);
+  }
+  EXPECT_EQ(result.blocks_visited, 2);
+  EXPECT_EQ(result.min_block_px, 10);
+  EXPECT_TRUE(result.rejected_boxes.empty());
+  EXPECT_EQ(InputErrorOf([&] { GivenRois(image, {{0, 0, 5, 5}, {70, 50, 20, 5}}); }),
+            "given ROI 2 (x 70, y 50, 20 x 5 px) is not inside image 1 (80 x 60 px)");
+  EXPECT_EQ(InputErrorOf([&] { GivenRois(image, {{3, 3, 0, 5}}); }),
+            "given ROI 1 (x 3, y 3, 0 x 5 px) is empty");
 }
 
 TEST(RunQuadtree, BadInputThrowsInputErrorWithExactMessage) {

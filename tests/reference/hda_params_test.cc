@@ -1,5 +1,6 @@
 #include "reference/flight/hda_params.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -240,9 +241,14 @@ TEST(OrbKeypointDensity, CountsLitPixelsOnly) {
 // its reason ("<key>_why").
 TEST(HdaParams, CampaignPresetsReadWithAReasonForEachValue) {
   const std::filesystem::path dir = std::filesystem::path(HDABENCH_SOURCE_DIR) / "params";
-  for (const char* name : {"novac", "truck", "aircraft", "helicopter"}) {
-    SCOPED_TRACE(name);
-    const std::filesystem::path path = dir / (std::string(name) + ".json");
+  std::vector<std::filesystem::path> presets;
+  for (const auto& entry : std::filesystem::directory_iterator(dir)) {
+    if (entry.path().extension() == ".json") presets.push_back(entry.path());
+  }
+  std::sort(presets.begin(), presets.end());
+  ASSERT_GE(presets.size(), 5u);  // novac, truck, aircraft, helicopter, planar-target
+  for (const std::filesystem::path& path : presets) {
+    SCOPED_TRACE(path.string());
     HdaSettings settings;
     ASSERT_EQ(InputErrorOf([&] { settings.ReadFile(path.string()); }), "");
     EXPECT_EQ(InputErrorOf([&] { settings.Validate(path.string()); }), "");

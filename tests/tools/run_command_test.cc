@@ -204,6 +204,67 @@ TEST(RunCommand, AnOutputFolderUnderAFileIsAnInputError) {
   EXPECT_NE(run.err.find(out.string()), std::string::npos) << run.err;
 }
 
+// A chessboard pair through `ingest target` and `run --roi`: the board is the
+// one ROI, its plane within the predicted sigma; bad flags and inputs answer
+// with their exit codes and write nothing.
+TEST(RunCommand, PlanarTargetIngestedAndRunOnTheBoard) {
+  const fs::path data = fs::path(HDABENCH_SOURCE_DIR) / "tests/data/opencv-stereo-chessboard";
+  const fs::path dir = FreshTestDir();
+  const std::vector<std::string> ingest = {"ingest", "target", (data / "left01.jpg").string(),
+                                           (data / "right01.jpg").string(), "--camera1",
+                                           (data / "mrcal/camera-0.cameramodel").string(), "--camera2",
+                                           (data / "mrcal/camera-1.cameramodel").string(), "--board", "9x6"};
+  std::vector<std::string> args = ingest;
+  args.insert(args.end(), {"--out", (dir / "target").string()});
+  const CommandResult ingested = Hdabench(args);
+  ASSERT_EQ(ingested.exit_code, 0) << ingested.out << ingested.err;
+  EXPECT_NE(ingested.out.find("PnP reprojection RMS"), std::string::npos) << ingested.out;
+  EXPECT_NE(ingested.out.find("against the models' extrinsics"), std::string::npos) << ingested.out;
+  const size_t at = ingested.out.find("--roi ");
+  ASSERT_NE(at, std::string::npos) << ingested.out;
+  const std::string roi = ingested.out.substr(at + 6, ingested.out.find(' ', at + 6) - at - 6);
+
+  const CommandResult run =
+      Hdabench({"run", (dir / "target").string(), "--roi", roi, "--params",
+                (fs::path(HDABENCH_SOURCE_DIR) / "params/planar-target.json").string(), "--out",
+                (dir / "run").string(), "--no-figures", "--no-report", "--quiet"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "run" / "result.json"));
+  EXPECT_EQ(result["quadtree"]["given_rois"], true);
+  ASSERT_EQ(result["rois"].size(), 1u);
+  const nlohmann::json& board = result["rois"][0];
+  EXPECT_EQ(board["status"], "evaluated") << board["reason"];
+  EXPECT_LE(board["tilt_error_deg"].get<double>(), 3.0 * board["fit"]["slope_sigma_deg"].get<double>());
+  EXPECT_EQ(result["options"]["matching"]["guide_radius_px"], 6);
+
+  // An ROI outside image 1: exit 3, named. A malformed one: exit 2.
+  const CommandResult outside = Hdabench({"run", (dir / "target").string(), "--roi", "600,400,100,100",
+                                          "--out", (dir / "outside").string(), "--quiet"});
+  EXPECT_EQ(outside.exit_code, 3) << outside.err;
+  EXPECT_NE(outside.err.find("given ROI 1 (x 600, y 400, 100 x 100 px) is not inside image 1 (640 x 480 px)"),
+            std::string::npos)
+      << outside.err;
+  const CommandResult malformed =
+      Hdabench({"run", (dir / "target").string(), "--roi", "1,2,3", "--out", (dir / "bad").string()});
+  EXPECT_EQ(malformed.exit_code, 2) << malformed.err;
+
+  // ingest target: a bad board is a usage error, an image without the board
+  // an input error; neither writes the folder.
+  args = ingest;
+  args[args.size() - 1] = "9by6";
+  args.insert(args.end(), {"--out", (dir / "bad-board").string()});
+  const CommandResult bad_board = Hdabench(args);
+  EXPECT_EQ(bad_board.exit_code, 2) << bad_board.err;
+  EXPECT_FALSE(fs::exists(dir / "bad-board"));
+  args = ingest;
+  args[3] = (fs::path(HDABENCH_SOURCE_DIR) / "tests/data/opencv-stereo-chessboard/README.md").string();
+  args.insert(args.end(), {"--out", (dir / "no-image").string()});
+  const CommandResult no_image = Hdabench(args);
+  EXPECT_EQ(no_image.exit_code, 3) << no_image.err;
+  EXPECT_NE(no_image.err.find("README.md: not an image OpenCV can read"), std::string::npos) << no_image.err;
+  EXPECT_FALSE(fs::exists(dir / "no-image") && !fs::is_empty(dir / "no-image"));
+}
+
 TEST(RunCommand, HasHelp) {
   const CommandResult run = Hdabench({"run", "--help"});
   EXPECT_EQ(run.exit_code, 0);

@@ -14,6 +14,7 @@
 #include "calib/camera_model.h"
 #include "tools/util/error.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/command_support.h"
 #include "tools/cli/commands.h"
 #include "tools/cli/exit_codes.h"
 #include "tools/util/text.h"
@@ -22,35 +23,6 @@ namespace hdabench::tools {
 
 namespace {
 
-// "9x6" -> 9, 6; false when the text is not two positive whole numbers.
-bool ParseBoardSize(const std::string& text, int* width, int* height) {
-  int w = 0, h = 0;
-  char x = 0;
-  int consumed = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%n", &w, &x, &h, &consumed) != 3) return false;
-  if (consumed != static_cast<int>(text.size()) || (x != 'x' && x != 'X')) return false;
-  *width = w;
-  *height = h;
-  return true;
-}
-
-// Runs `work`, mapping the library's errors to exit codes with one line on err.
-template <typename Work>
-int WithExitCodes(const std::string& command, std::ostream& err, Work work) {
-  try {
-    work();
-  } catch (const InputError& e) {
-    err << command << e.what() << "\n";
-    return kExitInput;
-  } catch (const UnsupportedError& e) {
-    err << command << e.what() << "\n";
-    return kExitInput;
-  } catch (const ExternalError& e) {
-    err << command << e.what() << "\n";
-    return kExitExternal;
-  }
-  return kExitOk;
-}
 
 }  // namespace
 

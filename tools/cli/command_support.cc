@@ -1,5 +1,6 @@
 #include "tools/cli/command_support.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
@@ -39,6 +40,17 @@ std::vector<int> ParseIntList(const std::string& text, std::size_t count, const 
     throw CLI::ValidationError(flag, "expected " + form + ", got '" + text + "'");
   }
   return values;
+}
+
+bool ParseBoardSize(const std::string& text, int* width, int* height) {
+  int w = 0, h = 0;
+  char x = 0;
+  int consumed = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%n", &w, &x, &h, &consumed) != 3) return false;
+  if (consumed != static_cast<int>(text.size()) || (x != 'x' && x != 'X')) return false;
+  *width = w;
+  *height = h;
+  return true;
 }
 
 std::optional<std::pair<int, int>> ParseFramesFlag(const std::string& text) {

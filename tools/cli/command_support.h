@@ -7,10 +7,13 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "datasets/dataset.h"
+#include "tools/cli/exit_codes.h"
+#include "tools/util/error.h"
 #include "reference/flight/hda_params.h"
 
 namespace hdabench::tools {
@@ -23,6 +26,35 @@ std::vector<int> ParseIntList(const std::string& text, std::size_t count, const 
 // The --frames flag's "i,j" as a pair (ParseIntList); nothing when `text` is
 // empty, i.e. the flag was not given.
 std::optional<std::pair<int, int>> ParseFramesFlag(const std::string& text);
+
+// Runs `work`, mapping the library's errors to exit codes with one line on
+// err (prefixed by `command`): InputError and UnsupportedError 3 (kExitInput),
+// ExternalError 4 (kExitExternal); otherwise what `work` returns (0 when it
+// returns nothing).
+template <typename Work>
+int WithExitCodes(const std::string& command, std::ostream& err, Work work) {
+  try {
+    if constexpr (std::is_void_v<decltype(work())>) {
+      work();
+      return kExitOk;
+    } else {
+      return work();
+    }
+  } catch (const InputError& e) {
+    err << command << e.what() << "\n";
+    return kExitInput;
+  } catch (const UnsupportedError& e) {
+    err << command << e.what() << "\n";
+    return kExitInput;
+  } catch (const ExternalError& e) {
+    err << command << e.what() << "\n";
+    return kExitExternal;
+  }
+}
+
+// A board's "WxH" inner corners ("9x6" -> 9, 6); false when the text is not
+// two whole numbers joined by 'x' or 'X'.
+bool ParseBoardSize(const std::string& text, int* width, int* height);
 
 // kExitOk when `dir` is a folder; otherwise prints "hdabench <command>: <dir>:
 // no such folder" (or "is not a folder") to err and returns kExitInput.

@@ -12,6 +12,8 @@
 #include <utility>
 #include <vector>
 
+#include <opencv2/core/types.hpp>
+
 namespace hdabench::tools {
 
 struct DatasetCheckOptions {
@@ -56,6 +58,7 @@ struct RunFlightOptions {
   std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: from the geometry
   std::string params_file;                    // --params: JSON of HdaOptions keys (empty: none)
   std::vector<std::string> hda_sets;          // --set hda.KEY=VALUE, in order
+  std::vector<cv::Rect> rois_px;              // --roi: given ROIs in image 1 (empty: the quadtree's)
   bool figures = true;                        // write figures/ (PNG)
   bool report = true;                         // write report.html and report.md (docs/report.md)
   bool quiet = false;                         // no progress lines on err
@@ -168,6 +171,25 @@ struct IngestFieldOptions {
 // output folder exists and is not empty; 3 the log cannot be used (the file
 // and line named; nothing written); 70 the written dataset does not load.
 int RunIngestField(const IngestFieldOptions& options, std::ostream& out, std::ostream& err);
+
+struct IngestTargetOptions {
+  std::string image1;        // first image of the board
+  std::string image2;        // second image
+  std::string camera1;       // image 1's .cameramodel
+  std::string camera2;       // image 2's; empty: camera1 (one camera moved)
+  std::string board;         // "WxH" inner corners
+  double spacing = 1.0;      // between neighbouring corners, the unit of every length
+  std::string detector = "auto";
+  std::string name;          // empty: from the image names
+  std::string out_dir;       // must not exist, or be empty
+};
+// hdabench ingest target: two images of a chessboard as a dataset whose
+// navigation is PnP on each image and whose truth is the board's plane
+// (datasets/planar_target.h, docs/planar-target.md). Exit codes: 0 written
+// (and loads cleanly); 2 bad flags or the output folder in use; 3 an image,
+// model or board that cannot be used (nothing written); 70 the written
+// dataset does not load.
+int RunIngestTarget(const IngestTargetOptions& options, std::ostream& out, std::ostream& err);
 
 struct ExportFieldOptions {
   std::string dataset_dir;

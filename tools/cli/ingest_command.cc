@@ -19,6 +19,7 @@
 #include "tools/cli/command_support.h"
 #include "datasets/dataset.h"
 #include "datasets/field_log.h"
+#include "datasets/planar_target.h"
 #include "datasets/stereolunar.h"
 #include "tools/cli/command_line.h"
 #include "tools/cli/commands.h"
@@ -103,6 +104,58 @@ int RunIngestField(const IngestFieldOptions& options, std::ostream& out, std::os
   return kExitOk;
 }
 
+int RunIngestTarget(const IngestTargetOptions& options, std::ostream& out, std::ostream& err) {
+  const std::string command = "hdabench ingest target: ";
+  calib::ChessboardSpec board;
+  if (!ParseBoardSize(options.board, &board.width, &board.height) || board.width < 2 || board.height < 2) {
+    err << command << "--board '" << options.board
+        << "': expected inner corners per row x rows, e.g. 9x6 (each at least 2)\n";
+    return kExitUsage;
+  }
+  board.spacing = options.spacing;
+  if (!(options.spacing > 0.0) || !std::isfinite(options.spacing)) {
+    err << command << "--spacing " << options.spacing << ": expected a positive length\n";
+    return kExitUsage;
+  }
+  calib::CornerDetector detector = calib::CornerDetector::kAuto;
+  try {
+    detector = calib::ParseCornerDetector(options.detector);
+  } catch (const InputError& e) {
+    err << command << "--detector: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  const std::string& dir = options.out_dir;
+  if (const int code = RequireNewFolder(dir, command, err); code != kExitOk) return code;
+  return WithExitCodes(command, err, [&] {
+    const calib::CameraModel camera1 = calib::CameraModel::Load(options.camera1);
+    const calib::CameraModel camera2 =
+        options.camera2.empty() ? camera1 : calib::CameraModel::Load(options.camera2);
+    const datasets::PlanarTargetPair pair = datasets::MakePlanarTargetPair(
+        options.image1, camera1, options.image2, camera2, board, detector, options.name);
+    for (int i = 0; i < 2; ++i) {
+      const datasets::PlanarTargetView& view = pair.view[i];
+      out << "  image " << i + 1 << " " << view.image_path << ": PnP reprojection RMS "
+          << util::FixedText(view.reprojection_rms_px, 3) << " px (max "
+          << util::FixedText(view.reprojection_max_px, 3) << "), range " << util::FixedText(view.range_m, 3)
+          << " along the axis, board tilted " << util::FixedText(view.tilt_deg, 1) << " deg to it\n";
+    }
+    if (pair.has_calibrated_extrinsics) {
+      out << "  PnP relative pose against the models' extrinsics: rotation "
+          << util::FixedText(pair.extrinsics_rotation_diff_deg, 3) << " deg, translation "
+          << util::FixedText(pair.extrinsics_translation_diff, 4) << "\n";
+    }
+    datasets::WriteDataset(pair.dataset, dir);
+    if (const int code = CheckWrittenDataset(dir, command, err); code != kExitOk) return code;
+    out << "wrote dataset '" << pair.dataset.name << "' to " << dir << ": 2 frames ("
+        << camera1.WidthPx() << " x " << camera1.HeightPx() << " px), baseline "
+        << util::FixedText(pair.dataset.BaselineM(0, 1), 4) << ", truth: the board's plane\n";
+    const cv::Rect& box = pair.board_box_px;
+    out << "the board as one ROI: hdabench run " << dir << " --roi " << box.x << "," << box.y << ","
+        << box.width << "," << box.height << " --out DIR\n";
+    return kExitOk;
+  });
+}
+
 int RunExportField(const ExportFieldOptions& options, std::ostream& out, std::ostream& err) {
   const std::string command = "hdabench export field: ";
   datasets::Geodetic origin;
@@ -144,7 +197,8 @@ int RunExportField(const ExportFieldOptions& options, std::ostream& out, std::os
   return kExitOk;
 }
 
-// ingest: stereolunar (PAIR_DIR, --out, --sun, --cameras) and field (LOG, --out);
+// ingest: stereolunar (PAIR_DIR, --out, --sun, --cameras), field (LOG, --out) and
+// target (IMAGE1, IMAGE2, the cameras, the board, --out);
 // export: field (DATASET, --out, --origin, --clock-offset-s).
 std::vector<Command> AddIngestCommands(CLI::App& app) {
   CLI::App* ingest = app.add_subcommand("ingest", "Convert outside data into a dataset");
@@ -177,6 +231,28 @@ std::vector<Command> AddIngestCommands(CLI::App& app) {
       ->required();
   Command field_command{field, [field_options] { return RunIngestField(*field_options, std::cout, std::cerr); }};
 
+  const auto target_options = std::make_shared<IngestTargetOptions>();
+  CLI::App* target = ingest->add_subcommand(
+      "target",
+      "Two images of a chessboard (one camera moved, or a stereo pair) as a dataset: navigation by\n"
+      "PnP on each image, truth the board's plane (docs/planar-target.md)");
+  target->add_option("IMAGE1", target_options->image1, "First image of the board (frame 0)")->required();
+  target->add_option("IMAGE2", target_options->image2, "Second image (frame 1)")->required();
+  target->add_option("--camera1", target_options->camera1, "IMAGE1's mrcal .cameramodel")->required();
+  target->add_option("--camera2", target_options->camera2,
+                     "IMAGE2's .cameramodel (default: --camera1); image 2 is resampled into camera 1's model");
+  target->add_option("--board", target_options->board, "Inner corners per row x rows, e.g. 9x6")->required();
+  target->add_option("--spacing", target_options->spacing,
+                     "Distance between neighbouring corners: the unit of every length in the dataset")
+      ->capture_default_str();
+  target->add_option("--detector", target_options->detector,
+                     "Corner detector: auto (mrgingham for square boards, else OpenCV), opencv, mrgingham")
+      ->capture_default_str();
+  target->add_option("--name", target_options->name, "Dataset name (default: from the image names)");
+  target->add_option("--out", target_options->out_dir, "Folder to create (must not exist, or be empty)")
+      ->required();
+  Command target_command{target, [target_options] { return RunIngestTarget(*target_options, std::cout, std::cerr); }};
+
   // export field: the opposite, a dataset as a field log.
   CLI::App* export_app = app.add_subcommand("export", "Write a dataset in an outside format");
   export_app->require_subcommand(1);
@@ -196,7 +272,7 @@ std::vector<Command> AddIngestCommands(CLI::App& app) {
       ->capture_default_str();
   Command export_command{export_field,
                          [export_options] { return RunExportField(*export_options, std::cout, std::cerr); }};
-  return {stereolunar_command, field_command, export_command};
+  return {stereolunar_command, field_command, target_command, export_command};
 }
 
 }  // namespace hdabench::tools

@@ -50,7 +50,7 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   cv::setNumThreads(1);
   reference::FlightRun run;
   try {
-    run = reference::RunFlight(dataset, frames.first, frames.second, hda_settings);
+    run = reference::RunFlight(dataset, frames.first, frames.second, hda_settings, options.rois_px);
   } catch (const InputError& e) {
     err << "hdabench run: " << e.what() << "\n";
     return kExitInput;
@@ -88,6 +88,7 @@ namespace {
 struct RunArgs {
   RunFlightOptions options;
   std::string frames_text;
+  std::vector<std::string> rois_text;
   double processor_scale = hda::HdaOptions().processor_scale;
   double budget_s = hda::HdaOptions().compute_budget_s;
   double site_size_m = hda::HdaOptions().quadtree.site_size_m;
@@ -101,6 +102,10 @@ struct RunArgs {
 // Completes the options of `run` from what was parsed into `args`, then runs it.
 int RunParsedFlight(RunArgs& args) {
   args.options.frames = ParseFramesFlag(args.frames_text);
+  for (const std::string& text : args.rois_text) {
+    const std::vector<int> v = ParseIntList(text, 4, "--roi", "X,Y,WIDTH,HEIGHT");
+    args.options.rois_px.emplace_back(v[0], v[1], v[2], v[3]);
+  }
   if (args.scale_option->count() > 0) args.options.processor_scale = args.processor_scale;
   if (args.budget_option->count() > 0) args.options.budget_s = args.budget_s;
   if (args.site_option->count() > 0) args.options.site_size_m = args.site_size_m;
@@ -138,6 +143,11 @@ Command AddRunCommand(CLI::App& app) {
                       "Side of a landing site, metres (sets the quadtree's smallest ROI; default:\n"
                       "the lander's 10 m, scaled when its image is under one ORB patch or over a\n"
                       "quarter of the image)");
+  run->add_option("--roi", args->rois_text,
+                  "An ROI given in image 1's pixels, X,Y,WIDTH,HEIGHT (top-left pixel, size;\n"
+                  "repeatable): the quadtree is not run (a test target, a surveyed site; hdabench\n"
+                  "ingest target prints the board's box)")
+      ->allow_extra_args(false);
   run->add_option("--params", args->options.params_file, kParamsHelp);
   run->add_option("--set", args->options.hda_sets, kSetHelp)->allow_extra_args(false);
   run->add_flag("--no-figures", args->no_figures, "Do not write figures/");

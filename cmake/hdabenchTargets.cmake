@@ -79,3 +79,22 @@ function(hdabench_write_module_rules)
   string(REPLACE ";" "\n" content "${rules}")
   file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/module_rules.txt CONTENT "${content}\n")
 endfunction()
+
+# hdabench_embed_python(SCRIPT VARIABLE TEMPLATE): compiles a Python script
+# into the bench. Reads SCRIPT (in the current source folder) into VARIABLE,
+# refuses a script holding the raw-string end ')hdabench_py"', configures
+# TEMPLATE (a .cc.in whose R"hdabench_py(@VARIABLE@)hdabench_py" holds it) into
+# the current binary folder under the template's name without ".in", and
+# reconfigures when the script changes.
+function(hdabench_embed_python script variable template)
+  file(READ ${CMAKE_CURRENT_SOURCE_DIR}/${script} text)
+  string(FIND "${text}" ")hdabench_py\"" delimiter_at)
+  if(NOT delimiter_at EQUAL -1)
+    file(RELATIVE_PATH where ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR}/${script})
+    message(FATAL_ERROR "${where} holds the raw-string end ')hdabench_py\"'")
+  endif()
+  set(${variable} "${text}")
+  string(REGEX REPLACE "\\.in$" "" output ${template})
+  configure_file(${template} ${CMAKE_CURRENT_BINARY_DIR}/${output} @ONLY)
+  set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${script})
+endfunction()

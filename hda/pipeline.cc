@@ -709,6 +709,39 @@ void RankSafeSites(const HdaOptions& options, HdaResult* result) {
 
 }  // namespace
 
+RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& camera,
+                              const HdaOptions& options, const cv::Rect& box1_px,
+                              const std::vector<cv::Point2d>& points1_px,
+                              const std::vector<cv::Point2d>& points2_px) {
+  CheckInput(input, camera, options);
+  if (points1_px.size() != points2_px.size()) {
+    throw InputError("EvaluateMatchedSite: " + std::to_string(points1_px.size()) + " image-1 points but " +
+                     std::to_string(points2_px.size()) + " image-2 points");
+  }
+  Context ctx;
+  ctx.camera = &camera;
+  ctx.options = &options;
+  const Eigen::Vector3d spot_in_cam1 = SetUpGeometry(input, &ctx);
+  HdaResult placed;
+  placed.quadtree.rois.push_back({1, box1_px, 0.0, 0.0});
+  const RoiPlacement placement = PlaceRois(ctx, input.ils_in_local_m, spot_in_cam1, &placed);
+  RoiResult roi = placed.rois.front();
+  roi.order = 1;
+  RoiMatches matches;
+  matches.status = MatchingStatus::kOk;
+  matches.points1_px = points1_px;
+  matches.points2_px = points2_px;
+  roi.matching_status = MatchingStatus::kOk;
+  roi.counts.matches = static_cast<int>(points1_px.size());
+  roi.counts.ransac_inliers = roi.counts.matches;
+  std::vector<Eigen::Vector3d> bearings1, bearings2, points_in_cam1;
+  std::vector<double> parallaxes_deg;
+  RejectAndTriangulate(ctx, matches, placement.range_m.front(), &roi, &bearings1, &bearings2, &points_in_cam1,
+                       &parallaxes_deg);
+  FitAndClassify(ctx, bearings1, bearings2, points_in_cam1, parallaxes_deg, &roi);
+  return roi;
+}
+
 HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options,
                  const Clock& clock) {
   const double start = clock();

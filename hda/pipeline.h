@@ -157,6 +157,21 @@ double SteadySeconds();
 HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options,
                  const Clock& clock = SteadySeconds);
 
+// The method's steps after matching, on one site whose matches are given
+// (the observability study draws them; RunHda runs the same steps on each
+// ROI's matches): nav epipolar test, triangulation with the nav pose, depth
+// test against the level ground through the LRF spot, plane fit, predicted
+// slope sigma and status. `input`'s images are not used (they may be empty);
+// box1_px places the site (its centre's range sets the nav tests) and gives
+// its footprint. The result's counts start at the matches (matches =
+// ransac_inliers = points1_px.size()); id 1, order 1. Throws InputError as
+// RunHda does for invalid inputs or options, and when the point lists differ
+// in length.
+RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& camera,
+                              const HdaOptions& options, const cv::Rect& box1_px,
+                              const std::vector<cv::Point2d>& points1_px,
+                              const std::vector<cv::Point2d>& points2_px);
+
 // Ranking score of an evaluated site, in [0, 1], higher is better: the mean of
 //   area term      min(area_m2 / site_area_m2, 4) / 4        (bigger sites leave margin)
 //   slope term     1 - slope_deg / max_slope_deg

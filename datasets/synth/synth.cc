@@ -49,13 +49,7 @@ Rigid3d CamFromBody(double off_nadir_rad) {
 }
 
 calib::CameraModel DefaultCamera(const SynthOptions& o) {
-  const double n = o.image_size_px;
-  const double f = 0.5 * n / std::tan(0.5 * DegToRad(o.horizontal_fov_deg));
-  const double c = 0.5 * (n - 1.0);
-  // Mild barrel distortion: about 1.5 px at the corners of a 1024 imager.
-  return calib::CameraModel("LENSMODEL_OPENCV8",
-                            {f, f, c, c, -0.02, 0.005, 1e-5, -1e-5, 0.0, 0.0, 0.0, 0.0},
-                            o.image_size_px, o.image_size_px);
+  return DefaultSynthCamera(o.image_size_px, o.horizontal_fov_deg);
 }
 
 // True body position at time t (seconds from the first frame).
@@ -701,6 +695,15 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
     ChooseSummaryPair(options, frames.times_s, summary);
   }
   return dataset;
+}
+
+calib::CameraModel DefaultSynthCamera(int image_size_px, double horizontal_fov_deg) {
+  const double n = image_size_px;
+  const double f = 0.5 * n / std::tan(0.5 * DegToRad(horizontal_fov_deg));
+  const double c = 0.5 * (n - 1.0);
+  // Mild barrel distortion: about 1.5 px at the corners of a 1024 imager.
+  return calib::CameraModel("LENSMODEL_OPENCV8", {f, f, c, c, -0.02, 0.005, 1e-5, -1e-5, 0.0, 0.0, 0.0, 0.0},
+                            image_size_px, image_size_px);
 }
 
 }  // namespace hdabench::datasets::synth

@@ -61,6 +61,11 @@ struct SynthOptions {
   std::vector<std::string> Validate() const;
 };
 
+// The default camera of the synthetic scenes: a square imager of
+// image_size_px with the horizontal field of view given, LENSMODEL_OPENCV8
+// with mild barrel distortion (about 1.5 px at the corners of a 1024 imager).
+calib::CameraModel DefaultSynthCamera(int image_size_px, double horizontal_fov_deg);
+
 // The named presets: novac-lateral (default), novac-boresight, truck, aircraft.
 // Throws InputError for an unknown name, listing the valid ones.
 SynthOptions SynthPreset(const std::string& name);

@@ -232,8 +232,16 @@ double OrbKeypointDensity(const cv::Mat& image, const hda::MatchingOptions& matc
   const cv::Mat eight = hda::ToEightBit(image, "image 1");
   const int lit = cv::countNonZero(eight >= min_lit_dn);
   if (lit == 0) return 0.0;
+  // No cap that could bind: ORB gives level l at most nfeatures * s^-l *
+  // (1 - 1/s) / (1 - s^-L) keypoints (s the scale factor, L the levels) and
+  // the level has P s^-2l pixels (P image 1's), one keypoint each at most; as
+  // (1 - s^-L) / (1 - 1/s) <= L, nfeatures = L * P never cuts. (A larger
+  // number only makes ORB reserve, and under AddressSanitizer poison,
+  // gigabytes of keypoints.)
+  const double uncapped = std::min(static_cast<double>(matching.orb_levels) * static_cast<double>(eight.total()) + 1000.0,
+                                   static_cast<double>(std::numeric_limits<int>::max() / 4));
   const cv::Ptr<cv::ORB> orb = cv::ORB::create(
-      /*nfeatures=*/std::numeric_limits<int>::max() / 4, static_cast<float>(matching.orb_scale_factor),
+      /*nfeatures=*/static_cast<int>(uncapped), static_cast<float>(matching.orb_scale_factor),
       matching.orb_levels, matching.orb_patch_size_px, /*firstLevel=*/0, /*WTA_K=*/2,
       cv::ORB::HARRIS_SCORE, matching.orb_patch_size_px, matching.orb_fast_threshold);
   std::vector<cv::KeyPoint> keypoints;

@@ -19,6 +19,7 @@ using util::kPi;
 using util::kDegToRad;
 
 using testing_support::CurrentTestSeed;
+using testing_support::InputErrorOf;
 
 constexpr int kSizePx = 512;
 constexpr double kFocalPx = 1000.0;
@@ -166,6 +167,36 @@ TEST(RunHda, RecoversTheSlopeOfATiltedPlaneWithinItsPredictedSigma) {
     EXPECT_LE(roi.score, previous);
     previous = roi.score;
   }
+}
+
+// The steps after matching on given matches are RunHda's own: each fitted
+// ROI's surviving matches, given back, pass again and give the same plane,
+// sigma and status to the last bit.
+TEST(EvaluateMatchedSite, GivesRunHdasResultOnAnRoisSurvivingMatches) {
+  const Scene scene = MakeScene(6.0, Lateral(), CurrentTestSeed());
+  const HdaOptions options = ExactImageOptions();
+  const HdaResult result = RunHda(scene.input, Camera(), options);
+  HdaInput without_images = scene.input;
+  without_images.image1 = cv::Mat();
+  without_images.image2 = cv::Mat();
+  int compared = 0;
+  for (const RoiResult& roi : result.rois) {
+    if (!roi.has_fit) continue;
+    ++compared;
+    const RoiResult again =
+        EvaluateMatchedSite(without_images, Camera(), options, roi.box1_px, roi.points1_px, roi.points2_px);
+    EXPECT_EQ(again.status, roi.status) << "ROI " << roi.id << ": " << again.reason;
+    EXPECT_EQ(again.counts.depth_inliers, roi.counts.depth_inliers) << "ROI " << roi.id;
+    EXPECT_EQ(again.slope_deg, roi.slope_deg) << "ROI " << roi.id;
+    EXPECT_EQ(again.slope_sigma_deg, roi.slope_sigma_deg) << "ROI " << roi.id;
+    EXPECT_EQ(again.roughness_rms_m, roi.roughness_rms_m) << "ROI " << roi.id;
+    EXPECT_EQ(again.area_m2, roi.area_m2) << "ROI " << roi.id;
+  }
+  EXPECT_GE(compared, 10);
+  EXPECT_NE(InputErrorOf([&] {
+              EvaluateMatchedSite(without_images, Camera(), options, cv::Rect(0, 0, 64, 64), {cv::Point2d(1, 1)}, {});
+            }).find("1 image-1 points but 0 image-2 points"),
+            std::string::npos);
 }
 
 TEST(RunHda, APlaneSteeperThanTheLimitIsUnsafe) {

@@ -36,6 +36,8 @@ Command AddGateCommand(CLI::App& app);
 std::vector<Command> AddIngestCommands(CLI::App& app);
 // calibrate, calib-diff (calibrate_command.cc).
 std::vector<Command> AddCalibrateCommands(CLI::App& app);
+// observability, observability merge (observability_command.cc).
+std::vector<Command> AddObservabilityCommands(CLI::App& app);
 // demo (demo_command.cc).
 Command AddDemoCommand(CLI::App& app);
 

@@ -44,6 +44,7 @@ std::vector<Command> AddCommands(CLI::App& app) {
   commands.push_back(AddGateCommand(app));
   Append(commands, AddIngestCommands(app));
   Append(commands, AddCalibrateCommands(app));
+  Append(commands, AddObservabilityCommands(app));
   commands.push_back(AddDemoCommand(app));
   return commands;
 }

@@ -227,7 +227,6 @@ TrialResult RunTrial(const StudyOptions& options, const calib::CameraModel& came
     matched1.emplace_back(q1.x(), q1.y());
     matched2.emplace_back(q2.x(), q2.y());
   }
-  result.points_seen = static_cast<int>(matched1.size());
 
   // The site's box in image 1: its corners' bounds.
   std::vector<Eigen::Vector3d> corners;

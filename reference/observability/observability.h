@@ -81,7 +81,6 @@ struct TrialResult {
   double error_deg = 0.0;        // method's slope - true slope (with a fit)
   double sigma_deg = 0.0;        // the method's predicted 1-sigma (with a fit)
   double true_slope_deg = 0.0;
-  int points_seen = 0;           // drawn points inside both images
 };
 
 // Runs trial `trial` of `setting` (deterministic, as the header says). Throws

@@ -128,6 +128,85 @@ GateColmapOptions ReadColmapOptions(const Json& c, const std::string& where) {
   return out;
 }
 
+// An observability entry's study ("observability": {...}, docs/gate.md): the
+// keys of `hdabench observability`'s flags; the flight method's parameters
+// come from the entry's "hda". Lists are JSON lists.
+void ReadObservabilityEntry(const Json& o, const std::string& where, GateEntry* e) {
+  if (!o.is_object()) throw InputError(where + ": expected an object");
+  OnlyKeys(o, {"geometry", "baselines_m", "pixel_noise_px", "points", "trials", "seed", "camera", "altitude_m",
+               "downrange_m", "site_size_m", "min_slope_deg", "max_slope_deg", "relief_m", "nav_position_sigma_m",
+               "nav_attitude_sigma_deg", "lrf_sigma_m", "requirement_deg"},
+           where);
+  StudyOptions study;
+  const auto numbers = [&](const char* key, std::vector<double>* to) {
+    if (!o.contains(key)) return;
+    const Json& list = o[key];
+    if (!list.is_array() || list.empty()) throw InputError(where + ": field '" + key + "' must be a non-empty list of numbers");
+    to->clear();
+    for (const Json& v : list) {
+      if (!v.is_number()) throw InputError(where + ": field '" + key + "' must be a non-empty list of numbers");
+      to->push_back(v.get<double>());
+    }
+  };
+  if (!o.contains("baselines_m")) throw InputError(where + ": field 'baselines_m' is required");
+  numbers("baselines_m", &study.baselines_m);
+  numbers("pixel_noise_px", &study.pixel_noises_px);
+  if (o.contains("geometry")) {
+    const Json& list = o["geometry"];
+    if (!list.is_array() || list.empty()) throw InputError(where + ": field 'geometry' must be a non-empty list");
+    study.geometries.clear();
+    for (const Json& g : list) {
+      if (!g.is_string()) throw InputError(where + ": field 'geometry' must hold names");
+      try {
+        study.geometries.push_back(ParseStudyGeometry(g.get<std::string>()));
+      } catch (const InputError& ex) {
+        throw InputError(where + ": geometry: " + ex.what());
+      }
+    }
+  }
+  if (o.contains("points")) {
+    std::vector<double> points;
+    numbers("points", &points);
+    study.points.clear();
+    for (const double p : points) {
+      if (p != std::floor(p) || p < 3 || p > 1e6) {
+        throw InputError(where + ": field 'points' must hold whole numbers in [3, 1000000]");
+      }
+      study.points.push_back(static_cast<int>(p));
+    }
+  }
+  if (o.contains("trials")) {
+    if (!o["trials"].is_number_integer()) throw InputError(where + ": field 'trials' must be an integer");
+    study.trials = o["trials"].get<int>();
+  }
+  if (o.contains("seed")) {
+    if (!o["seed"].is_number_unsigned()) throw InputError(where + ": field 'seed' must be an integer >= 0");
+    study.seed = o["seed"].get<std::uint64_t>();
+  }
+  if (o.contains("camera")) e->observability_camera = StringField(o, "camera", where);
+  for (const auto& [key, to] : std::vector<std::pair<const char*, double*>>{
+           {"altitude_m", &study.altitude_m},
+           {"downrange_m", &study.downrange_m},
+           {"site_size_m", &study.site_size_m},
+           {"min_slope_deg", &study.min_slope_deg},
+           {"max_slope_deg", &study.max_slope_deg},
+           {"relief_m", &study.relief_sigma_m},
+           {"nav_position_sigma_m", &study.nav_position_sigma_m},
+           {"nav_attitude_sigma_deg", &study.nav_attitude_sigma_deg},
+           {"lrf_sigma_m", &study.lrf_sigma_m},
+           {"requirement_deg", &study.requirement_deg}}) {
+    if (o.contains(key)) *to = NumberField(o, key, where);
+  }
+  // Every value but the flight method's (resolved when the entry runs).
+  std::vector<std::string> errors = study.Validate();
+  errors.erase(std::remove_if(errors.begin(), errors.end(),
+                              [](const std::string& m) { return m.rfind("hda: ", 0) == 0; }),
+               errors.end());
+  if (!errors.empty()) throw InputError(where + ": " + errors.front());
+  e->observability = study;
+  e->observability_spec = o.dump();
+}
+
 // ---------------------------------------------------------------------------
 // Metrics
 
@@ -136,7 +215,8 @@ const std::vector<std::string>& MetricNames() {
       "slope_error_median_deg", "slope_error_p90_deg",   "slope_error_max_deg",
       "tilt_error_median_deg",  "tilt_error_p90_deg",    "slope_bias_abs_deg",
       "roughness_error_median_m", "rois_with_slope_share", "within_two_sigma_share",
-      "flight_seconds_per_pair", "failed_entries",        "slope_error_rois"};
+      "flight_seconds_per_pair", "failed_entries",        "slope_error_rois",
+      "observability_p95_deg",  "observability_median_deg", "observability_sigma_ratio"};
   return names;
 }
 
@@ -179,6 +259,10 @@ std::uint64_t Fnv1a(const std::string& text) {
 // tests, with a fake clock.
 constexpr double kGateComputeBudgetS = 1.0e6;
 
+// An observability setting whose plane is missing in more than 5 % of the
+// trials has no finite p95: it counts as the largest slope error there is.
+constexpr double kObservabilityUnjudgedDeg = 90.0;
+
 // What an entry's dataset is made from (its folder name hashes this): the
 // source, not the flight method's parameters.
 Json EntryDatasetSpecJson(const GateEntry& e) {
@@ -195,6 +279,7 @@ Json EntryDatasetSpecJson(const GateEntry& e) {
   if (e.stereolunar_pair_dir) {
     j["stereolunar"] = {{"pair", *e.stereolunar_pair_dir}, {"sun", e.stereolunar_sun}, {"cameras", "npz"}};
   }
+  if (e.observability) j["observability"] = Json::parse(e.observability_spec);
   return j;
 }
 
@@ -287,6 +372,48 @@ std::string EntryDataset(const GateEntry& e, const GateSuite& suite, const GateR
 // messages are captured from stderr: one load at a time.
 std::mutex g_load_mutex;
 
+constexpr char kReportPage[] = "report.html";
+constexpr char kStudyPage[] = "settings.csv";
+
+// The page of a complete entry folder: an observability study's settings, or
+// the comparison's report.
+std::string EntryPage(const fs::path& entry_dir) {
+  return fs::exists(entry_dir / "study.json") ? kStudyPage : kReportPage;
+}
+
+// Stages a folder's files and renames it into place once complete, the
+// entry's record written last.
+void PlaceEntryFolder(const fs::path& staging, const fs::path& final_dir, const std::string& settings) {
+  util::WriteFileAtomically(staging / kEntryRecord, settings);
+  fs::remove_all(final_dir);
+  fs::rename(staging, final_dir);
+}
+
+// An observability entry: the whole study on one thread (entries run in
+// parallel), its folder as `hdabench observability --no-figures` writes it.
+void RunObservabilityEntry(const GateEntry& e, const GateSuite& suite, const GateRunOptions& o,
+                           const std::string& settings, const fs::path& final_dir) {
+  StudyOptions study = *e.observability;
+  std::optional<calib::CameraModel> camera;
+  if (e.observability_camera.empty()) {
+    camera = datasets::synth::DefaultSynthCamera(1024, 30.0);
+  } else {
+    const std::lock_guard<std::mutex> lock(g_load_mutex);
+    camera = calib::CameraModel::Load(
+        (fs::path(suite.file).parent_path() / e.observability_camera).lexically_normal().string());
+  }
+  HdaSettings hda = e.hda;
+  hda.Set("fault_match_noise_px", o.fault_match_noise_px, "gate");
+  ResolveStudyHdaOptions(hda, *camera, &study);
+  ThrowIfInvalid("observability: ", study.Validate());
+  const util::Shard whole;
+  const std::vector<SettingStats> stats = RunStudy(study, *camera, whole, 1, {});
+  const fs::path staging = final_dir.string() + ".partial-" + std::to_string(::getpid());
+  fs::remove_all(staging);
+  WriteStudyFolder(staging.string(), StudyJsonText(study, *camera, whole), stats, true, study.requirement_deg);
+  PlaceEntryFolder(staging, final_dir, settings);
+}
+
 GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const GateRunOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   GateEntryOutcome outcome;
@@ -294,18 +421,27 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
   const fs::path final_dir = fs::path(o.out_dir) / "entries" / e.name;
   const std::string settings = EntrySettings(e, suite, o);
   // Complete from an earlier run with the same settings: reuse.
-  if (fs::exists(final_dir / "compare.json") && fs::exists(final_dir / kEntryRecord)) {
+  if (fs::exists(final_dir / kEntryRecord)) {
     std::ifstream in(final_dir / kEntryRecord, std::ios::binary);
     std::stringstream text;
     text << in.rdbuf();
     if (text.str() == settings) {
       outcome.dir = final_dir.string();
+      outcome.page = EntryPage(final_dir);
       outcome.reused = true;
       outcome.ok = true;
       return outcome;
     }
   }
   try {
+    if (e.observability) {
+      RunObservabilityEntry(e, suite, o, settings, final_dir);
+      outcome.dir = final_dir.string();
+      outcome.page = kStudyPage;
+      outcome.ok = true;
+      outcome.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+      return outcome;
+    }
     const std::string dataset_dir = EntryDataset(e, suite, o);
     datasets::LoadOptions load;
     load.keep_images = true;
@@ -339,10 +475,9 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     ReportOptions report;
     report.dataset_dir = dataset_dir;
     WriteReport(staging.string(), report);
-    util::WriteFileAtomically(staging / kEntryRecord, settings);
-    fs::remove_all(final_dir);
-    fs::rename(staging, final_dir);
+    PlaceEntryFolder(staging, final_dir, settings);
     outcome.dir = final_dir.string();
+    outcome.page = kReportPage;
     outcome.ok = true;
   } catch (const std::exception& ex) {
     outcome.error = ex.what();
@@ -389,7 +524,7 @@ GateSuite ReadGateSuite(const std::string& path) {
     const Json& ej = j["entries"][i];
     const std::string where = path + ": entries[" + std::to_string(i) + "]";
     if (!ej.is_object()) throw InputError(where + ": expected an object");
-    OnlyKeys(ej, {"name", "synth", "dataset", "stereolunar", "site_size_m", "hda"}, where);
+    OnlyKeys(ej, {"name", "synth", "dataset", "stereolunar", "observability", "site_size_m", "hda"}, where);
     GateEntry e;
     e.name = StringField(ej, "name", where);
     if (!ValidName(e.name)) {
@@ -397,10 +532,11 @@ GateSuite ReadGateSuite(const std::string& path) {
     }
     if (!names.insert(e.name).second) throw InputError(where + ": name '" + e.name + "' is repeated");
     const int sources = static_cast<int>(ej.contains("synth")) + static_cast<int>(ej.contains("dataset")) +
-                        static_cast<int>(ej.contains("stereolunar"));
+                        static_cast<int>(ej.contains("stereolunar")) + static_cast<int>(ej.contains("observability"));
     if (sources != 1) {
-      throw InputError(where + ": give exactly one of 'synth', 'dataset', 'stereolunar'");
+      throw InputError(where + ": give exactly one of 'synth', 'dataset', 'stereolunar', 'observability'");
     }
+    if (ej.contains("observability")) ReadObservabilityEntry(ej["observability"], where + ".observability", &e);
     if (ej.contains("synth")) {
       const Json& s = ej["synth"];
       const std::string swhere = where + ".synth";
@@ -524,7 +660,33 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
   };
   std::map<std::string, Pool> pools;
   std::vector<std::string> order;
+  // Observability entries: the worst setting of any.
+  struct StudyPool {
+    bool present = false;
+    double p95 = 0.0, median = 0.0, sigma_ratio = 1.0;
+  } study;
   for (const std::string& dir : entry_dirs) {
+    if (fs::exists(fs::path(dir) / "study.json")) {
+      const std::string path = (fs::path(dir) / "settings.csv").string();
+      std::ifstream in(path, std::ios::binary);
+      if (!in) throw InputError(path + ": cannot read the file");
+      std::stringstream text;
+      text << in.rdbuf();
+      for (const SettingStats& s : ParseSettingsCsv(text.str(), path)) {
+        study.present = true;
+        const bool judged = s.fits >= 0.95 * s.trials;
+        study.p95 = std::max(study.p95, judged ? s.p95_abs_error_deg : kObservabilityUnjudgedDeg);
+        study.median = std::max(study.median, std::isfinite(s.median_abs_error_deg) ? s.median_abs_error_deg
+                                                                                     : kObservabilityUnjudgedDeg);
+        if (s.sd_error_deg > 0.0 && s.rms_sigma_deg > 0.0) {
+          study.sigma_ratio = std::max({study.sigma_ratio, s.sd_error_deg / s.rms_sigma_deg,
+                                        s.rms_sigma_deg / s.sd_error_deg});
+        }
+      }
+      if (study.present && pools.count(kMethodFlight) == 0) order.push_back(kMethodFlight);
+      pools[kMethodFlight];
+      continue;
+    }
     const std::string path = (fs::path(dir) / "compare.json").string();
     const Json j = ReadJsonFile(path);
     for (const Json& m : j.at("methods")) {
@@ -610,6 +772,11 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
     }
     add("failed_entries", pool.failed);
     add("slope_error_rois", static_cast<double>(pool.slope_errors.size()));
+    if (method == kMethodFlight && study.present) {
+      add("observability_p95_deg", study.p95);
+      add("observability_median_deg", study.median);
+      add("observability_sigma_ratio", study.sigma_ratio);
+    }
   }
   return metrics;
 }
@@ -738,7 +905,8 @@ std::string GateHtml(const std::string& suite_file, const std::vector<GateCheck>
   for (const GateEntryOutcome& o : outcomes) {
     out << "<li>";
     if (o.ok) {
-      out << "<a href=\"entries/" << util::HtmlEscape(o.name) << "/report.html\">" << util::HtmlEscape(o.name)
+      out << "<a href=\"entries/" << util::HtmlEscape(o.name) << "/" << util::HtmlEscape(o.page) << "\">"
+          << util::HtmlEscape(o.name)
           << "</a>" << (o.reused ? " (complete from an earlier run)" : "");
     } else {
       out << util::HtmlEscape(o.name) << ": FAILED: " << util::HtmlEscape(o.error);
@@ -775,13 +943,17 @@ std::vector<GateEntryOutcome> RunGateSuite(const GateSuite& suite, const GateRun
       }
     }
   }
-  std::vector<GateEntryOutcome> outcomes(suite.entries.size());
+  std::vector<size_t> held;
+  for (size_t i = 0; i < suite.entries.size(); ++i) {
+    if (options.shard.Holds(static_cast<int>(i))) held.push_back(i);
+  }
+  std::vector<GateEntryOutcome> outcomes(held.size());
   std::atomic<int> finished{0};
   std::mutex say_mutex;
-  const int total = static_cast<int>(suite.entries.size());
+  const int total = static_cast<int>(held.size());
   util::ParallelFor("gate entries", total, options.jobs, [&](int index) {
     const size_t i = static_cast<size_t>(index);
-    outcomes[i] = RunEntry(suite.entries[i], suite, options);
+    outcomes[i] = RunEntry(suite.entries[held[i]], suite, options);
     const int done = ++finished;
     if (!progress) return;
     const GateEntryOutcome& o = outcomes[i];
@@ -792,6 +964,125 @@ std::vector<GateEntryOutcome> RunGateSuite(const GateSuite& suite, const GateRun
     const std::lock_guard<std::mutex> lock(say_mutex);
     progress(line.str());
   });
+  return outcomes;
+}
+
+// ---------------------------------------------------------------------------
+// Shards
+
+namespace {
+
+constexpr char kGateShardFormatName[] = "hdabench-gate-shard";
+
+std::string SuiteDigest(const GateSuite& suite) {
+  std::ifstream in(suite.file, std::ios::binary);
+  if (!in) throw InputError(suite.file + ": cannot read the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  return Hex(Fnv1a(text.str()));
+}
+
+// A folder's files into `to` (created), hard-linked where the file system
+// allows, copied otherwise.
+void LinkOrCopyTree(const fs::path& from, const fs::path& to) {
+  std::error_code ec;
+  fs::copy(from, to, fs::copy_options::recursive | fs::copy_options::create_hard_links, ec);
+  if (!ec) return;
+  fs::remove_all(to);
+  fs::copy(from, to, fs::copy_options::recursive);
+}
+
+}  // namespace
+
+std::string GateShardJson(const GateSuite& suite, const util::Shard& shard,
+                          const std::vector<GateEntryOutcome>& outcomes) {
+  Json j;
+  j["format"] = kGateShardFormatName;
+  j["format_version"] = kGateFormatVersion;
+  j["suite"] = suite.file;
+  j["suite_digest"] = SuiteDigest(suite);
+  j["shard"] = shard.Text();
+  Json list = Json::array();
+  for (const GateEntryOutcome& o : outcomes) {
+    list.push_back({{"name", o.name}, {"ok", o.ok}, {"error", o.error}, {"reused", o.reused}, {"wall_s", o.wall_s}});
+  }
+  j["entries"] = list;
+  return j.dump(1) + "\n";
+}
+
+std::vector<GateEntryOutcome> MergeGateShards(const GateSuite& suite, const std::vector<std::string>& shard_dirs,
+                                              const std::string& out_dir) {
+  if (shard_dirs.empty()) throw InputError("no shard folders given");
+  const std::string digest = SuiteDigest(suite);
+  std::map<std::string, GateEntryOutcome> by_name;
+  std::map<std::string, std::string> from_dir;
+  std::map<int, std::string> shard_of;  // shard index -> its folder
+  int count = 0;
+  for (const std::string& dir : shard_dirs) {
+    const std::string path = (fs::path(dir) / kGateShardFileName).string();
+    if (!fs::exists(path)) {
+      throw InputError(path + ": no such file: not a finished `hdabench gate --shard` folder");
+    }
+    const Json j = ReadJsonFile(path);
+    CheckFormat(j, kGateShardFormatName, path);
+    if (StringField(j, "suite_digest", path) != digest) {
+      throw InputError(path + ": the shard ran the suite " + StringField(j, "suite", path) +
+                       ", whose contents differ from " + suite.file);
+    }
+    const util::Shard shard = util::ParseShard(StringField(j, "shard", path));
+    if (count != 0 && shard.count != count) {
+      throw InputError(path + ": shard " + shard.Text() + " of another split than the others (of " +
+                       std::to_string(count) + ")");
+    }
+    count = shard.count;
+    if (!shard_of.emplace(shard.index, dir).second) {
+      throw InputError(path + ": shard " + shard.Text() + " is also in " + shard_of[shard.index]);
+    }
+    if (!j.contains("entries") || !j["entries"].is_array()) throw InputError(path + ": field 'entries' must be a list");
+    for (const Json& e : j["entries"]) {
+      GateEntryOutcome o;
+      o.name = StringField(e, "name", path);
+      o.ok = e.at("ok").get<bool>();
+      o.error = StringField(e, "error", path);
+      o.reused = e.at("reused").get<bool>();
+      o.wall_s = NumberField(e, "wall_s", path);
+      from_dir[o.name] = dir;
+      by_name[o.name] = o;
+    }
+  }
+  for (int k = 1; k <= count; ++k) {
+    if (shard_of.count(k) == 0) {
+      throw InputError("shard " + std::to_string(k) + "/" + std::to_string(count) + " is missing among the " +
+                       std::to_string(shard_dirs.size()) + " folders given");
+    }
+  }
+  std::vector<GateEntryOutcome> outcomes;
+  fs::create_directories(fs::path(out_dir) / "entries");
+  for (const GateEntry& e : suite.entries) {
+    const auto found = by_name.find(e.name);
+    if (found == by_name.end()) {
+      throw InputError("entry '" + e.name + "' of " + suite.file + " is in no shard's " + kGateShardFileName);
+    }
+    GateEntryOutcome o = found->second;
+    if (o.ok) {
+      const fs::path source = fs::path(from_dir[e.name]) / "entries" / e.name;
+      const fs::path target = fs::path(out_dir) / "entries" / e.name;
+      if (!fs::exists(source / kEntryRecord)) {
+        throw InputError(source.string() + ": the shard recorded the entry complete, but its folder is not");
+      }
+      std::error_code ec;
+      if (!fs::equivalent(source, target, ec)) {
+        const fs::path staging = target.string() + ".partial-" + std::to_string(::getpid());
+        fs::remove_all(staging);
+        LinkOrCopyTree(source, staging);
+        fs::remove_all(target);
+        fs::rename(staging, target);
+      }
+      o.dir = target.string();
+      o.page = EntryPage(target);
+    }
+    outcomes.push_back(o);
+  }
   return outcomes;
 }
 

@@ -18,6 +18,8 @@
 #include <vector>
 
 #include "reference/flight/hda_params.h"
+#include "reference/observability/observability.h"
+#include "tools/util/parallel_for.h"
 
 #include "datasets/synth/synth.h"
 
@@ -43,6 +45,14 @@ struct GateEntry {
   std::optional<std::string> dataset_dir;
   std::optional<std::string> stereolunar_pair_dir;
   int stereolunar_sun = 0;
+  // Or, instead of a dataset, an observability study (docs/observability.md)
+  // through the flight method's triangulation and plane fit: its options as
+  // read ("observability": {...}, docs/gate.md), the camera model (relative
+  // to the suite file's folder; empty: the synthetic scenes' camera) and the
+  // object's text, which the entry's record keeps.
+  std::optional<StudyOptions> observability;
+  std::string observability_camera;
+  std::string observability_spec;
   // The flight method's parameters for this entry: "site_size_m" and the
   // "hda" object (HdaSettings::SetAll); the keys not given follow the
   // geometry, as in compare.
@@ -104,6 +114,14 @@ GateThresholds ReadGateThresholds(const std::string& path);
 //                               the flight computer (wall time / processor_scale)
 //   failed_entries              entries where the method failed for the run
 //   slope_error_rois            how many ROIs the slope errors are over
+//   observability_p95_deg       flight: the largest p95 of |slope error| over
+//                               the settings of the suite's observability
+//                               entries; a setting where more than 5 % of
+//                               the trials have no plane counts as 90 deg
+//   observability_median_deg    flight: the largest median, alike
+//   observability_sigma_ratio   flight: the largest ratio between the Monte
+//                               Carlo standard deviation and the RMS predicted
+//                               sigma, either way up (>= 1; 1 is agreement)
 // A metric without data (no ROI with truth, say) is absent.
 struct GateMetric {
   std::string method;
@@ -112,7 +130,8 @@ struct GateMetric {
 };
 std::vector<std::string> GateMetricNames();
 
-// One entry's results on disk (its compare.json and compare_timings.json).
+// One entry's results on disk (its compare.json and compare_timings.json, or
+// an observability entry's settings.csv).
 std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
                                            double processor_scale);
 
@@ -154,6 +173,7 @@ struct GateRunOptions {
   double fault_match_noise_px = 0.0;  // passed to the flight method (tests of the gate only)
   std::string colmap_executable = "colmap";
   double processor_scale = 0.1;       // hda::HdaOptions::processor_scale
+  util::Shard shard;                  // the entries to run: entry i when shard.Holds(i)
 
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;
@@ -166,14 +186,39 @@ struct GateEntryOutcome {
   bool ok = false;
   std::string error;      // when not ok: why (one line)
   double wall_s = 0.0;
+  std::string page;       // the entry's page, relative to its folder: report.html or settings.csv
 };
 
 using GateProgress = std::function<void(const std::string& line)>;
 
-// Runs every entry of the suite (in parallel, `jobs` at a time), skipping the
-// complete ones. An entry that cannot be run (a dataset that cannot be made or
+// Runs every entry of the suite that the shard holds (in parallel, `jobs` at
+// a time), skipping the complete ones; returns their outcomes in the suite's
+// order. An entry that cannot be run (a dataset that cannot be made or
 // loaded) is reported, not thrown; the others still run.
 std::vector<GateEntryOutcome> RunGateSuite(const GateSuite& suite, const GateRunOptions& options,
                                            const GateProgress& progress);
+
+// ---------------------------------------------------------------------------
+// Shards (docs/gate.md): `gate --shard K/N` runs the entries the shard holds
+// into its own folder and records their outcomes in gate_shard.json; `gate
+// merge` gathers the shards' entries into one folder, from which the metrics,
+// the table and the verdict are those of the whole suite run on one machine.
+
+inline constexpr char kGateShardFileName[] = "gate_shard.json";
+
+// gate_shard.json's text: the suite (its file's FNV-1a digest, so shards of
+// another suite are refused), the shard and its entries' outcomes.
+std::string GateShardJson(const GateSuite& suite, const util::Shard& shard,
+                          const std::vector<GateEntryOutcome>& outcomes);
+
+// Reads every shard folder's gate_shard.json, checks that they are the shards
+// 1..n of this suite once each, and copies each complete entry into
+// out_dir/entries (hard links where the file system allows; a shard folder
+// that is out_dir itself is left as it is). Returns every entry's outcome in
+// the suite's order, with its folder under out_dir. Throws InputError naming
+// the folder and what is wrong (a shard missing or repeated, another suite, an
+// entry recorded complete without its folder).
+std::vector<GateEntryOutcome> MergeGateShards(const GateSuite& suite, const std::vector<std::string>& shard_dirs,
+                                              const std::string& out_dir);
 
 }  // namespace hdabench::reference

@@ -146,6 +146,23 @@ std::vector<std::string> StudyOptions::Validate() const {
   return errors;
 }
 
+void ResolveStudyHdaOptions(const HdaSettings& settings, const calib::CameraModel& camera, StudyOptions* options) {
+  PairGeometry geometry;
+  geometry.lrf_range_m = std::hypot(options->altitude_m, options->downrange_m);
+  geometry.baseline_m = options->baselines_m.empty() ? 0.0 : options->baselines_m.back();
+  std::vector<DerivedParam> derived;
+  options->hda = ResolveHdaOptions(settings, camera, geometry, &derived);
+  if (settings.given.count("prediction.nav_position_sigma_m") == 0) {
+    options->hda.prediction.nav_position_sigma_m = options->nav_position_sigma_m;
+  }
+  if (settings.given.count("prediction.nav_attitude_sigma_deg") == 0) {
+    options->hda.prediction.nav_attitude_sigma_deg = options->nav_attitude_sigma_deg;
+  }
+  if (settings.given.count("prediction.range_sigma_m") == 0) {
+    options->hda.prediction.range_sigma_m = std::max(options->lrf_sigma_m, 1e-6);
+  }
+}
+
 std::vector<StudySetting> StudySettings(const StudyOptions& options) {
   std::vector<StudySetting> settings;
   for (const StudyGeometry geometry : options.geometries) {
@@ -268,6 +285,14 @@ TrialResult RunTrial(const StudyOptions& options, const calib::CameraModel& came
   input.lrf_range_m = std::max(1e-3, true_range + options.lrf_sigma_m * normal(rng));
   input.ils_in_local_m = Eigen::Vector3d::Zero();
 
+  // Fault injection (tests of the gate): noise on image 2's matches, drawn
+  // last so that a study without it draws what it always drew.
+  if (options.hda.fault_match_noise_px > 0.0) {
+    for (cv::Point2d& p : matched2) {
+      p.x += options.hda.fault_match_noise_px * normal(rng);
+      p.y += options.hda.fault_match_noise_px * normal(rng);
+    }
+  }
   const hda::RoiResult roi = hda::EvaluateMatchedSite(input, camera, options.hda, box, matched1, matched2);
   result.has_fit = roi.has_fit && std::isfinite(roi.slope_deg);
   result.has_slope = result.has_fit && hda::HasSlope(roi.status);
@@ -454,15 +479,6 @@ std::string BaselinesCsv(const std::vector<BaselineVerdict>& verdicts) {
   return csv.str();
 }
 
-StudyShard ParseStudyShard(const std::string& text) {
-  int k = 0, n = 0, consumed = 0;
-  if (std::sscanf(text.c_str(), "%d/%d%n", &k, &n, &consumed) != 2 || consumed != static_cast<int>(text.size()) ||
-      n < 1 || k < 1 || k > n) {
-    throw InputError("shard '" + text + "': expected K/N with 1 <= K <= N");
-  }
-  return {k, n};
-}
-
 std::string StudyJsonText(const StudyOptions& o, const calib::CameraModel& camera, const StudyShard& shard) {
   using Json = nlohmann::ordered_json;
   Json geometries = Json::array();
@@ -502,7 +518,7 @@ std::vector<SettingStats> RunStudy(const StudyOptions& options, const calib::Cam
   ThrowIfInvalid("observability: ", options.Validate());
   std::vector<StudySetting> mine;
   for (const StudySetting& s : StudySettings(options)) {
-    if (shard.Holds(s)) mine.push_back(s);
+    if (shard.Holds(s.index)) mine.push_back(s);
   }
   std::vector<SettingStats> stats;
   for (const StudySetting& s : mine) {

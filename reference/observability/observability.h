@@ -31,6 +31,8 @@
 
 #include "calib/camera_model.h"
 #include "hda/hda_options.h"
+#include "reference/flight/hda_params.h"
+#include "tools/util/parallel_for.h"
 
 namespace hdabench::reference {
 
@@ -61,6 +63,13 @@ struct StudyOptions {
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;
 };
+
+// The flight method's options for a study: `settings` (a params file and
+// --set), the lengths not given following the slant range and the largest
+// baseline as in `run` (docs/flight-parameters.md), and the nav and LRF sigmas
+// the method assumes, when not given, following the study's noise. Sets
+// options->hda.
+void ResolveStudyHdaOptions(const HdaSettings& settings, const calib::CameraModel& camera, StudyOptions* options);
 
 // One point of the sweep.
 struct StudySetting {
@@ -138,16 +147,8 @@ std::string BaselinesCsv(const std::vector<BaselineVerdict>& verdicts);
 // camera, the shard), settings.csv (one row per setting the run computed) and,
 // for a whole study (one run, or shards merged), baselines.csv.
 
-struct StudyShard {
-  int index = 1;  // k of k/n, 1-based
-  int count = 1;  // n
-  bool Whole() const { return count == 1; }
-  // The settings of this shard: index % count == index - 1.
-  bool Holds(const StudySetting& setting) const { return setting.index % count == index - 1; }
-};
-// "K/N" with 1 <= K <= N; throws InputError otherwise.
-StudyShard ParseStudyShard(const std::string& text);
-
+// A study's shard: the settings whose index is congruent to k - 1 modulo n.
+using StudyShard = util::Shard;
 // study.json's text: everything that decides the numbers, and the shard.
 std::string StudyJsonText(const StudyOptions& options, const calib::CameraModel& camera, const StudyShard& shard);
 

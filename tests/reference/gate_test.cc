@@ -53,7 +53,31 @@ TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
   EXPECT_NE(suite(R"("methods": ["colmap"], "entries": [)" + ok_entry + "]").find("unknown method 'colmap'"),
             std::string::npos);
   EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a"}])")
-                .find("entries[0]: give exactly one of 'synth', 'dataset', 'stereolunar'"),
+                .find("entries[0]: give exactly one of 'synth', 'dataset', 'stereolunar', 'observability'"),
+            std::string::npos);
+  // An observability entry: the study's options, checked when read.
+  EXPECT_EQ(suite(R"("methods": ["flight"], "entries": [{"name": "o", "observability": )"
+                  R"({"geometry": ["lateral"], "baselines_m": [20, 30], "pixel_noise_px": [0.1], "trials": 10}}])"),
+            "no error");
+  const GateEntry study = ReadGateSuite((dir / "suite.json").string()).entries[0];
+  ASSERT_TRUE(study.observability.has_value());
+  EXPECT_EQ(study.observability->baselines_m, (std::vector<double>{20, 30}));
+  EXPECT_EQ(study.observability->trials, 10);
+  EXPECT_EQ(study.observability->geometries.size(), 1u);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "o", "observability": {"trials": 10}}])")
+                .find("entries[0].observability: field 'baselines_m' is required"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "o", "observability": )"
+                  R"({"baselines_m": [10], "geometry": ["sideways"]}}])")
+                .find("entries[0].observability: geometry: "),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "o", "observability": )"
+                  R"({"baselines_m": [10], "trials": 0}}])")
+                .find("entries[0].observability: trials = 0"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "o", "dataset": "x", "observability": )"
+                  R"({"baselines_m": [10]}}])")
+                .find("give exactly one of"),
             std::string::npos);
   EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "synth": {"preset": "novac-lateral", "set": {"speed": 3}}}])")
                 .find("entries[0].synth: "),
@@ -413,6 +437,148 @@ TEST_F(GateCommand, KilledHalfwayItResumesWithoutRedoingAndGivesTheSameResults) 
               ReadText(dir / "whole" / "entries" / entry / "compare.json"))
         << entry;
   }
+}
+
+// A small lateral observability study as a gate entry: a worse
+// triangulation input (noise on the matches) fails it by the metric's name.
+TEST_F(GateCommand, AnObservabilityEntryFailsByNameWhenTheLateralCaseGetsWorse) {
+  const fs::path dir = FreshTestDir();
+  WriteText(dir / "suite.json",
+            nlohmann::json({{"format", "hdabench-gate-suite"},
+                            {"format_version", 1},
+                            {"methods", {"flight"}},
+                            {"entries",
+                             {{{"name", "lateral"},
+                               {"observability",
+                                {{"geometry", {"lateral"}}, {"baselines_m", {20, 40}}, {"pixel_noise_px", {0.1}},
+                                 {"trials", 400}}}}}}})
+                .dump(1));
+  const fs::path loose = WriteThresholds(
+      dir, "loose.json", {{{"method", "flight"}, {"metric", "observability_p95_deg"}, {"max", 90}}});
+  const CommandResult clean = RunHdabench({"gate", "--suite", (dir / "suite.json").string(), "--thresholds",
+                                           loose.string(), "--out", (dir / "clean").string()},
+                                          dir);
+  ASSERT_EQ(clean.exit_code, 0) << clean.err;
+  const double p95 = Metric(dir / "clean" / "metrics.json", "observability_p95_deg");
+  const double median = Metric(dir / "clean" / "metrics.json", "observability_median_deg");
+  const double ratio = Metric(dir / "clean" / "metrics.json", "observability_sigma_ratio");
+  // 0.1 px at 20 m: a few degrees (docs/observability.md), the sigma within 20 %.
+  EXPECT_GT(p95, 1.0);
+  EXPECT_LT(p95, 10.0);
+  EXPECT_LT(median, p95);
+  EXPECT_GE(ratio, 1.0);
+  EXPECT_LT(ratio, 1.2);
+  // The entry's folder is the study's, linked from the page.
+  EXPECT_TRUE(fs::exists(dir / "clean" / "entries" / "lateral" / "baselines.csv"));
+  EXPECT_NE(ReadText(dir / "clean" / "gate.html").find("<a href=\"entries/lateral/settings.csv\">"),
+            std::string::npos);
+
+  const fs::path tight = WriteThresholds(
+      dir, "tight.json",
+      {{{"method", "flight"}, {"metric", "observability_p95_deg"}, {"max", p95 * 1.1}},
+       {{"method", "flight"}, {"metric", "observability_median_deg"}, {"max", median * 1.1}},
+       {{"method", "flight"}, {"metric", "observability_sigma_ratio"}, {"max", 1.25}}});
+  const CommandResult worse =
+      RunHdabench({"gate", "--suite", (dir / "suite.json").string(), "--thresholds", tight.string(), "--out",
+                   (dir / "worse").string(), "--fault-match-noise-px", "0.2"},
+                  dir);
+  EXPECT_EQ(worse.exit_code, 1) << worse.err;
+  EXPECT_NE(worse.err.find("FAILED flight observability_p95_deg = "), std::string::npos) << worse.err;
+  EXPECT_NE(worse.err.find("FAILED flight observability_median_deg = "), std::string::npos) << worse.err;
+  // The predicted sigma comes from the measured matching noise, so it grows
+  // with the fault: the sigma ratio is not what fails here.
+  EXPECT_EQ(worse.err.find("FAILED flight observability_sigma_ratio"), std::string::npos) << worse.err;
+}
+
+// The suite split in two shards, each into its own folder, then merged: the
+// table, the verdict, the metrics (but for the flight time, a wall time) and
+// every entry's results are those of one machine running the whole suite.
+TEST_F(GateCommand, ShardsMergedGiveTheWholeSuitesTableAndVerdict) {
+  const fs::path dir = FreshTestDir();
+  nlohmann::json suite = nlohmann::json::parse(ReadText(WriteSuite(dir)));
+  suite["entries"].push_back({{"name", "lateral"},
+                              {"observability",
+                               {{"geometry", {"lateral"}}, {"baselines_m", {30}}, {"pixel_noise_px", {0.1}},
+                                {"trials", 200}}}});
+  WriteText(dir / "suite.json", suite.dump(1));
+  const std::string suite_file = (dir / "suite.json").string();
+  // One threshold passes, one fails: the verdict has both kinds.
+  const fs::path thresholds = WriteThresholds(
+      dir, "thresholds.json",
+      {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", 90}},
+       {{"method", "flight"}, {"metric", "observability_p95_deg"}, {"max", 0.01}}});
+  const CommandResult whole = RunHdabench(
+      {"gate", "--suite", suite_file, "--thresholds", thresholds.string(), "--out", (dir / "whole").string()}, dir);
+  ASSERT_EQ(whole.exit_code, 1) << whole.err;
+
+  std::vector<std::string> shard_dirs;
+  for (const std::string k : {"1", "2"}) {
+    const fs::path out = dir / ("shard" + k);
+    const CommandResult shard = RunHdabench({"gate", "--suite", suite_file, "--thresholds", thresholds.string(),
+                                             "--out", out.string(), "--shard", k + "/2"},
+                                            dir);
+    ASSERT_EQ(shard.exit_code, 0) << shard.err;
+    EXPECT_NE(shard.out.find("shard " + k + "/2: "), std::string::npos) << shard.out;
+    EXPECT_FALSE(fs::exists(out / "gate.md"));  // no verdict from a slice
+    shard_dirs.push_back(out.string());
+  }
+  // Entries 0 and 2 in shard 1, entry 1 in shard 2.
+  EXPECT_TRUE(fs::exists(dir / "shard1" / "entries" / "sites-10m" / "compare.json"));
+  EXPECT_TRUE(fs::exists(dir / "shard1" / "entries" / "lateral" / "settings.csv"));
+  EXPECT_TRUE(fs::exists(dir / "shard2" / "entries" / "sites-14m" / "compare.json"));
+  EXPECT_FALSE(fs::exists(dir / "shard2" / "entries" / "sites-10m"));
+
+  const CommandResult merged =
+      RunHdabench({"gate", "merge", shard_dirs[1], shard_dirs[0], "--suite", suite_file, "--thresholds",
+                   thresholds.string(), "--out", (dir / "merged").string()},
+                  dir);
+  EXPECT_EQ(merged.exit_code, whole.exit_code) << merged.err;
+  EXPECT_EQ(merged.out, whole.out);
+  EXPECT_EQ(ReadText(dir / "merged" / "gate.md"), ReadText(dir / "whole" / "gate.md"));
+  EXPECT_EQ(ReadText(dir / "merged" / "gate.html"), ReadText(dir / "whole" / "gate.html"));
+  EXPECT_NE(merged.err.find("FAILED flight observability_p95_deg = "), std::string::npos) << merged.err;
+  const std::vector<GateMetric> a = ReadGateMetrics((dir / "merged" / "metrics.json").string());
+  const std::vector<GateMetric> b = ReadGateMetrics((dir / "whole" / "metrics.json").string());
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].metric, b[i].metric);
+    if (a[i].metric == "flight_seconds_per_pair") continue;
+    EXPECT_EQ(a[i].value, b[i].value) << a[i].metric;
+  }
+  for (const char* file : {"sites-10m/compare.json", "sites-14m/compare.json", "lateral/settings.csv",
+                           "lateral/study.json"}) {
+    EXPECT_EQ(ReadText(dir / "merged" / "entries" / file), ReadText(dir / "whole" / "entries" / file)) << file;
+  }
+
+  // A shard missing, a shard given twice, another suite's shard: exit 3, named.
+  CommandResult bad = RunHdabench({"gate", "merge", shard_dirs[0], "--suite", suite_file, "--thresholds",
+                                   thresholds.string(), "--out", (dir / "bad").string()},
+                                  dir);
+  EXPECT_EQ(bad.exit_code, 3);
+  EXPECT_NE(bad.err.find("shard 2/2 is missing"), std::string::npos) << bad.err;
+  bad = RunHdabench({"gate", "merge", shard_dirs[0], shard_dirs[0], "--suite", suite_file, "--thresholds",
+                     thresholds.string(), "--out", (dir / "bad").string()},
+                    dir);
+  EXPECT_EQ(bad.exit_code, 3);
+  EXPECT_NE(bad.err.find("shard 1/2 is also in"), std::string::npos) << bad.err;
+  suite["entries"].erase(2);
+  WriteText(dir / "other.json", suite.dump(1));
+  bad = RunHdabench({"gate", "merge", shard_dirs[0], shard_dirs[1], "--suite", (dir / "other.json").string(),
+                     "--thresholds", thresholds.string(), "--out", (dir / "bad").string()},
+                    dir);
+  EXPECT_EQ(bad.exit_code, 3);
+  EXPECT_NE(bad.err.find("whose contents differ from"), std::string::npos) << bad.err;
+  bad = RunHdabench({"gate", "merge", (dir / "whole").string(), "--suite", suite_file, "--thresholds",
+                     thresholds.string(), "--out", (dir / "bad").string()},
+                    dir);
+  EXPECT_EQ(bad.exit_code, 3);
+  EXPECT_NE(bad.err.find("not a finished `hdabench gate --shard` folder"), std::string::npos) << bad.err;
+  const CommandResult flag = RunHdabench(
+      {"gate", "--suite", suite_file, "--thresholds", thresholds.string(), "--out", (dir / "x").string(),
+       "--shard", "3/2"},
+      dir);
+  EXPECT_EQ(flag.exit_code, 2);
+  EXPECT_NE(flag.err.find("--shard: shard '3/2': expected K/N with 1 <= K <= N"), std::string::npos) << flag.err;
 }
 
 TEST_F(GateCommand, BadFilesAndFlagsHaveTheirExitCodes) {

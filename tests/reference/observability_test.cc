@@ -106,7 +106,7 @@ TEST(Observability, ShardsMergedEqualOneRun) {
   std::ofstream(fs::path(shard_dirs[2]) / "settings.csv") << csv;
   EXPECT_NE(InputErrorOf([&] { MergeStudyFolders(shard_dirs); }).find("settings.csv:2: unknown geometry 'lateraI'"),
             std::string::npos);
-  EXPECT_NE(InputErrorOf([] { ParseStudyShard("4/3"); }).find("expected K/N with 1 <= K <= N"), std::string::npos);
+  EXPECT_NE(InputErrorOf([] { util::ParseShard("4/3"); }).find("expected K/N with 1 <= K <= N"), std::string::npos);
 }
 
 // The paper's finding: across the line of sight the error falls with the

@@ -30,8 +30,8 @@ Command AddRunCommand(CLI::App& app);
 Command AddCompareCommand(CLI::App& app);
 // report (report_command.cc).
 Command AddReportCommand(CLI::App& app);
-// gate (gate_command.cc).
-Command AddGateCommand(CLI::App& app);
+// gate, gate merge (gate_command.cc).
+std::vector<Command> AddGateCommands(CLI::App& app);
 // ingest stereolunar, ingest field (ingest_command.cc).
 std::vector<Command> AddIngestCommands(CLI::App& app);
 // calibrate, calib-diff (calibrate_command.cc).

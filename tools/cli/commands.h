@@ -129,13 +129,31 @@ struct GateCommandOptions {
   int jobs = 2;                       // entries at a time
   std::string colmap_executable = "colmap";
   double fault_match_noise_px = 0.0;  // fault injection into the flight method (tests of the gate)
+  std::string shard = "1/1";          // K/N: run the entries shard K of N holds, for `gate merge`
   bool quiet = false;
 };
 // hdabench gate: the suite through the comparison, the metrics against the
 // thresholds and the baseline. Exit codes: 0 every check passed; 1 a metric
 // failed its threshold, regressed against the baseline, or an entry failed;
 // 2 bad flags; 3 an unusable suite, thresholds, baseline or output folder.
+// With --shard K/N (N > 1): only the shard's entries, their outcomes in
+// out_dir/gate_shard.json and no verdict; exit 0 when they all ran, 1 when one
+// failed (the merge reports it).
 int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::ostream& err);
+
+struct GateMergeOptions {
+  std::vector<std::string> shard_dirs;  // the shards' --out folders
+  std::string suite_file;               // the suite the shards ran
+  std::string thresholds_file;
+  std::string baseline_file;            // empty: no baseline
+  std::string write_baseline_file;      // empty: do not write one
+  std::string out_dir;                  // entries gathered, metrics.json, gate.md, gate.html
+  bool quiet = false;
+};
+// hdabench gate merge: the shards' entries into out_dir, then the metrics,
+// table and verdict as `hdabench gate` gives them for the whole suite; the
+// same exit codes, 3 also for shards that are not the suite's 1..N once each.
+int RunGateMerge(const GateMergeOptions& options, std::ostream& out, std::ostream& err);
 
 struct DemoOptions {
   std::string out_dir = "hdabench-demo";  // replaced on each run; the dataset goes in out_dir/dataset

@@ -41,7 +41,7 @@ std::vector<Command> AddCommands(CLI::App& app) {
   commands.push_back(AddRunCommand(app));
   commands.push_back(AddCompareCommand(app));
   commands.push_back(AddReportCommand(app));
-  commands.push_back(AddGateCommand(app));
+  Append(commands, AddGateCommands(app));
   Append(commands, AddIngestCommands(app));
   Append(commands, AddCalibrateCommands(app));
   Append(commands, AddObservabilityCommands(app));

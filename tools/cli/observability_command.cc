@@ -107,7 +107,7 @@ int RunObservability(ObservabilityArgs& args) {
     std::stringstream in(args.geometries);
     std::string item;
     while (std::getline(in, item, ',')) study.geometries.push_back(reference::ParseStudyGeometry(item));
-    shard = reference::ParseStudyShard(args.shard);
+    shard = util::ParseShard(args.shard);
   } catch (const InputError& e) {
     err << command << e.what() << "\n";
     return kExitUsage;
@@ -135,20 +135,7 @@ int RunObservability(ObservabilityArgs& args) {
     const calib::CameraModel camera = args.camera_file.empty()
                                           ? datasets::synth::DefaultSynthCamera(1024, 30.0)
                                           : calib::CameraModel::Load(args.camera_file);
-    reference::PairGeometry geometry;
-    geometry.lrf_range_m = std::hypot(study.altitude_m, study.downrange_m);
-    geometry.baseline_m = study.baselines_m.back();
-    std::vector<reference::DerivedParam> derived;
-    study.hda = reference::ResolveHdaOptions(settings, camera, geometry, &derived);
-    if (settings.given.count("prediction.nav_position_sigma_m") == 0) {
-      study.hda.prediction.nav_position_sigma_m = study.nav_position_sigma_m;
-    }
-    if (settings.given.count("prediction.nav_attitude_sigma_deg") == 0) {
-      study.hda.prediction.nav_attitude_sigma_deg = study.nav_attitude_sigma_deg;
-    }
-    if (settings.given.count("prediction.range_sigma_m") == 0) {
-      study.hda.prediction.range_sigma_m = std::max(study.lrf_sigma_m, 1e-6);
-    }
+    reference::ResolveStudyHdaOptions(settings, camera, &study);
     if (const std::vector<std::string> errors = study.Validate(); !errors.empty()) {
       for (const std::string& e : errors) err << command << e << "\n";
       return kExitUsage;

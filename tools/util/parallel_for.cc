@@ -2,12 +2,15 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
 #include <vector>
+
+#include "tools/util/error.h"
 
 namespace hdabench::util {
 
@@ -71,6 +74,15 @@ void ParallelFor(const std::string& name, int count, int threads,
   work(true);
   for (std::thread& thread : pool) thread.join();
   if (failure) std::rethrow_exception(failure);
+}
+
+Shard ParseShard(const std::string& text) {
+  int k = 0, n = 0, consumed = 0;
+  if (std::sscanf(text.c_str(), "%d/%d%n", &k, &n, &consumed) != 2 || consumed != static_cast<int>(text.size()) ||
+      n < 1 || k < 1 || k > n) {
+    throw InputError("shard '" + text + "': expected K/N with 1 <= K <= N");
+  }
+  return {k, n};
 }
 
 }  // namespace hdabench::util

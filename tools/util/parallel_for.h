@@ -25,4 +25,19 @@ void ParallelFor(const std::string& name, int count, int threads,
                  const std::function<void(int index)>& body,
                  const std::function<void(int items_done)>& done = {});
 
+// One slice of a piece of work split over processes or machines (the
+// observability study's and the gate's --shard K/N): slice k of n holds the
+// items whose 0-based index is congruent to k - 1 modulo n, so the slices
+// cover the work once and each gets a share of every part of it.
+struct Shard {
+  int index = 1;  // k of k/n, 1-based
+  int count = 1;  // n
+  bool Whole() const { return count == 1; }
+  bool Holds(int item) const { return item % count == index - 1; }
+  std::string Text() const { return std::to_string(index) + "/" + std::to_string(count); }
+};
+// "K/N" with 1 <= K <= N; throws InputError ("shard 'TEXT': expected K/N
+// with 1 <= K <= N") otherwise.
+Shard ParseShard(const std::string& text);
+
 }  // namespace hdabench::util

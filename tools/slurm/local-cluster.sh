@@ -1,0 +1,84 @@
+#!/bin/bash
+# A single-node Slurm cluster on this machine, on loopback only, for the
+# bench's own tests and for trying the scripts of tools/slurm/ before a real
+# cluster: munged, slurmctld and slurmd with every file under DIR.
+#   tools/slurm/local-cluster.sh start DIR [CPUS]   prints "export SLURM_CONF=DIR/slurm.conf"
+#   tools/slurm/local-cluster.sh stop DIR
+# Needs root (slurmd runs jobs as their user) and Debian's slurmctld, slurmd,
+# slurm-client and munge (tools/debian-packages.txt). Ports: 16817 (slurmctld)
+# and 16818 (slurmd) unless HDABENCH_SLURM_PORT_BASE gives another base.
+set -euo pipefail
+die() { echo "local-cluster.sh: $1" >&2; exit "${2:-1}"; }
+[[ $# -ge 2 ]] || die "usage: local-cluster.sh start|stop DIR [CPUS]" 2
+command=$1 dir=$(realpath -m "$2") cpus=${3:-$(nproc)}
+base=${HDABENCH_SLURM_PORT_BASE:-16817}
+
+stop() {
+  for name in slurmd slurmctld; do
+    [[ -f $dir/$name.pid ]] && kill "$(cat "$dir/$name.pid")" 2>/dev/null || true
+  done
+  [[ -f $dir/munge/munged.pid ]] && kill "$(cat "$dir/munge/munged.pid")" 2>/dev/null || true
+  for _ in $(seq 50); do
+    pgrep -f "$dir/slurm.conf" >/dev/null || break
+    sleep 0.1
+  done
+}
+
+case $command in
+  start)
+    [[ $(id -u) == 0 ]] || die "must run as root" 2
+    for program in munged mungekey slurmctld slurmd sinfo; do
+      command -v "$program" >/dev/null || die "$program not found: install slurmctld slurmd slurm-client munge" 4
+    done
+    mkdir -p "$dir/state" "$dir/spool" "$dir/log"
+    install -d -o munge -g munge -m 755 "$dir/munge"
+    install -d -o munge -g munge -m 700 "$dir/munge-key"
+    runuser -u munge -- mungekey -c -f -k "$dir/munge-key/munge.key"
+    runuser -u munge -- munged --key-file="$dir/munge-key/munge.key" --socket="$dir/munge/munge.socket" \
+      --pid-file="$dir/munge/munged.pid" --log-file="$dir/munge/munged.log" --seed-file="$dir/munge/munged.seed"
+    cat > "$dir/slurm.conf" <<CONF
+ClusterName=hdabench-local
+SlurmctldHost=localhost(127.0.0.1)
+SlurmctldPort=$base
+SlurmdPort=$((base + 1))
+AuthType=auth/munge
+AuthInfo=socket=$dir/munge/munge.socket
+CredType=cred/munge
+CommunicationParameters=NoInAddrAny,NoCtldInAddrAny
+SlurmUser=root
+SlurmdUser=root
+StateSaveLocation=$dir/state
+SlurmdSpoolDir=$dir/spool
+SlurmctldPidFile=$dir/slurmctld.pid
+SlurmdPidFile=$dir/slurmd.pid
+SlurmctldLogFile=$dir/log/slurmctld.log
+SlurmdLogFile=$dir/log/slurmd.log
+ProctrackType=proctrack/linuxproc
+TaskPlugin=task/none
+SelectType=select/cons_tres
+SelectTypeParameters=CR_CPU
+SchedulerType=sched/backfill
+JobAcctGatherType=jobacct_gather/none
+AccountingStorageType=accounting_storage/none
+JobCompType=jobcomp/none
+MpiDefault=none
+ReturnToService=2
+NodeName=localhost NodeAddr=127.0.0.1 CPUs=$cpus State=UNKNOWN
+PartitionName=bench Nodes=localhost Default=YES MaxTime=INFINITE State=UP
+CONF
+    export SLURM_CONF=$dir/slurm.conf
+    slurmctld -f "$SLURM_CONF" || { stop; die "slurmctld did not start (see $dir/log/slurmctld.log)" 4; }
+    slurmd -f "$SLURM_CONF" -N localhost || { stop; die "slurmd did not start (see $dir/log/slurmd.log)" 4; }
+    for _ in $(seq 100); do
+      if sinfo -h -o %T 2>/dev/null | grep -qx idle; then
+        echo "export SLURM_CONF=$SLURM_CONF"
+        exit 0
+      fi
+      sleep 0.2
+    done
+    stop
+    die "the node did not come up idle in 20 s (see $dir/log/)" 4
+    ;;
+  stop) stop ;;
+  *) die "usage: local-cluster.sh start|stop DIR [CPUS]" 2 ;;
+esac

@@ -156,6 +156,10 @@ struct LoadContext {
   // The dataset under construction; its placeholder camera is replaced by the
   // loaded one when no problem was found.
   Dataset dataset{PlaceholderCamera()};
+  // The frames whose images and truth points are read whole
+  // (LoadOptions::frames_used); none: every frame.
+  std::optional<std::set<int>> used_frames;
+  bool Uses(int frame) const { return !used_frames.has_value() || used_frames->count(frame) != 0; }
 };
 
 // Accepts a quaternion (w, x, y, z) with | |q| - 1 | <= kUnitNormTolerance.
@@ -787,7 +791,7 @@ void CheckImage(LoadContext* context, FrameRow* frame) {
                            std::to_string(camera->HeightPx()) + " px imager");
     return;
   }
-  if (!options.decode_images && !options.keep_images) return;
+  if ((!options.decode_images && !options.keep_images) || !context->Uses(frame->record.index)) return;
   cv::Mat image;
   if (!internal::DecodePngQuietly(bytes, &image, &error)) {
     problems.Add(path, error);
@@ -867,6 +871,17 @@ bool ReadNpy(LoadContext* context, const std::string& file, const std::string& n
              bool read_values, NpyFloat32* array) {
   std::string bytes;
   std::string error;
+  // A header alone: the start of the file and its size, unless the header
+  // does not fit (then the whole file, as for the values).
+  constexpr std::uint64_t kHeaderPrefixBytes = 1 << 16;
+  std::uint64_t file_size = 0;
+  if (!read_values && util::ReadFilePrefix(context->root / file, kHeaderPrefixBytes, &bytes, &file_size, &error) &&
+      (ParseNpyFloat32FileHeader(bytes, file_size, array, &error) || bytes.size() == file_size)) {
+    if (error.empty()) return true;
+    context->problems.Add(file, error);
+    return false;
+  }
+  error.clear();
   if (!util::ReadFileBytes(context->root / file, &bytes, &error)) {
     context->problems.Add(file, error + " (" + note + ")");
     return false;
@@ -971,7 +986,7 @@ class TruthPointsReader {
   // checked and kept when asked.
   bool LoadPointsFile(TruthPoints* truth) {
     const std::string& file = truth->file;
-    const bool read_values = ReadTruthValues(context_->options);
+    const bool read_values = ReadTruthValues(context_->options) && context_->Uses(truth->frame);
     NpyFloat32 array;
     if (!ReadNpy(context_, file, "truth points of frame " + std::to_string(truth->frame), read_values,
                  &array)) {
@@ -1098,7 +1113,7 @@ class TruthDemReader {
   // Reads the DEM's .npy file: a (rows, columns) array of heights, checked to
   // be finite and kept when asked.
   bool LoadDemFile(TruthDem* dem) {
-    const bool read_values = ReadTruthValues(context_->options);
+    const bool read_values = ReadTruthValues(context_->options) && context_->options.read_dem;
     NpyFloat32 array;
     if (!ReadNpy(context_, dem->file, "manifest.json field 'truth.dem.file'", read_values, &array)) {
       return false;
@@ -1113,7 +1128,7 @@ class TruthDemReader {
     dem->height_cells = static_cast<int>(array.shape[0]);
     dem->width_cells = static_cast<int>(array.shape[1]);
     if (read_values && !CheckHeightValues(*dem, array)) return false;
-    if (context_->options.keep_truth) {
+    if (read_values && context_->options.keep_truth) {
       dem->height_in_local_m.create(dem->height_cells, dem->width_cells, CV_32FC1);
       std::memcpy(dem->height_in_local_m.data, array.values.data(),
                   array.values.size() * sizeof(float));
@@ -1356,9 +1371,23 @@ class Loader {
     if (paths.frames) FramesTableReader(&context_).Read(&frames);
     const bool nav_clean = paths.nav && LoadNavigation(&context_);
     const bool lrf_clean = paths.lrf && LoadLrfTable(&context_);
+    ChooseFramesUsed(frames);
     CheckImages(&context_, &frames.rows);
     CheckFrameTimes(&context_, frames.rows, nav_clean, lrf_clean);
     TruthLoader(&context_, frames).Load(manifest);
+  }
+
+  // LoadOptions::frames_used on the tables read so far, when they are clean.
+  void ChooseFramesUsed(const FramesTable& frames) {
+    if (!context_.options.frames_used || context_.problems.Count() > 0) return;
+    Dataset tables = context_.dataset;
+    for (const FrameRow& row : frames.rows) tables.frames.push_back(row.record);
+    try {
+      const std::vector<int> used = context_.options.frames_used(tables);
+      context_.used_frames.emplace(used.begin(), used.end());
+    } catch (const std::exception&) {
+      // Every frame then: the command reports its own error.
+    }
   }
 
   const std::string dir_;

@@ -4,6 +4,7 @@
 // docs/conventions.md.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <utility>
@@ -163,6 +164,16 @@ struct LoadOptions {
   bool check_truth_values = true;
   // Keep the truth arrays in Dataset::truth (implies reading them).
   bool keep_truth = false;
+  // The frames a command uses, chosen from the dataset as read before the
+  // images and the truth (its frames, navigation and LRF tables; called only
+  // when they have no problem): only their images are decoded (and kept) and
+  // only their truth points read (and kept); every other frame's image and
+  // truth file is checked as with decode_images and check_truth_values false.
+  // Empty function, or one that throws: every frame.
+  std::function<std::vector<int>(const Dataset&)> frames_used;
+  // With keep_truth or check_truth_values: false leaves the DEM's heights
+  // unread (its header and size are checked), for commands that do not use it.
+  bool read_dem = true;
 };
 
 struct DatasetLoadResult {

@@ -1,5 +1,6 @@
 #include "datasets/npy.h"
 
+#include <algorithm>
 #include <cstring>
 #include <limits>
 #include <stdexcept>
@@ -137,7 +138,10 @@ struct NpyLayout {
   std::uint64_t count = 0;
 };
 
-bool ParseNpyLayout(const std::string& bytes, bool allow_f8, NpyLayout* layout, std::string* error) {
+// `bytes` holds the file from its start, at least its header; the file's
+// size is `file_size` (bytes.size() when bytes holds it whole).
+bool ParseNpyLayout(const std::string& bytes, std::uint64_t file_size, bool allow_f8, NpyLayout* layout,
+                    std::string* error) {
   if (bytes.size() < kMagicSize + 4 || bytes.compare(0, kMagicSize, kMagic, kMagicSize) != 0) {
     *error = "is not a .npy file (no \\x93NUMPY magic)";
     return false;
@@ -183,7 +187,7 @@ bool ParseNpyLayout(const std::string& bytes, bool allow_f8, NpyLayout* layout, 
     return false;
   }
   layout->data_begin = header_begin + header_length;
-  const size_t data_bytes = bytes.size() - layout->data_begin;
+  const std::uint64_t data_bytes = file_size - layout->data_begin;
   // Product of the shape, refusing sizes beyond 2^60 values (and overflow).
   constexpr std::uint64_t kMaxValues = std::uint64_t{1} << 60;
   std::uint64_t count = 1;
@@ -216,7 +220,7 @@ bool ParseNpy(const std::string& bytes, bool read_values, NpyFloat32* array, std
   array->shape.clear();
   array->values.clear();
   NpyLayout layout;
-  if (!ParseNpyLayout(bytes, false, &layout, error)) {
+  if (!ParseNpyLayout(bytes, bytes.size(), false, &layout, error)) {
     array->shape = layout.shape;
     return false;
   }
@@ -236,7 +240,7 @@ bool ParseNpyAsDoubles(const std::string& bytes, NpyDoubles* array, std::string*
   array->shape.clear();
   array->values.clear();
   NpyLayout layout;
-  if (!ParseNpyLayout(bytes, true, &layout, error)) return false;
+  if (!ParseNpyLayout(bytes, bytes.size(), true, &layout, error)) return false;
   array->shape = layout.shape;
   array->values.resize(static_cast<size_t>(layout.count));
   const char* data = bytes.data() + layout.data_begin;
@@ -274,6 +278,16 @@ bool ParseNpyFloat32(const std::string& bytes, NpyFloat32* array, std::string* e
 
 bool ParseNpyFloat32Header(const std::string& bytes, NpyFloat32* array, std::string* error) {
   return ParseNpy(bytes, false, array, error);
+}
+
+bool ParseNpyFloat32FileHeader(const std::string& prefix, std::uint64_t file_size, NpyFloat32* array,
+                               std::string* error) {
+  array->shape.clear();
+  array->values.clear();
+  NpyLayout layout;
+  const bool ok = ParseNpyLayout(prefix, std::max<std::uint64_t>(file_size, prefix.size()), false, &layout, error);
+  array->shape = layout.shape;
+  return ok;
 }
 
 std::string EncodeNpyFloat32(const std::vector<std::int64_t>& shape, const float* values,

@@ -28,6 +28,13 @@ bool ParseNpyFloat32(const std::string& bytes, NpyFloat32* array, std::string* e
 // that the file holds exactly the bytes the shape needs.
 bool ParseNpyFloat32Header(const std::string& bytes, NpyFloat32* array, std::string* error);
 
+// The same from the start of a file (`prefix`, holding at least the header)
+// and the file's size, without its data: what a check of a large array's
+// header needs. A header longer than the prefix is reported as a truncated
+// header; read more of the file then.
+bool ParseNpyFloat32FileHeader(const std::string& prefix, std::uint64_t file_size, NpyFloat32* array,
+                               std::string* error);
+
 // A float array of either float dtype numpy writes ('<f4', '<f8'), as doubles.
 struct NpyDoubles {
   std::vector<std::int64_t> shape;

@@ -4,10 +4,12 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -416,6 +418,61 @@ TEST(LoadDataset, KeepsImagesAndTruthOnlyWhenAsked) {
   ASSERT_TRUE(full.Ok());
   EXPECT_EQ(full.dataset->frames[0].image.type(), CV_8UC1);
   EXPECT_EQ(full.dataset->truth.points[0].points_in_local_m.type(), CV_32FC3);
+}
+
+// A command that uses two frames reads only their images and truth points
+// whole; every other file is still checked as a file (its PNG structure, its
+// .npy header and size), and the DEM's heights are read only when asked.
+TEST(LoadDataset, ReadsWholeOnlyTheFramesItIsToldAreUsed) {
+  const fs::path dir = FreshTestDir() / "dataset";
+  WriteDataset(MakeExampleDataset(CurrentTestSeed()), dir.string());
+  // A NaN in one coordinate of frame 0's first point: a bad value, found only
+  // when the values are read.
+  std::string npy = ReadText(dir / "truth" / "points_000000.npy");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(&npy[npy.size() - sizeof(float)], &nan, sizeof(float));
+  testing_support::WriteText(dir / "truth" / "points_000000.npy", npy);
+
+  LoadOptions lazy = KeepEverything();
+  std::vector<int> asked_with_frames;
+  lazy.frames_used = [&](const Dataset& tables) {
+    asked_with_frames.push_back(static_cast<int>(tables.frames.size()));
+    return std::vector<int>{1, 4};
+  };
+  lazy.read_dem = false;
+  const DatasetLoadResult result = LoadDataset(dir.string(), lazy);
+  ASSERT_TRUE(result.Ok()) << result.problems[0].ToString();
+  EXPECT_EQ(asked_with_frames, std::vector<int>{6});  // once, with every frame's record
+  for (const FrameRecord& frame : result.dataset->frames) {
+    EXPECT_EQ(frame.image.empty(), frame.index != 1 && frame.index != 4) << frame.index;
+  }
+  ASSERT_EQ(result.dataset->truth.points.size(), 6u);
+  for (const TruthPoints& truth : result.dataset->truth.points) {
+    EXPECT_EQ(truth.points_in_local_m.empty(), truth.frame != 1 && truth.frame != 4) << truth.frame;
+  }
+  ASSERT_TRUE(result.dataset->truth.dem.has_value());
+  EXPECT_TRUE(result.dataset->truth.dem->height_in_local_m.empty());
+  EXPECT_GT(result.dataset->truth.dem->width_cells, 0);
+
+  // Frame 0 used: its bad value is found, as by a load of everything.
+  lazy.frames_used = [](const Dataset&) { return std::vector<int>{0, 4}; };
+  const DatasetLoadResult bad = LoadDataset(dir.string(), lazy);
+  ASSERT_FALSE(bad.Ok());
+  EXPECT_NE(bad.problems[0].ToString().find("points_000000.npy"), std::string::npos) << bad.problems[0].ToString();
+  EXPECT_EQ(LoadDataset(dir.string(), KeepEverything()).problems.size(), bad.problems.size());
+  // A choice that throws: every frame, so the bad value is found too.
+  lazy.frames_used = [](const Dataset&) -> std::vector<int> { throw InputError("no pair"); };
+  EXPECT_FALSE(LoadDataset(dir.string(), lazy).Ok());
+
+  // An unused frame's truncated file is still found, from its size.
+  lazy.frames_used = [](const Dataset&) { return std::vector<int>{1, 4}; };
+  const std::string points2 = ReadText(dir / "truth" / "points_000002.npy");
+  testing_support::WriteText(dir / "truth" / "points_000002.npy", points2.substr(0, points2.size() - 4));
+  const DatasetLoadResult truncated = LoadDataset(dir.string(), lazy);
+  ASSERT_FALSE(truncated.Ok());
+  EXPECT_NE(truncated.problems[0].ToString().find("points_000002.npy"), std::string::npos);
+  EXPECT_NE(truncated.problems[0].ToString().find("(truncated file?)"), std::string::npos)
+      << truncated.problems[0].ToString();
 }
 
 TEST(LoadDataset, AcceptsSixteenBitImagesAndCrlfTables) {

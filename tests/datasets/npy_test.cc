@@ -64,5 +64,23 @@ TEST(ParseNpyFloat32, RejectsWrongDtypeOrderAndTruncation) {
       << error;
 }
 
+// A header read from the start of a file and its size: the same checks as
+// from the whole file, without its data.
+TEST(ParseNpyFloat32FileHeader, ChecksTheSizeWithoutTheData) {
+  const std::vector<float> values(12, 1.0f);
+  const std::string good = EncodeNpyFloat32({4, 3}, values.data(), values.size());
+  const std::string header = good.substr(0, good.size() - 48);
+  NpyFloat32 array;
+  std::string error;
+  ASSERT_TRUE(ParseNpyFloat32FileHeader(header, good.size(), &array, &error)) << error;
+  EXPECT_EQ(array.shape, (std::vector<std::int64_t>{4, 3}));
+  EXPECT_TRUE(array.values.empty());
+  EXPECT_FALSE(ParseNpyFloat32FileHeader(header, good.size() - 5, &array, &error));
+  EXPECT_EQ(error, "holds 43 bytes of data; shape (4, 3) of float32 needs 48 (truncated file?)");
+  // A prefix that ends inside the header: reported as such (read more then).
+  EXPECT_FALSE(ParseNpyFloat32FileHeader(good.substr(0, 20), good.size(), &array, &error));
+  EXPECT_EQ(error, "is truncated inside the .npy header");
+}
+
 }  // namespace
 }  // namespace hdabench::datasets

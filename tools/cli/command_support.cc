@@ -89,7 +89,8 @@ std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
 PairLoad LoadDatasetPair(const std::string& dataset_dir,
                          const std::optional<std::pair<int, int>>& frames,
                          const std::string& out_dir, const std::string& command,
-                         std::ostream& err, const std::function<void(const std::string&)>& progress) {
+                         std::ostream& err, const std::function<void(const std::string&)>& progress,
+                         bool read_dem) {
   PairLoad result;
   const std::string prefix = "hdabench " + command + ": ";
   if (frames.has_value() && frames->first == frames->second) {
@@ -111,6 +112,11 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
   datasets::LoadOptions load;
   load.keep_images = true;
   load.keep_truth = true;
+  load.read_dem = read_dem;
+  load.frames_used = [&frames](const datasets::Dataset& tables) {
+    const std::pair<int, int> pair = frames.has_value() ? *frames : reference::DefaultFramePair(tables);
+    return std::vector<int>{pair.first, pair.second};
+  };
   result.dataset = LoadDatasetOrReport(dataset_dir, load, command, err);
   if (!result.dataset.has_value()) {
     result.exit_code = kExitInput;

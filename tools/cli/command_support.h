@@ -76,14 +76,17 @@ struct PairLoad {
 
 // What `run` and `compare` do before their work: checks that the frames (when
 // given) differ and the dataset folder exists, prepares the output folder,
-// loads the dataset with images and truth, and takes the given frames (checked
-// against the dataset) or reference::DefaultFramePair. Prints
+// loads the dataset and takes the given frames (checked against the dataset)
+// or reference::DefaultFramePair. Only the pair's images and truth points are
+// read whole (datasets::LoadOptions::frames_used; the other frames' files are
+// checked as files), and the DEM's heights only with `read_dem`. Prints
 // "hdabench <command>: ..." on a problem: equal or missing frames exit
 // kExitUsage, an unusable dataset or output folder kExitInput.
 PairLoad LoadDatasetPair(const std::string& dataset_dir,
                          const std::optional<std::pair<int, int>>& frames,
                          const std::string& out_dir, const std::string& command,
-                         std::ostream& err, const std::function<void(const std::string&)>& progress);
+                         std::ostream& err, const std::function<void(const std::string&)>& progress,
+                         bool read_dem);
 
 // The flight method's parameters of `run` and `compare`: the --params file
 // (when not empty, its values checked), then the command's own flags that

@@ -3,8 +3,11 @@
 #include <stdlib.h>  // mkdtemp
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <cstdint>
 #include <cstring>
+#include <limits>
 #include <fstream>
 #include <iterator>
 #include <system_error>
@@ -16,6 +19,11 @@ namespace hdabench::util {
 namespace fs = std::filesystem;
 
 bool ReadFileBytes(const fs::path& path, std::string* bytes, std::string* error) {
+  return ReadFilePrefix(path, std::numeric_limits<std::uint64_t>::max(), bytes, nullptr, error);
+}
+
+bool ReadFilePrefix(const fs::path& path, std::uint64_t max_bytes, std::string* bytes, std::uint64_t* file_size,
+                    std::string* error) {
   bytes->clear();
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
@@ -32,11 +40,25 @@ bool ReadFileBytes(const fs::path& path, std::string* bytes, std::string* error)
     *error = std::string("cannot be opened (") + std::strerror(errno) + ")";
     return false;
   }
-  bytes->assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  // One read of the size the open file has; what a file that is not seekable
+  // (a pipe) or grew meanwhile holds beyond it is read to its end.
+  in.seekg(0, std::ios::end);
+  const std::streamoff end = in.tellg();
+  in.clear();
+  in.seekg(0, std::ios::beg);
+  const std::uint64_t size = end > 0 ? static_cast<std::uint64_t>(end) : 0;
+  bytes->resize(static_cast<size_t>(std::min(size, max_bytes)));
+  in.read(bytes->data(), static_cast<std::streamsize>(bytes->size()));
+  bytes->resize(static_cast<size_t>(in.gcount()));
+  if (bytes->size() < max_bytes && !in.eof()) {
+    std::string rest(std::istreambuf_iterator<char>(in), {});
+    bytes->append(rest, 0, static_cast<size_t>(std::min<std::uint64_t>(rest.size(), max_bytes - bytes->size())));
+  }
   if (in.bad()) {
     *error = "cannot be read (I/O error)";
     return false;
   }
+  if (file_size != nullptr) *file_size = std::max<std::uint64_t>(size, bytes->size());
   return true;
 }
 

@@ -2,6 +2,7 @@
 // half-written, and a temporary folder that cleans up after itself.
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
 #include <string>
 
@@ -11,6 +12,11 @@ namespace hdabench::util {
 // without the path: "file not found", "is a directory; expected a file",
 // "cannot be read (Permission denied)".
 bool ReadFileBytes(const std::filesystem::path& path, std::string* bytes, std::string* error);
+
+// Reads at most the first `max_bytes` of a file, and its size into
+// `file_size` (may be null). Failures as ReadFileBytes.
+bool ReadFilePrefix(const std::filesystem::path& path, std::uint64_t max_bytes, std::string* bytes,
+                    std::uint64_t* file_size, std::string* error);
 
 // Writes `bytes` to a temporary name next to `path`, then renames it into
 // place, so readers never see a partial file. Creates the parent folders.

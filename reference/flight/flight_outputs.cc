@@ -233,6 +233,7 @@ struct Panel {
 };
 
 cv::Mat ToBgr(const cv::Mat& image) {
+  if (image.type() == CV_8UC3) return image;  // converted already (WriteFlightOutputs)
   cv::Mat bgr;
   cv::cvtColor(hda::ToEightBit(image, "figure image"), bgr, cv::COLOR_GRAY2BGR);
   return bgr;
@@ -693,12 +694,14 @@ std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat&
   }
   RemoveStaleRoiFiles(root, "points", ".ply", written);
   if (!figures) return written;
-  WritePng(root, "figures/quadtree.png", QuadtreeFigure(image1, run.result), &written);
-  WritePng(root, "figures/matches.png", MatchesFigure(image1, image2, run.result), &written);
+  // Each image converted once for every figure, not once per figure.
+  const cv::Mat bgr1 = ToBgr(image1), bgr2 = ToBgr(image2);
+  WritePng(root, "figures/quadtree.png", QuadtreeFigure(bgr1, run.result), &written);
+  WritePng(root, "figures/matches.png", MatchesFigure(bgr1, bgr2, run.result), &written);
   for (const hda::RoiResult& roi : run.result.rois) {
     if (roi.counts.matches == 0 || !HasBox2(roi)) continue;
     WritePng(root, "figures/roi_pairs/" + RoiFileStem(roi.id) + ".png",
-             RoiPairFigure(image1, image2, roi), &written);
+             RoiPairFigure(bgr1, bgr2, roi), &written);
   }
   RemoveStaleRoiFiles(root, "figures/roi_pairs", ".png", written);
   return written;

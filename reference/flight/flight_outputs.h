@@ -69,7 +69,7 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run);
 std::string FlightReport(const FlightRun& run);
 
 // Figures (8-bit BGR images). image1 / image2 are the run's images (CV_8UC1
-// or CV_16UC1).
+// or CV_16UC1), or those images already converted to 8-bit BGR (CV_8UC3).
 // Image 1 (enlarged so that a minimum block is readable) with every ROI box
 // coloured by status and labelled with its id, the rejected quadtree blocks
 // thin and dark, and a legend strip below.

@@ -8,7 +8,8 @@
 //
 // Run: build/tests/benchmarks/hdabench_benchmarks --benchmark_filter=Flight
 // (BM_FlightMethodWithoutNavAidedRefinement: the same with matching.warp_refine
-// off, to show what the nav-aided refinement costs.)
+// off, to show what the nav-aided refinement costs. BM_FlightMethodScaling:
+// 512 to 4096 px with the options of `hdabench run`, the cost against size.)
 // Counters: stage times in ms per run (quadtree, prediction, matching,
 // rejection, plane), rois, evaluated, and rss_before_mb / peak_rss_mb: the
 // process's resident size before the runs (program, libraries, the two images
@@ -23,6 +24,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <benchmark/benchmark.h>
 #include <opencv2/core/utility.hpp>
@@ -31,6 +33,7 @@
 #include "datasets/dataset.h"
 #include "hda/pipeline.h"
 #include "reference/flight/flight_run.h"
+#include "reference/flight/hda_params.h"
 
 namespace hdabench {
 namespace {
@@ -61,6 +64,7 @@ void ResetPeakRss() {
 
 struct Pair {
   std::unique_ptr<datasets::Dataset> dataset;
+  int frame1 = 0, frame2 = 1;
   hda::HdaInput input;
 };
 
@@ -72,7 +76,10 @@ std::string PairDir(int size_px) {
     fs::create_directories(dir.parent_path());
     const std::string command = std::string(HDABENCH_EXE) + " synth --out " + dir.string() +
                                 " --seed 1 --quiet --image-size " + std::to_string(size_px) +
-                                " --set collection_s=2.4";
+                                " --set collection_s=2.4" +
+                                // Above 2048 px the DEM keeps the 2048 px scene's spacing: the
+                                // pixel footprint's would exceed the generator's 60 M nodes.
+                                (size_px > 2048 ? " --set dem_spacing_m=0.07401" : "");
     std::cerr << "generating " << dir << " (once): " << command << "\n";
     if (std::system(command.c_str()) != 0) {
       std::cerr << "hdabench synth failed\n";
@@ -99,6 +106,8 @@ const Pair& GetPair(int size_px) {
   pair.dataset = std::make_unique<datasets::Dataset>(std::move(*loaded.dataset));
   pair.dataset->truth = datasets::Truth();
   const auto frames = reference::DefaultFramePair(*pair.dataset);
+  pair.frame1 = frames.first;
+  pair.frame2 = frames.second;
   for (const int frame : {frames.first, frames.second}) {
     datasets::FrameRecord& record = pair.dataset->frames[static_cast<size_t>(frame)];
     record.image = cv::imread((fs::path(dir) / record.image_path).string(), cv::IMREAD_UNCHANGED);
@@ -107,9 +116,24 @@ const Pair& GetPair(int size_px) {
   return pair;
 }
 
-void RunFlightMethod(benchmark::State& state, const hda::HdaOptions& options) {
+// The options `hdabench run` takes for the pair: the defaults, with the
+// lengths and the site size following its geometry (docs/flight-parameters.md).
+hda::HdaOptions RunOptions(const Pair& pair) {
+  const reference::HdaSettings settings;
+  reference::PairGeometry geometry;
+  geometry.lrf_range_m = pair.input.lrf_range_m;
+  geometry.baseline_m = pair.dataset->BaselineM(pair.frame1, pair.frame2);
+  geometry.keypoints_per_px =
+      reference::OrbKeypointDensity(pair.dataset->frames[static_cast<size_t>(pair.frame1)].image,
+                                    settings.options.matching, settings.options.quadtree.min_block_mean);
+  std::vector<reference::DerivedParam> derived;
+  return reference::ResolveHdaOptions(settings, pair.dataset->camera, geometry, &derived);
+}
+
+void RunFlightMethod(benchmark::State& state, const hda::HdaOptions& given_options, bool as_run = false) {
   cv::setNumThreads(1);
   const Pair& pair = GetPair(static_cast<int>(state.range(0)));
+  const hda::HdaOptions options = as_run ? RunOptions(pair) : given_options;
   ResetPeakRss();
   const double rss_before_mb = StatusMb("VmRSS");
   hda::StageTimes sum;
@@ -133,9 +157,26 @@ void RunFlightMethod(benchmark::State& state, const hda::HdaOptions& options) {
   state.counters["evaluated"] = static_cast<double>(result.ranking.size());
   state.counters["rss_before_mb"] = rss_before_mb;
   state.counters["peak_rss_mb"] = StatusMb("VmHWM");
+  const double seconds = (sum.quadtree_s + sum.prediction_s + sum.matching_s + sum.rejection_s + sum.plane_s) / runs;
+  const double pixels = static_cast<double>(pair.dataset->camera.WidthPx()) * pair.dataset->camera.HeightPx();
+  state.counters["ns_per_px"] = 1e9 * seconds / pixels;
+  if (!result.rois.empty()) state.counters["ms_per_roi"] = 1e3 * seconds / static_cast<double>(result.rois.size());
 }
 void BM_FlightMethod(benchmark::State& state) { RunFlightMethod(state, hda::HdaOptions()); }
 BENCHMARK(BM_FlightMethod)->Arg(1024)->Arg(2048)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Cost against size: the same scene at 512 to 4096 px, with the options
+// `hdabench run` takes (the site size in pixels follows the geometry, so the
+// ROIs cover the same ground at every size). Counters ns_per_px and
+// ms_per_roi show how the time grows.
+void BM_FlightMethodScaling(benchmark::State& state) { RunFlightMethod(state, hda::HdaOptions(), true); }
+BENCHMARK(BM_FlightMethodScaling)
+    ->Arg(512)
+    ->Arg(1024)
+    ->Arg(2048)
+    ->Arg(4096)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // The same without the nav-aided refinement (matching.warp_refine off): its
 // cost is the difference of the matching times.

@@ -201,28 +201,29 @@ struct RoiBearings {
   std::vector<Eigen::Vector3d> bearings2;
 };
 
-std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOptions& options,
-                                      const Context& ctx) {
-  std::vector<RoiBearings> all(flight.result.rois.size());
+// Each box pair's matches (image-1 box, image-2 search box; a pair without a
+// search box gets none): the flight matcher, RANSAC inliers, without the
+// nav-aided refinement, which maps each window through the motion the nav
+// pose predicts, so that the relative-pose solvers see matches that owe
+// nothing to navigation beyond the search boxes (Lucas-Kanade only).
+std::vector<RoiBearings> MatchBoxes(const std::vector<std::pair<cv::Rect, cv::Rect>>& boxes,
+                                    const CompareOptions& options, const Context& ctx) {
+  std::vector<RoiBearings> all(boxes.size());
   hda::MatchingOptions matching = options.hda.options.matching;
-  // The nav-aided refinement maps each window through the motion the nav pose
-  // predicts: off, so that the relative-pose solvers see matches that owe
-  // nothing to navigation beyond the search boxes (Lucas-Kanade only).
   matching.warp_refine = false;
   if (options.opengv_dense_features) {
     matching.orb_features_per_roi = kDenseOrbFeaturesPerRoi;
     matching.orb_fast_threshold = kDenseOrbFastThreshold;
   }
-  // 16-bit images are converted once, not once per ROI.
+  // 16-bit images are converted once, not once per box.
   const cv::Mat image1 = hda::ToEightBit(ctx.input.image1, "image 1");
   const cv::Mat image2 = hda::ToEightBit(ctx.input.image2, "image 2");
   for (size_t i = 0; i < all.size(); ++i) {
-    const hda::RoiResult& r = flight.result.rois[i];
-    if (r.box2_px.area() <= 0) continue;
+    const auto& [box1, box2] = boxes[i];
+    if (box2.area() <= 0) continue;
     all[i].has_box = true;
     const hda::RoiMatches matches =
-        hda::MatchRoiPair(image1, image2, r.box1_px, r.box2_px,
-                          ctx.dataset->camera, matching);
+        hda::MatchRoiPair(image1, image2, box1, box2, ctx.dataset->camera, matching);
     std::vector<unsigned char> valid1, valid2;
     const std::vector<Eigen::Vector3d> b1 = Bearings(ctx.dataset->camera, matches.points1_px, &valid1);
     const std::vector<Eigen::Vector3d> b2 = Bearings(ctx.dataset->camera, matches.points2_px, &valid2);
@@ -236,6 +237,58 @@ std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOpti
   return all;
 }
 
+// The ROIs' matches on the flight's boxes.
+std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOptions& options,
+                                      const Context& ctx) {
+  std::vector<std::pair<cv::Rect, cv::Rect>> boxes;
+  for (const hda::RoiResult& r : flight.result.rois) boxes.emplace_back(r.box1_px, r.box2_px);
+  return MatchBoxes(boxes, options, ctx);
+}
+
+// The matches of the tiles over the rest of the overlap (OverlapTiles), each
+// tile's search box in image 2 predicted by the flight method itself (RunHda
+// with the tiles as given ROIs, its options as resolved for the pair, on a
+// clock that stands still so that no time budget leaves a tile out and the
+// boxes do not depend on the machine's speed). *num_tiles: the tiles laid.
+std::vector<RoiBearings> MatchOverlapTiles(const FlightRun& flight, const CompareOptions& options,
+                                           const Context& ctx, int* num_tiles) {
+  std::vector<cv::Rect> roi_boxes;
+  for (const hda::RoiResult& r : flight.result.rois) roi_boxes.push_back(r.box1_px);
+  hda::HdaInput input = ctx.input;
+  input.given_rois_px = OverlapTiles(input.image1.cols, input.image1.rows, roi_boxes, options.opengv_overlap_tiles);
+  *num_tiles = static_cast<int>(input.given_rois_px.size());
+  if (input.given_rois_px.empty()) return {};
+  const hda::HdaResult predicted = hda::RunHda(input, ctx.dataset->camera, flight.options, [] { return 0.0; });
+  std::vector<std::pair<cv::Rect, cv::Rect>> boxes;
+  for (const hda::RoiResult& r : predicted.rois) boxes.emplace_back(r.box1_px, r.box2_px);
+  return MatchBoxes(boxes, options, ctx);
+}
+
+// The matches of the pair: the ROIs' (parallel to the flight's ROIs) and the
+// overlap tiles'.
+struct PairMatches {
+  std::vector<RoiBearings> rois;
+  std::vector<RoiBearings> overlap;
+  int overlap_tiles = 0;  // tiles laid (some may have no search box or no match)
+  bool empty() const { return rois.empty(); }
+};
+
+// Every match of the pair, ROIs first (in ROI order), then the tiles';
+// *first, when given, gets ROI i's range [first[i], first[i + 1]).
+void PoolPairMatches(const PairMatches& matches, std::vector<Eigen::Vector3d>* b1,
+                     std::vector<Eigen::Vector3d>* b2, std::vector<size_t>* first = nullptr) {
+  if (first != nullptr) first->assign(matches.rois.size() + 1, 0);
+  for (size_t i = 0; i < matches.rois.size(); ++i) {
+    b1->insert(b1->end(), matches.rois[i].bearings1.begin(), matches.rois[i].bearings1.end());
+    b2->insert(b2->end(), matches.rois[i].bearings2.begin(), matches.rois[i].bearings2.end());
+    if (first != nullptr) (*first)[i + 1] = b1->size();
+  }
+  for (const RoiBearings& tile : matches.overlap) {
+    b1->insert(b1->end(), tile.bearings1.begin(), tile.bearings1.end());
+    b2->insert(b2->end(), tile.bearings2.begin(), tile.bearings2.end());
+  }
+}
+
 // Whether a solver's pose can be trusted in a configuration. The free solvers
 // (rotation and translation from the matches) need relief a plane-induced
 // homography does not explain; the 2-point solver holds the nav rotation, and
@@ -246,22 +299,19 @@ bool SolverTrustsConfiguration(OpenGvSolver solver, ConfigurationType type) {
   return solver == OpenGvSolver::kTwoPointKnownRotation && type == ConfigurationType::kPlanar;
 }
 
-// OpenGV on the whole pair: one relative pose from every ROI's matches
-// pooled, its configuration judged for the pair; each ROI is then
-// triangulated with that pose (scaled to the nav baseline) from its own
-// matches among the pose's inliers.
-std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBearings>& matches,
+// OpenGV on the whole pair: one relative pose from every ROI's matches and
+// the overlap tiles' pooled, its configuration judged for the pair; each ROI
+// is then triangulated with that pose (scaled to the nav baseline) from its
+// own matches among the pose's inliers.
+std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const PairMatches& pair_matches,
                                   const CompareOptions& options, const Context& ctx,
                                   MethodSummary* summary) {
+  const std::vector<RoiBearings>& matches = pair_matches.rois;
   std::vector<MethodRoi> rois(matches.size());
   const Rigid3d* truth = ctx.has_true_pose ? &ctx.true_cam2_from_cam1 : nullptr;
   std::vector<Eigen::Vector3d> b1, b2;
-  std::vector<size_t> first(matches.size() + 1, 0);  // ROI i's matches: [first[i], first[i + 1])
-  for (size_t i = 0; i < matches.size(); ++i) {
-    b1.insert(b1.end(), matches[i].bearings1.begin(), matches[i].bearings1.end());
-    b2.insert(b2.end(), matches[i].bearings2.begin(), matches[i].bearings2.end());
-    first[i + 1] = b1.size();
-  }
+  std::vector<size_t> first;  // ROI i's matches: [first[i], first[i + 1]); the tiles' after
+  PoolPairMatches(pair_matches, &b1, &b2, &first);
   const RelativePoseResult pair =
       SolveRelativePose(b1, b2, solver, ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv, truth);
   summary->wall_s += pair.wall_s;
@@ -273,14 +323,18 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const std::vector<RoiBear
   const ConfigurationReport& configuration = pair.configuration;
   const bool trusted = SolverTrustsConfiguration(solver, configuration.type);
   summary->note = std::string("pair: ") + ToString(configuration.type) + " (" + configuration.reason + ")" +
+                  "; matches: " + std::to_string(first.back()) + " from the ROIs, " +
+                  std::to_string(b1.size() - first.back()) + " from " +
+                  std::to_string(pair_matches.overlap_tiles) + " overlap tiles" +
                   (pair.ok ? "; " + std::to_string(pair.num_inliers) + " of " + std::to_string(b1.size()) +
-                                 " matches inliers"
+                                 " inliers"
                            : "; " + pair.message);
   // The pair's triangulated inliers, by ROI.
   std::vector<std::vector<Eigen::Vector3d>> points(matches.size());
   if (trusted && pair.ok) {
     for (const TriangulatedMatch& m : pair.points) {
       const size_t index = static_cast<size_t>(m.match_index);
+      if (index >= first.back()) continue;  // an overlap tile's: the pose only
       const size_t roi = static_cast<size_t>(std::upper_bound(first.begin(), first.end(), index) - first.begin()) - 1;
       points[roi].push_back(ctx.local_from_cam1 * m.point_in_cam1_m);
     }
@@ -604,6 +658,28 @@ std::vector<std::string> ParseMethodList(const std::string& comma_separated) {
   return ordered;
 }
 
+std::vector<cv::Rect> OverlapTiles(int image_width_px, int image_height_px,
+                                   const std::vector<cv::Rect>& roi_boxes_px, int max_tiles) {
+  int side = 0;
+  for (const cv::Rect& box : roi_boxes_px) side = std::max({side, box.width, box.height});
+  if (max_tiles <= 0 || side <= 0 || image_width_px < side || image_height_px < side) return {};
+  const int columns = image_width_px / side;
+  const int rows = image_height_px / side;
+  // Every k-th tile of the grid in each direction: ceil(columns / k) x ceil(rows / k) of them.
+  int k = 1;
+  while (static_cast<long long>((columns + k - 1) / k) * ((rows + k - 1) / k) > max_tiles) ++k;
+  std::vector<cv::Rect> tiles;
+  for (int r = 0; r < rows; r += k) {
+    for (int c = 0; c < columns; c += k) {
+      const cv::Rect tile(c * side, r * side, side, side);
+      const bool meets_roi = std::any_of(roi_boxes_px.begin(), roi_boxes_px.end(),
+                                         [&](const cv::Rect& box) { return (tile & box).area() > 0; });
+      if (!meets_roi) tiles.push_back(tile);
+    }
+  }
+  return tiles;
+}
+
 CeresRefineOptions DefaultRefineOptions() {
   const hda::HdaOptions flight;
   CeresRefineOptions refine;
@@ -636,6 +712,9 @@ std::vector<std::string> CompareOptions::Validate() const {
   }
   if (min_points < 3) {
     errors.push_back("min_points = " + std::to_string(min_points) + ": expected >= 3");
+  }
+  if (opengv_overlap_tiles < 0) {
+    errors.push_back("opengv_overlap_tiles = " + std::to_string(opengv_overlap_tiles) + ": expected >= 0");
   }
   return errors;
 }
@@ -857,17 +936,14 @@ ColmapResults RunColmapMethods(const datasets::Dataset& dataset, int frame1, int
   return RunColmap(input, colmap);
 }
 
-// The configuration of the whole pair, from every ROI's matches: a free
+// The configuration of the whole pair, from all its matches: a free
 // reconstruction of a near-planar pair (colmap-free) has an ill-conditioned
 // relative pose, and its ROIs say so instead of giving a confident slope.
-ConfigurationReport PairConfiguration(const std::vector<RoiBearings>& roi_matches,
-                                      const Context& ctx, const CompareOptions& options) {
-  if (roi_matches.empty()) return ConfigurationReport();
+ConfigurationReport PairConfiguration(const PairMatches& pair_matches, const Context& ctx,
+                                      const CompareOptions& options) {
+  if (pair_matches.empty()) return ConfigurationReport();
   std::vector<Eigen::Vector3d> b1, b2;
-  for (const RoiBearings& m : roi_matches) {
-    b1.insert(b1.end(), m.bearings1.begin(), m.bearings1.end());
-    b2.insert(b2.end(), m.bearings2.begin(), m.bearings2.end());
-  }
+  PoolPairMatches(pair_matches, &b1, &b2);
   return ClassifyConfiguration(b1, b2, ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv);
 }
 
@@ -882,7 +958,7 @@ struct WholePairMethods {
 // A whole-pair method's ROIs and summary from its reconstruction.
 void FillWholePairMethod(const std::string& method, const PairReconstruction& recon,
                          const WholePairMethods& whole, const CompareRun& run,
-                         const std::vector<RoiBearings>& roi_matches,
+                         const PairMatches& pair_matches,
                          const ConfigurationReport& pair_configuration,
                          const CompareOptions& options, const Context& ctx,
                          std::vector<MethodRoi>* rois, MethodSummary* summary) {
@@ -896,7 +972,7 @@ void FillWholePairMethod(const std::string& method, const PairReconstruction& re
   if ((method == kMethodColmapNav || method == kMethodColmapFree) && !whole.colmap_note.empty()) {
     summary->note += std::string(summary->note.empty() ? "" : "; ") + whole.colmap_note;
   }
-  if (method == kMethodColmapFree && !roi_matches.empty()) {
+  if (method == kMethodColmapFree && !pair_matches.empty()) {
     summary->note += std::string(summary->note.empty() ? "" : "; ") + "pair configuration: " +
                      pair_configuration.reason;
     // With every frame of the window the views are no longer two:
@@ -911,7 +987,7 @@ void FillWholePairMethod(const std::string& method, const PairReconstruction& re
 // from their reconstructions. A method that cannot run on this dataset (a
 // bad input, a lens model it cannot unproject) fails its column only.
 void ComputeMethodHere(const std::string& method, const FlightRun& flight,
-                       const std::vector<RoiBearings>& roi_matches, const CompareOptions& options,
+                       const PairMatches& pair_matches, const CompareOptions& options,
                        const Context& ctx, const std::function<void(const std::string&)>& say,
                        std::vector<MethodRoi>* rois, MethodSummary* summary) {
   const auto guarded = [&](const std::function<std::vector<MethodRoi>()>& compute) {
@@ -935,7 +1011,7 @@ void ComputeMethodHere(const std::string& method, const FlightRun& flight,
   } else if (IsOpenGvMethod(method)) {
     say(method);
     const OpenGvSolver solver = ParseOpenGvSolver(method.substr(std::string(kOpenGvMethodPrefix).size()));
-    *rois = OpenGvRois(solver, roi_matches, options, ctx, summary);
+    *rois = OpenGvRois(solver, pair_matches, options, ctx, summary);
   }
 }
 
@@ -980,19 +1056,20 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
     });
     run.colmap_workspace = colmap_workspace;
   }
-  std::vector<RoiBearings> roi_matches;
+  PairMatches pair_matches;
   const bool any_opengv = std::any_of(run.methods.begin(), run.methods.end(), IsOpenGvMethod);
   if (any_opengv || wants(kMethodColmapFree)) {
-    say("matching the ROIs without navigation (OpenGV, the pair's configuration)");
-    roi_matches = MatchAllRois(run.flight, options, ctx);
+    say("matching the ROIs and the overlap without navigation (OpenGV, the pair's configuration)");
+    pair_matches.rois = MatchAllRois(run.flight, options, ctx);
+    pair_matches.overlap = MatchOverlapTiles(run.flight, options, ctx, &pair_matches.overlap_tiles);
   }
-  const ConfigurationReport pair_configuration = PairConfiguration(roi_matches, ctx, options);
+  const ConfigurationReport pair_configuration = PairConfiguration(pair_matches, ctx, options);
 
   run.rois.resize(run.methods.size());
   run.summaries.resize(run.methods.size());
   for (size_t m = 0; m < run.methods.size(); ++m) {
     run.summaries[m].method = run.methods[m];
-    ComputeMethodHere(run.methods[m], run.flight, roi_matches, options, ctx, say, &run.rois[m],
+    ComputeMethodHere(run.methods[m], run.flight, pair_matches, options, ctx, say, &run.rois[m],
                       &run.summaries[m]);
   }
   // The whole-pair methods, COLMAP's once it is done (a future of std::async
@@ -1008,7 +1085,7 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
   for (const auto& [method, recon] : whole.reconstructions) {
     const size_t m = static_cast<size_t>(std::find(run.methods.begin(), run.methods.end(), method) -
                                          run.methods.begin());
-    FillWholePairMethod(method, recon, whole, run, roi_matches, pair_configuration, options, ctx, &run.rois[m],
+    FillWholePairMethod(method, recon, whole, run, pair_matches, pair_configuration, options, ctx, &run.rois[m],
                         &run.summaries[m]);
   }
   const auto colmap_nav = std::find(run.methods.begin(), run.methods.end(), kMethodColmapNav);

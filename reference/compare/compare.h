@@ -12,11 +12,12 @@
 //   colmap-nav          COLMAP SIFT + point_triangulator, nav poses held fixed
 //   colmap-free         COLMAP SIFT + mapper, aligned to the local frame with
 //                       the nav poses (reference/colmap/colmap_runner.h)
-//   opengv-<solver>     every ROI's ORB matches pooled (the flight matcher's
+//   opengv-<solver>     every ROI's ORB matches and those of tiles over the
+//                       rest of the overlap pooled (the flight matcher's
 //                       RANSAC inliers, before any use of navigation), one
 //                       relative pose for the pair by OpenGV with that solver,
 //                       scaled by the nav baseline, each ROI triangulated with
-//                       it (reference/opengv/opengv_solvers.h)
+//                       it from its own matches (reference/opengv/opengv_solvers.h)
 //   dense-nav           the pair rectified with the nav pose, semi-global
 //                       matching, every matched pixel triangulated
 //                       (reference/direct/dense_stereo.h)
@@ -58,6 +59,15 @@ inline constexpr char kOpenGvMethodPrefix[] = "opengv-";
 inline constexpr char kMethodDenseNav[] = "dense-nav";
 inline constexpr char kMethodPlaneNav[] = "plane-nav";
 
+// The image-1 tiles whose features join the ROIs' in the OpenGV methods'
+// pose: squares of the largest ROI side on a grid over the image, every k-th
+// row and column with k the smallest that leaves at most max_tiles of them
+// (so they spread over the whole image whatever its size), less those that
+// meet an ROI (no feature counted twice). Row by row, top first. None when
+// there are no ROIs or max_tiles <= 0.
+std::vector<cv::Rect> OverlapTiles(int image_width_px, int image_height_px,
+                                   const std::vector<cv::Rect>& roi_boxes_px, int max_tiles);
+
 // Every method name, in the order of the tables.
 std::vector<std::string> AllMethodNames();
 // "flight,colmap-nav" -> {"flight", "colmap-nav"}; "all" -> AllMethodNames().
@@ -89,6 +99,15 @@ struct CompareOptions {
   // 2000 ORB keypoints per box at a FAST threshold of 5, the rest as the
   // flight's).
   bool opengv_dense_features = false;
+  // Features over the whole overlap for the OpenGV methods' pose (and the
+  // pair's configuration): at most this many tiles of the ROIs' size that meet
+  // no ROI (OverlapTiles), each predicted into image 2 by the flight method
+  // and matched like an ROI; their matches join the pose, never an ROI's
+  // plane. 0: the ROIs' matches only. 128 tiles of 32 px (the default scene)
+  // hold about as many matches as its ROIs (3700 against 4000), spread over the
+  // whole image, for about 1.5 s more of the five solvers; the cap bounds that
+  // cost whatever the image and ROI sizes.
+  int opengv_overlap_tiles = 128;
   // Angular noise assumed for every method's points when weighting the plane
   // fit (only the shape of the covariances matters to the fit's normal).
   double fit_pixel_sigma_px = 0.5;
@@ -187,7 +206,7 @@ struct MethodSummary {
   ErrorStats roughness_vs_truth_m; // |roughness rms - truth rms|, metres, same ROIs as slope_vs_truth
   PointAccuracy accuracy;       // over all the method's points inside ROIs
   // Whole-pair relative pose against the truth (the method's own estimate;
-  // for OpenGV solvers, the solve on all ROIs' matches pooled).
+  // for OpenGV solvers, the solve on the pair's matches pooled).
   bool has_pose_error = false;
   double rotation_error_deg = 0.0;
   double translation_direction_error_deg = 0.0;

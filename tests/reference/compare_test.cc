@@ -8,6 +8,7 @@
 #include <unistd.h>
 #include <filesystem>
 #include <random>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -52,6 +53,40 @@ TEST(ParseMethodList, UnknownOrRepeatedNamesAreRefusedWithTheList) {
   EXPECT_THROW(ParseMethodList("colmap-nav,colmap-nav"), InputError);
   EXPECT_THROW(ParseMethodList(""), InputError);
   EXPECT_THROW(ParseMethodList("flight,"), InputError);
+}
+
+// The overlap tiles of OpenGV's pair pose: the ROIs' size, spread over the
+// whole image (the last row and column of the grid's stride reached), never
+// more than the cap, never on an ROI.
+TEST(OverlapTiles, SpreadOverTheImageClearOfTheRoisAndNoMoreThanTheCap) {
+  const std::vector<cv::Rect> rois = {{100, 100, 32, 32}, {500, 600, 32, 32}, {992, 992, 32, 32}};
+  const std::vector<cv::Rect> tiles = OverlapTiles(1024, 1024, rois, 256);
+  // A 32 x 32 grid of 32 px tiles, every second row and column: 16 x 16, less
+  // the tiles the ROIs meet: (128, 128) meets the first (x, y 100-131),
+  // (512, 576) the second (x 500-531, y 600-631); the third lies between the
+  // kept tiles.
+  EXPECT_EQ(tiles.size(), 256u - 2u);
+  int right = 0, bottom = 0;
+  for (const cv::Rect& tile : tiles) {
+    EXPECT_EQ(tile.size(), cv::Size(32, 32));
+    EXPECT_EQ(tile & cv::Rect(0, 0, 1024, 1024), tile);
+    EXPECT_EQ(tile.x % 64, 0);
+    EXPECT_EQ(tile.y % 64, 0);
+    for (const cv::Rect& roi : rois) EXPECT_EQ((tile & roi).area(), 0) << tile << " meets " << roi;
+    right = std::max(right, tile.x + tile.width);
+    bottom = std::max(bottom, tile.y + tile.height);
+  }
+  EXPECT_EQ(right, 1024 - 32);
+  EXPECT_EQ(bottom, 1024 - 32);
+  // The side follows the largest ROI side; the cap holds for any value.
+  const std::vector<cv::Rect> wide = OverlapTiles(1000, 700, {{0, 0, 40, 24}}, 1000);
+  ASSERT_FALSE(wide.empty());
+  EXPECT_EQ(wide.front(), cv::Rect(40, 0, 40, 40));
+  EXPECT_EQ(wide.size(), 25u * 17u - 1u);
+  for (int cap = 1; cap < 40; ++cap) EXPECT_LE(OverlapTiles(1000, 700, {{0, 0, 40, 24}}, cap).size(), size_t(cap));
+  EXPECT_TRUE(OverlapTiles(1024, 1024, rois, 0).empty());
+  EXPECT_TRUE(OverlapTiles(1024, 1024, {}, 256).empty());
+  EXPECT_TRUE(OverlapTiles(20, 20, rois, 256).empty());
 }
 
 TEST(ComputeErrorStats, MedianP90MaxIgnoringNonFinite) {
@@ -275,6 +310,18 @@ TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirG
     if (run.methods[m].rfind(kOpenGvMethodPrefix, 0) != 0) continue;
     const bool two_point = run.methods[m] == "opengv-two-point";
     EXPECT_TRUE(run.summaries[m].has_pose_error) << run.methods[m];
+    // The pose pools the overlap tiles' matches with the ROIs': 64 px tiles,
+    // every second of the 16 x 16 grid, less those on the ROIs (40 here), each
+    // matched as an ROI is (134 matches per tile measured; at least the 10 an
+    // ROI needs for a plane, on average).
+    std::smatch pooled;
+    ASSERT_TRUE(std::regex_search(run.summaries[m].note, pooled,
+                                  std::regex("([0-9]+) from the ROIs, ([0-9]+) from ([0-9]+) overlap tiles")))
+        << run.summaries[m].note;
+    const int tiles = std::stoi(pooled[3].str());
+    EXPECT_GE(tiles, 20) << run.summaries[m].note;
+    EXPECT_LE(tiles, 64) << run.summaries[m].note;
+    EXPECT_GE(std::stoi(pooled[2].str()), 10 * tiles) << run.summaries[m].note;
     for (size_t i = 0; i < run.rois[m].size(); ++i) {
       const MethodRoi& roi = run.rois[m][i];
       EXPECT_EQ(roi.configuration, "planar") << run.methods[m];

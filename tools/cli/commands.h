@@ -88,6 +88,7 @@ struct CompareCommandOptions {
   int colmap_octave_resolution = 3;           // ColmapOptions::sift_octave_resolution
   double colmap_peak_threshold = 0.02 / 3;    // ColmapOptions::sift_peak_threshold
   bool opengv_dense = false;                  // OpenGV on denser ORB matches than the flight's
+  int opengv_overlap_tiles = 128;             // OpenGV's pose: overlap tiles at most (0: ROIs only)
   bool figures = true;                        // write flight/figures/ (PNG)
   bool report = true;                         // write report.html and report.md (docs/report.md)
   bool quiet = false;                         // no progress lines on err

@@ -53,6 +53,7 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
   compare.colmap.sift_peak_threshold = options.colmap_peak_threshold;
   compare.colmap.nav_guided_max_error_px = options.colmap_nav_band_px;
   compare.opengv_dense_features = options.opengv_dense;
+  compare.opengv_overlap_tiles = options.opengv_overlap_tiles;
   const std::vector<std::string> invalid = compare.Validate();
   if (!invalid.empty()) {
     err << "hdabench compare: unusable options:\n";
@@ -197,6 +198,10 @@ Command AddCompareCommand(CLI::App& app) {
   compare->add_flag("--opengv-dense", options.opengv_dense,
                     "OpenGV on denser ORB matches (2000 keypoints per ROI, FAST threshold 5)\n"
                     "instead of the flight matcher's");
+  compare->add_option("--opengv-overlap-tiles", options.opengv_overlap_tiles,
+                      "OpenGV's pair pose also from features over the whole overlap: at most this many\n"
+                      "tiles of the ROIs' size spread over image 1, clear of the ROIs (0: the ROIs' matches only)")
+      ->capture_default_str();
   compare->add_flag("--no-figures", args->no_figures, "Do not write flight/figures/");
   compare->add_flag("--no-report", args->no_report, "Do not write report.html and report.md");
   compare->add_flag("--quiet", options.quiet, "No progress lines");

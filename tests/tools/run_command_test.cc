@@ -1,5 +1,6 @@
 // `hdabench run` as a user meets it: the files it writes, their determinism,
 // and its errors, on a small synthetic dataset.
+#include <algorithm>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -202,6 +203,48 @@ TEST(RunCommand, AnOutputFolderUnderAFileIsAnInputError) {
   const CommandResult run = Hdabench({"run", Dataset().string(), "--out", out.string()});
   EXPECT_EQ(run.exit_code, 3) << run.out << run.err;
   EXPECT_NE(run.err.find(out.string()), std::string::npos) << run.err;
+}
+
+// An output folder that is the dataset or lies inside it (however it is
+// spelled) is refused before anything is written, by run and compare alike
+// (both prepare their folders in LoadDatasetPair): the dataset's files stay
+// as they were. A sibling folder whose name starts with the dataset's is
+// not inside it.
+TEST(RunCommand, AnOutputFolderInsideTheDatasetIsRefusedAndNothingIsWritten) {
+  const fs::path dir = FreshTestDir();
+  const fs::path dataset = dir / "dataset";
+  fs::copy(Dataset(), dataset, fs::copy_options::recursive);
+  const auto listing = [&dataset] {
+    std::vector<std::string> files;
+    for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dataset)) {
+      files.push_back(entry.path().string() + " " +
+                      (entry.is_regular_file() ? std::to_string(entry.file_size()) : "folder"));
+    }
+    std::sort(files.begin(), files.end());
+    return files;
+  };
+  const std::vector<std::string> before = listing();
+  fs::create_directories(dir / "elsewhere");
+  fs::create_directory_symlink(dataset, dir / "link");
+  const std::vector<fs::path> inside = {dataset, dataset / "results", dataset.string() + "/",
+                                        dataset / "images" / ".." / "out", dir / "elsewhere" / ".." / "dataset",
+                                        dir / "link" / "results"};
+  for (const fs::path& out : inside) {
+    for (const std::string command : {"run", "compare"}) {
+      std::vector<std::string> args = {command, dataset.string(), "--out", out.string(), "--no-figures",
+                                       "--no-report"};
+      if (command == "compare") args.insert(args.end(), {"--methods", "flight"});
+      const CommandResult refused = Hdabench(args);
+      EXPECT_EQ(refused.exit_code, 3) << command << " --out " << out << "\n" << refused.out << refused.err;
+      EXPECT_NE(refused.err.find("is the dataset folder"), std::string::npos) << refused.err;
+      EXPECT_NE(refused.err.find(out.string()), std::string::npos) << refused.err;
+    }
+  }
+  EXPECT_EQ(listing(), before);
+  const CommandResult beside = Hdabench({"run", dataset.string(), "--out", (dir / "dataset-results").string(),
+                                         "--no-figures", "--no-report", "--budget-s", "10000"});
+  EXPECT_EQ(beside.exit_code, 0) << beside.out << beside.err;
+  EXPECT_TRUE(fs::exists(dir / "dataset-results" / "result.json"));
 }
 
 // A chessboard pair through `ingest target` and `run --roi`: the board is the

@@ -86,6 +86,25 @@ std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
   return std::move(loaded.dataset);
 }
 
+namespace {
+
+// `path` made absolute, with symbolic links, "." and ".." resolved as far as
+// the folders exist (the rest lexically), without a trailing separator.
+fs::path Resolved(const std::string& path) {
+  std::error_code error;
+  fs::path resolved = fs::weakly_canonical(fs::absolute(path), error);
+  if (error) resolved = fs::absolute(path).lexically_normal();
+  if (!resolved.has_filename() && resolved.has_parent_path()) resolved = resolved.parent_path();
+  return resolved;
+}
+
+}  // namespace
+
+bool IsSameOrInsideFolder(const std::string& path, const std::string& folder) {
+  const fs::path relative = Resolved(path).lexically_relative(Resolved(folder));
+  return !relative.empty() && *relative.begin() != "..";
+}
+
 PairLoad LoadDatasetPair(const std::string& dataset_dir,
                          const std::optional<std::pair<int, int>>& frames,
                          const std::string& out_dir, const std::string& command,
@@ -101,6 +120,13 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
   }
   result.exit_code = CheckDatasetFolder(dataset_dir, command, err);
   if (result.exit_code != kExitOk) return result;
+  if (IsSameOrInsideFolder(out_dir, dataset_dir)) {
+    err << prefix << "--out " << out_dir << ": is the dataset folder " << dataset_dir
+        << " or inside it; the results would be written among the dataset's files: give a folder "
+           "outside it\n";
+    result.exit_code = kExitInput;
+    return result;
+  }
   try {
     reference::PrepareOutputFolder(out_dir);
   } catch (const InputError& e) {

@@ -90,10 +90,14 @@ namespace {
 
 // `path` made absolute, with symbolic links, "." and ".." resolved as far as
 // the folders exist (the rest lexically), without a trailing separator.
+// Empty when the path is empty or cannot be made absolute.
 fs::path Resolved(const std::string& path) {
+  if (path.empty()) return {};
   std::error_code error;
-  fs::path resolved = fs::weakly_canonical(fs::absolute(path), error);
-  if (error) resolved = fs::absolute(path).lexically_normal();
+  const fs::path absolute = fs::absolute(path, error);
+  if (error) return {};
+  fs::path resolved = fs::weakly_canonical(absolute, error);
+  if (error) resolved = absolute.lexically_normal();
   if (!resolved.has_filename() && resolved.has_parent_path()) resolved = resolved.parent_path();
   return resolved;
 }
@@ -101,7 +105,10 @@ fs::path Resolved(const std::string& path) {
 }  // namespace
 
 bool IsSameOrInsideFolder(const std::string& path, const std::string& folder) {
-  const fs::path relative = Resolved(path).lexically_relative(Resolved(folder));
+  const fs::path resolved_path = Resolved(path);
+  const fs::path resolved_folder = Resolved(folder);
+  if (resolved_path.empty() || resolved_folder.empty()) return false;
+  const fs::path relative = resolved_path.lexically_relative(resolved_folder);
   return !relative.empty() && *relative.begin() != "..";
 }
 

@@ -69,7 +69,8 @@ std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
 
 // Whether `path` is `folder` or lies inside it, both resolved first (made
 // absolute; symbolic links, "." and ".." followed as far as the folders
-// exist). A sibling whose name starts with the folder's is not inside it.
+// exist). A sibling whose name starts with the folder's is not inside it; an
+// empty path (a command without an output folder) is inside nothing.
 bool IsSameOrInsideFolder(const std::string& path, const std::string& folder);
 
 // A dataset loaded with its images and truth, and the frame pair to use.
@@ -80,8 +81,8 @@ struct PairLoad {
 };
 
 // What `run` and `compare` do before their work: checks that the frames (when
-// given) differ, the dataset folder exists and the output folder is neither
-// it nor inside it (nothing is written then), prepares the output folder,
+// given) differ, the dataset folder exists and the output folder (when given)
+// is neither it nor inside it (nothing is written then), prepares the output folder,
 // loads the dataset and takes the given frames (checked against the dataset)
 // or reference::DefaultFramePair. Only the pair's images and truth points are
 // read whole (datasets::LoadOptions::frames_used; the other frames' files are

@@ -1,12 +1,22 @@
 // Reading files whole or by their start.
 #include "tools/util/files.h"
 
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <csignal>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
+
+#include "tools/util/error.h"
+#include "tools/util/process.h"
 
 namespace hdabench::util {
 namespace {
@@ -37,6 +47,76 @@ TEST(ReadFilePrefix, ReadsTheStartAndTheSizeAndReadFileBytesTheWhole) {
   EXPECT_EQ(error, "file not found");
   EXPECT_FALSE(ReadFilePrefix(folder.path(), 10, &bytes, &size, &error));
   EXPECT_EQ(error, "is a directory; expected a file");
+}
+
+std::vector<std::string> Names(const fs::path& folder) {
+  std::vector<std::string> names;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) names.push_back(entry.path().filename());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// The bytes in place, nothing else left beside them, a rewrite replacing
+// them; a temporary left by a writer killed before its rename is hidden,
+// named after its process, and neither disturbs a rerun nor shows in git.
+TEST(WriteFileAtomically, WritesTheBytesAloneAndALeftTemporaryIsIgnored) {
+  const TempFolder folder("files-test");
+  const fs::path path = folder.path() / "results" / "result.json";
+  WriteFileAtomically(path, "first");
+  std::string bytes, error;
+  ASSERT_TRUE(ReadFileBytes(path, &bytes, &error)) << error;
+  EXPECT_EQ(bytes, "first");
+  EXPECT_EQ(Names(path.parent_path()), std::vector<std::string>{"result.json"});
+
+  const fs::path temporary = TemporaryPathFor(path);
+  EXPECT_EQ(temporary.parent_path(), path.parent_path());
+  EXPECT_EQ(temporary.filename().string(), ".result.json." + std::to_string(::getpid()) + ".tmp");
+  const fs::path left = path.parent_path() / ".result.json.4000001.tmp";  // a killed writer's
+  std::ofstream(left, std::ios::binary) << "half";
+  WriteFileAtomically(path, "second, longer");
+  ASSERT_TRUE(ReadFileBytes(path, &bytes, &error)) << error;
+  EXPECT_EQ(bytes, "second, longer");
+  EXPECT_EQ(Names(path.parent_path()), (std::vector<std::string>{".result.json.4000001.tmp", "result.json"}));
+
+  // git, with the project's .gitignore, ignores the leftover and not the result.
+  if (FindExecutable("git").empty()) GTEST_SKIP() << "git not installed";
+  fs::copy_file(fs::path(HDABENCH_SOURCE_DIR) / ".gitignore", folder.path() / ".gitignore");
+  ProcessOptions options;
+  options.working_dir = folder.path().string();
+  ASSERT_TRUE(RunProcess({"git", "init", "-q"}, options).Ok());
+  EXPECT_TRUE(RunProcess({"git", "check-ignore", "-q", left.string()}, options).Ok());
+  EXPECT_EQ(RunProcess({"git", "check-ignore", "-q", path.string()}, options).exit_code, 1);
+}
+
+// Writes 1 MB to `path` under a 4 KB file-size limit (standing in for a
+// full disk: the write fails halfway with EFBIG) and exits 0 when the
+// InputError names the path, the earlier file is whole and nothing else is
+// left in `folder`; 1 when nothing was thrown, 2 when a check failed.
+[[noreturn]] void WriteBeyondTheSizeLimit(const fs::path& folder, const fs::path& path) {
+  std::signal(SIGXFSZ, SIG_IGN);  // a write past the limit then fails instead of killing
+  rlimit limit{};
+  limit.rlim_cur = 4096;
+  limit.rlim_max = 4096;
+  ::setrlimit(RLIMIT_FSIZE, &limit);
+  try {
+    WriteFileAtomically(path, std::string(1 << 20, 'x'));
+  } catch (const InputError& e) {
+    std::string bytes, error;
+    const bool earlier = ReadFileBytes(path, &bytes, &error) && bytes == "earlier";
+    const bool named = std::string(e.what()).find(path.string()) != std::string::npos;
+    const bool nothing_left = Names(folder) == std::vector<std::string>{path.filename().string()};
+    std::exit(earlier && named && nothing_left ? 0 : 2);
+  }
+  std::exit(1);
+}
+
+// A write that fails halfway is an InputError naming the path; the earlier
+// file stays whole and no temporary is left.
+TEST(WriteFileAtomically, AWriteThatFailsHalfwayKeepsTheEarlierFileAndLeavesNothing) {
+  const TempFolder folder("files-test");
+  const fs::path path = folder.path() / "result.bin";
+  WriteFileAtomically(path, "earlier");
+  EXPECT_EXIT(WriteBeyondTheSizeLimit(folder.path(), path), ::testing::ExitedWithCode(0), "");
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 #include "tools/util/files.h"
 
+#include <fcntl.h>
 #include <stdlib.h>  // mkdtemp
 #include <unistd.h>
 
@@ -62,6 +63,43 @@ bool ReadFilePrefix(const fs::path& path, std::uint64_t max_bytes, std::string* 
   return true;
 }
 
+fs::path TemporaryPathFor(const fs::path& path) {
+  fs::path temporary = path.parent_path();
+  temporary /= "." + path.filename().string() + "." + std::to_string(static_cast<long long>(::getpid())) + ".tmp";
+  return temporary;
+}
+
+namespace {
+
+// Writes every byte to `fd`, retrying after signals and short writes. False
+// with errno set when a write fails.
+bool WriteAll(int fd, const std::string& bytes) {
+  std::size_t done = 0;
+  while (done < bytes.size()) {
+    const ssize_t n = ::write(fd, bytes.data() + done, bytes.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return false;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  return true;
+}
+
+// Flushes the folder's entries (the rename) to the disk. A file system that
+// cannot sync a folder (EINVAL) is taken as having nothing to flush.
+bool SyncFolder(const fs::path& folder) {
+  const int fd = ::open(folder.empty() ? "." : folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool synced = ::fsync(fd) == 0 || errno == EINVAL;
+  const int saved = errno;
+  ::close(fd);
+  errno = saved;
+  return synced;
+}
+
+}  // namespace
+
 void WriteFileAtomically(const fs::path& path, const std::string& bytes) {
   std::error_code ec;
   if (path.has_parent_path()) {
@@ -71,26 +109,37 @@ void WriteFileAtomically(const fs::path& path, const std::string& bytes) {
                        ")");
     }
   }
-  fs::path temporary = path;
-  temporary += ".tmp-" + std::to_string(static_cast<long long>(::getpid()));
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    if (!out) {
-      throw InputError(path.string() + ": cannot be written (" + std::strerror(errno) + ")");
-    }
-    out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-    out.close();
-    if (!out) {
-      fs::remove(temporary, ec);
-      throw InputError(path.string() + ": writing failed (disk full?)");
-    }
+  const fs::path temporary = TemporaryPathFor(path);
+  const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd < 0) {
+    throw InputError(path.string() + ": cannot be written (" + std::strerror(errno) + ")");
   }
+  const auto fail = [&](const std::string& what) {
+    const std::string reason = std::strerror(errno);
+    std::error_code ignored;
+    fs::remove(temporary, ignored);
+    throw InputError(path.string() + ": " + what + " (" + reason + ")");
+  };
+  if (!WriteAll(fd, bytes)) {
+    ::close(fd);
+    fail("writing failed");
+  }
+  // Durable before it counts as written: the bytes, then the rename.
+  if (::fsync(fd) != 0) {
+    ::close(fd);
+    fail("could not be flushed to the disk");
+  }
+  if (::close(fd) != 0) fail("writing failed");
   fs::rename(temporary, path, ec);
   if (ec) {
     std::error_code ignored;
     fs::remove(temporary, ignored);
     throw InputError(path.string() + ": cannot move the written file into place (" + ec.message() +
                      ")");
+  }
+  if (!SyncFolder(path.parent_path())) {
+    throw InputError(path.string() + ": written, but its folder could not be flushed to the disk (" +
+                     std::strerror(errno) + ")");
   }
 }
 

@@ -18,10 +18,19 @@ bool ReadFileBytes(const std::filesystem::path& path, std::string* bytes, std::s
 bool ReadFilePrefix(const std::filesystem::path& path, std::uint64_t max_bytes, std::string* bytes,
                     std::uint64_t* file_size, std::string* error);
 
-// Writes `bytes` to a temporary name next to `path`, then renames it into
-// place, so readers never see a partial file. Creates the parent folders.
-// Throws InputError naming the path on failure (the temporary is removed).
+// Writes `bytes` to a temporary name next to `path` (TemporaryPathFor),
+// flushes it to the disk (fsync), renames it into place and flushes the
+// folder, so readers never see a partial file and a file that counts as
+// written survives a crash of the machine. Creates the parent folders.
+// Throws InputError naming the path on failure (a disk that fills up
+// halfway included; the temporary is removed).
 void WriteFileAtomically(const std::filesystem::path& path, const std::string& bytes);
+
+// The temporary name WriteFileAtomically writes `path` under before the
+// rename: ".<name>.<pid>.tmp" in the same folder. A process killed between
+// the two leaves it behind: hidden, never the name of a result, and ignored
+// by git (.gitignore: ".*.tmp"), so no later run or checkout takes it for one.
+std::filesystem::path TemporaryPathFor(const std::filesystem::path& path);
 
 // A fresh folder under the system's temporary folder (hdabench-<purpose>-XXXXXX),
 // removed with everything in it when this goes out of scope. Throws InputError

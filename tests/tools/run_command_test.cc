@@ -247,6 +247,48 @@ TEST(RunCommand, AnOutputFolderInsideTheDatasetIsRefusedAndNothingIsWritten) {
   EXPECT_TRUE(fs::exists(dir / "dataset-results" / "result.json"));
 }
 
+// An output folder that holds another command's results (or a dataset) is
+// refused before anything is written, and what it holds is left as it was;
+// a rerun into a command's own results goes on.
+TEST(RunCommand, AnOutputFolderHoldingAnotherCommandsResultsIsRefused) {
+  const fs::path dir = FreshTestDir();
+  // An ample budget for run: its bytes are compared across two runs.
+  const auto command = [&](const std::string& name, const fs::path& out) {
+    std::vector<std::string> args = {name, Dataset().string(), "--out", out.string(), "--no-figures",
+                                     "--no-report"};
+    if (name == "compare") args.insert(args.end(), {"--methods", "flight"});
+    if (name == "run") args.insert(args.end(), {"--budget-s", "10000"});
+    return Hdabench(args);
+  };
+  ASSERT_EQ(command("compare", dir / "compared").exit_code, 0);
+  ASSERT_EQ(command("run", dir / "ran").exit_code, 0);
+  const std::string compared = ReadText(dir / "compared" / "compare.json");
+  const std::string ran = ReadText(dir / "ran" / "result.json");
+
+  const CommandResult run = command("run", dir / "compared");
+  EXPECT_EQ(run.exit_code, 3) << run.out << run.err;
+  EXPECT_NE(run.err.find("holds the results of hdabench compare"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(dir / "compared" / "result.json"));
+  EXPECT_EQ(ReadText(dir / "compared" / "compare.json"), compared);
+
+  const CommandResult compare = command("compare", dir / "ran");
+  EXPECT_EQ(compare.exit_code, 3) << compare.out << compare.err;
+  EXPECT_NE(compare.err.find("holds the results of hdabench run"), std::string::npos) << compare.err;
+  EXPECT_FALSE(fs::exists(dir / "ran" / "compare.json"));
+  EXPECT_EQ(ReadText(dir / "ran" / "result.json"), ran);
+
+  fs::copy(Dataset(), dir / "another-dataset", fs::copy_options::recursive);
+  const CommandResult into_dataset = command("run", dir / "another-dataset");
+  EXPECT_EQ(into_dataset.exit_code, 3) << into_dataset.out << into_dataset.err;
+  EXPECT_NE(into_dataset.err.find("holds a dataset"), std::string::npos) << into_dataset.err;
+  EXPECT_FALSE(fs::exists(dir / "another-dataset" / "result.json"));
+
+  // Its own results: rewritten, the same bytes.
+  const CommandResult again = command("run", dir / "ran");
+  EXPECT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_EQ(ReadText(dir / "ran" / "result.json"), ran);
+}
+
 // A chessboard pair through `ingest target` and `run --roi`: the board is the
 // one ROI, its plane within the predicted sigma; bad flags and inputs answer
 // with their exit codes and write nothing.

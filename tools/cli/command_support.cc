@@ -102,7 +102,32 @@ fs::path Resolved(const std::string& path) {
   return resolved;
 }
 
+// The file at the top of an output folder that says whose results it holds.
+struct ResultSignature {
+  const char* file;
+  const char* what;
+};
+constexpr ResultSignature kResultSignatures[] = {
+    {"manifest.json", "a dataset"},
+    {"result.json", "the results of hdabench run"},
+    {"compare.json", "the results of hdabench compare"},
+    {"imagery.json", "the results of hdabench imagery pair"},
+    {"study.json", "an observability study"},
+    {"metrics.json", "the results of hdabench gate"},
+};
+
 }  // namespace
+
+std::string OtherCommandsResults(const std::string& out_dir, const std::string& own_file) {
+  if (out_dir.empty()) return "";
+  for (const ResultSignature& signature : kResultSignatures) {
+    if (own_file == signature.file) continue;
+    std::error_code ec;
+    const fs::path file = fs::path(out_dir) / signature.file;
+    if (fs::exists(file, ec)) return std::string(signature.what) + " (" + file.string() + ")";
+  }
+  return "";
+}
 
 bool IsSameOrInsideFolder(const std::string& path, const std::string& folder) {
   const fs::path resolved_path = Resolved(path);
@@ -116,7 +141,7 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
                          const std::optional<std::pair<int, int>>& frames,
                          const std::string& out_dir, const std::string& command,
                          std::ostream& err, const std::function<void(const std::string&)>& progress,
-                         bool read_dem) {
+                         bool read_dem, const std::string& own_result_file) {
   PairLoad result;
   const std::string prefix = "hdabench " + command + ": ";
   if (frames.has_value() && frames->first == frames->second) {
@@ -131,6 +156,13 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
     err << prefix << "--out " << out_dir << ": is the dataset folder " << dataset_dir
         << " or inside it; the results would be written among the dataset's files: give a folder "
            "outside it\n";
+    result.exit_code = kExitInput;
+    return result;
+  }
+  const std::string held = OtherCommandsResults(out_dir, own_result_file);
+  if (!held.empty()) {
+    err << prefix << "--out " << out_dir << ": holds " << held
+        << "; a rerun of hdabench " << command << " may write into its own results only: give a new folder\n";
     result.exit_code = kExitInput;
     return result;
   }

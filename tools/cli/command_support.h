@@ -73,6 +73,14 @@ std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
 // empty path (a command without an output folder) is inside nothing.
 bool IsSameOrInsideFolder(const std::string& path, const std::string& folder);
 
+// What an output folder already holds of another command's results: "a
+// dataset (DIR/manifest.json)", "the results of hdabench compare
+// (DIR/compare.json)", ...: the first of the files that mark a dataset or a
+// command's results (manifest.json, result.json, compare.json, imagery.json,
+// study.json, metrics.json) at its top, but `own_file`, the mark of the
+// command's own results. Empty when it holds none, or out_dir is empty.
+std::string OtherCommandsResults(const std::string& out_dir, const std::string& own_file);
+
 // A dataset loaded with its images and truth, and the frame pair to use.
 struct PairLoad {
   int exit_code = 0;  // kExitOk, or the code the command exits with (the message is printed)
@@ -82,7 +90,9 @@ struct PairLoad {
 
 // What `run` and `compare` do before their work: checks that the frames (when
 // given) differ, the dataset folder exists and the output folder (when given)
-// is neither it nor inside it (nothing is written then), prepares the output folder,
+// is neither it nor inside it and holds no other command's results
+// (OtherCommandsResults with own_result_file; nothing is written then),
+// prepares the output folder,
 // loads the dataset and takes the given frames (checked against the dataset)
 // or reference::DefaultFramePair. Only the pair's images and truth points are
 // read whole (datasets::LoadOptions::frames_used; the other frames' files are
@@ -93,7 +103,7 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
                          const std::optional<std::pair<int, int>>& frames,
                          const std::string& out_dir, const std::string& command,
                          std::ostream& err, const std::function<void(const std::string&)>& progress,
-                         bool read_dem);
+                         bool read_dem, const std::string& own_result_file);
 
 // The flight method's parameters of `run` and `compare`: the --params file
 // (when not empty, its values checked), then the command's own flags that

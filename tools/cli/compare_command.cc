@@ -62,7 +62,8 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
   }
 
   const PairLoad pair = LoadDatasetPair(options.dataset_dir, options.frames, options.out_dir,
-                                        "compare", err, progress, /*read_dem=*/true);
+                                        "compare", err, progress, /*read_dem=*/true,
+                                        "compare.json");
   if (pair.exit_code != kExitOk) return pair.exit_code;
   const datasets::Dataset& dataset = *pair.dataset;
   const std::pair<int, int> frames = pair.frames;

@@ -54,7 +54,8 @@ int RunImageryPair(const ImageryPairArgs& args, std::ostream& out, std::ostream&
   }
   const std::string out_dir = args.out_dir.empty() ? std::string() : args.out_dir;
   const PairLoad pair = LoadDatasetPair(args.dataset_dir, ParseFramesFlag(args.frames_text), out_dir,
-                                        "imagery pair", err, progress, /*read_dem=*/true);
+                                        "imagery pair", err, progress, /*read_dem=*/true,
+                                        "imagery.json");
   if (pair.exit_code != kExitOk) return pair.exit_code;
   const datasets::Dataset& dataset = *pair.dataset;
   const auto [frame1, frame2] = pair.frames;

@@ -606,6 +606,14 @@ RoiPlacement PlaceRois(const Context& ctx, const Eigen::Vector3d& ils_in_local_m
   return placement;
 }
 
+// ROI i's search box in image 2: its outline on the plane perpendicular to
+// camera 1's axis at the depth its placement gives it.
+PredictedRoi PredictPlacedRoi(const Context& ctx, const RoiPlacement& placement, const HdaResult& result,
+                              size_t i) {
+  return PredictRoi(result.quadtree.rois[i], *ctx.camera, ctx.cam2_from_cam1, placement.axis_depth_m[i],
+                    ctx.options->prediction);
+}
+
 // Matches the ROI pair. The expected motion only serves the nav-aided
 // refinement; the fault injection's noise on image 2's points is seeded by the
 // ROI id so that a run repeats.
@@ -632,11 +640,8 @@ RoiMatches MatchRoi(const Context& ctx, const RoiResult& roi, const Eigen::Vecto
 // stage's time charged to its timing.
 void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, StageTimer* timer,
                  HdaResult* result) {
-  const HdaOptions& options = *ctx.options;
   RoiResult& roi = result->rois[i];
-  const PredictedRoi predicted =
-      PredictRoi(result->quadtree.rois[i], *ctx.camera, ctx.cam2_from_cam1,
-                 placement.axis_depth_m[i], options.prediction);
+  const PredictedRoi predicted = PredictPlacedRoi(ctx, placement, *result, i);
   timer->Lap(&result->times.prediction_s);
   roi.prediction_margin_px = predicted.margin_px;
   if (predicted.status != PredictionStatus::kOk) {
@@ -740,6 +745,26 @@ RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& c
                        &parallaxes_deg);
   FitAndClassify(ctx, bearings1, bearings2, points_in_cam1, parallaxes_deg, &roi);
   return roi;
+}
+
+std::vector<cv::Rect> PredictSearchBoxes(const HdaInput& input, const calib::CameraModel& camera,
+                                         const HdaOptions& options, const std::vector<cv::Rect>& boxes1_px) {
+  CheckInput(input, camera, options);
+  Context ctx;
+  ctx.camera = &camera;
+  ctx.options = &options;
+  const Eigen::Vector3d spot_in_cam1 = SetUpGeometry(input, &ctx);
+  HdaResult placed;
+  for (size_t i = 0; i < boxes1_px.size(); ++i) {
+    placed.quadtree.rois.push_back({static_cast<int>(i) + 1, boxes1_px[i], 0.0, 0.0});
+  }
+  const RoiPlacement placement = PlaceRois(ctx, input.ils_in_local_m, spot_in_cam1, &placed);
+  std::vector<cv::Rect> boxes2_px(boxes1_px.size());
+  for (size_t i = 0; i < boxes1_px.size(); ++i) {
+    const PredictedRoi predicted = PredictPlacedRoi(ctx, placement, placed, i);
+    if (predicted.status == PredictionStatus::kOk) boxes2_px[i] = predicted.box_px;
+  }
+  return boxes2_px;
 }
 
 HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options,

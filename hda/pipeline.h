@@ -172,6 +172,14 @@ RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& c
                               const std::vector<cv::Point2d>& points1_px,
                               const std::vector<cv::Point2d>& points2_px);
 
+// The image-2 search box RunHda would predict for each image-1 box given as
+// an ROI (its placement on the level ground through the LRF spot, then
+// PredictRoi with options.prediction), without matching or fitting; an empty
+// box where the prediction fails (outside image 2, behind a camera). Throws
+// InputError as RunHda does for invalid inputs or options.
+std::vector<cv::Rect> PredictSearchBoxes(const HdaInput& input, const calib::CameraModel& camera,
+                                         const HdaOptions& options, const std::vector<cv::Rect>& boxes1_px);
+
 // Ranking score of an evaluated site, in [0, 1], higher is better: the mean of
 //   area term      min(area_m2 / site_area_m2, 4) / 4        (bigger sites leave margin)
 //   slope term     1 - slope_deg / max_slope_deg

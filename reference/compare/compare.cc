@@ -246,21 +246,21 @@ std::vector<RoiBearings> MatchAllRois(const FlightRun& flight, const CompareOpti
 }
 
 // The matches of the tiles over the rest of the overlap (OverlapTiles), each
-// tile's search box in image 2 predicted by the flight method itself (RunHda
-// with the tiles as given ROIs, its options as resolved for the pair, on a
-// clock that stands still so that no time budget leaves a tile out and the
-// boxes do not depend on the machine's speed). *num_tiles: the tiles laid.
+// tile's search box in image 2 predicted as the flight method predicts an
+// ROI's (hda::PredictSearchBoxes, its options as resolved for the pair).
+// *num_tiles: the tiles laid.
 std::vector<RoiBearings> MatchOverlapTiles(const FlightRun& flight, const CompareOptions& options,
                                            const Context& ctx, int* num_tiles) {
   std::vector<cv::Rect> roi_boxes;
   for (const hda::RoiResult& r : flight.result.rois) roi_boxes.push_back(r.box1_px);
-  hda::HdaInput input = ctx.input;
-  input.given_rois_px = OverlapTiles(input.image1.cols, input.image1.rows, roi_boxes, options.opengv_overlap_tiles);
-  *num_tiles = static_cast<int>(input.given_rois_px.size());
-  if (input.given_rois_px.empty()) return {};
-  const hda::HdaResult predicted = hda::RunHda(input, ctx.dataset->camera, flight.options, [] { return 0.0; });
+  const std::vector<cv::Rect> tiles =
+      OverlapTiles(ctx.input.image1.cols, ctx.input.image1.rows, roi_boxes, options.opengv_overlap_tiles);
+  *num_tiles = static_cast<int>(tiles.size());
+  if (tiles.empty()) return {};
+  const std::vector<cv::Rect> boxes2 =
+      hda::PredictSearchBoxes(ctx.input, ctx.dataset->camera, flight.options, tiles);
   std::vector<std::pair<cv::Rect, cv::Rect>> boxes;
-  for (const hda::RoiResult& r : predicted.rois) boxes.emplace_back(r.box1_px, r.box2_px);
+  for (size_t i = 0; i < tiles.size(); ++i) boxes.emplace_back(tiles[i], boxes2[i]);
   return MatchBoxes(boxes, options, ctx);
 }
 

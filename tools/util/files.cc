@@ -114,22 +114,19 @@ void WriteFileAtomically(const fs::path& path, const std::string& bytes) {
   if (fd < 0) {
     throw InputError(path.string() + ": cannot be written (" + std::strerror(errno) + ")");
   }
-  const auto fail = [&](const std::string& what) {
+  // On failure: the file closed (errno kept for the message: close may set
+  // its own), the temporary removed, an InputError naming the path.
+  const auto fail = [&](const std::string& what, bool close_file) {
     const std::string reason = std::strerror(errno);
+    if (close_file) ::close(fd);
     std::error_code ignored;
     fs::remove(temporary, ignored);
     throw InputError(path.string() + ": " + what + " (" + reason + ")");
   };
-  if (!WriteAll(fd, bytes)) {
-    ::close(fd);
-    fail("writing failed");
-  }
+  if (!WriteAll(fd, bytes)) fail("writing failed", true);
   // Durable before it counts as written: the bytes, then the rename.
-  if (::fsync(fd) != 0) {
-    ::close(fd);
-    fail("could not be flushed to the disk");
-  }
-  if (::close(fd) != 0) fail("writing failed");
+  if (::fsync(fd) != 0) fail("could not be flushed to the disk", true);
+  if (::close(fd) != 0) fail("writing failed", false);
   fs::rename(temporary, path, ec);
   if (ec) {
     std::error_code ignored;

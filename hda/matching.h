@@ -99,6 +99,19 @@ struct RoiMatches {
   int ransac_inliers = 0;    // == points1_px.size()
 };
 
+// ORB keypoints and descriptors in `box` of a CV_8UC1 image (clipped to
+// the image), full-image coordinates: exactly what cv::ORB (options' levels,
+// scale factor, patch, FAST threshold, Harris score, at most
+// orb_features_per_roi) gives on the box padded by the patch, with the box as
+// mask, found at a fraction of cv::ORB's cost (FAST runs on the box only).
+// Fewer levels than options.orb_levels where the padded box is too small to
+// hold a keypoint at the coarser ones.
+struct OrbFeatures {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat descriptors;  // CV_8UC1, a row of 32 bytes per keypoint
+};
+OrbFeatures DetectOrbInBox(const cv::Mat& image, const cv::Rect& box, const MatchingOptions& options);
+
 // Where navigation expects image-1 pixels in image 2: fills `pixels2` and
 // `valid` (0 where there is no expectation) parallel to `pixels1`.
 using ExpectedPositions = std::function<void(const std::vector<cv::Point2d>& pixels1,

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
+#include <opencv2/features2d.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "tools/util/error.h"
@@ -471,6 +472,101 @@ TEST(MatchingRoiPair, UniformImagesGiveNoKeypoints) {
   EXPECT_EQ(result.keypoints2, 0);
   EXPECT_EQ(result.matches, 0);
   EXPECT_TRUE(result.points1_px.empty());
+}
+
+// What cv::ORB itself gives for a box: detection and description on the box
+// padded by the patch (clipped to the image), the box as mask, the levels
+// that fit the padded box.
+OrbFeatures OrbOnPaddedBox(const cv::Mat& image, const cv::Rect& box_px, const MatchingOptions& options) {
+  OrbFeatures features;
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  const cv::Rect box = box_px & whole;
+  const int patch = options.orb_patch_size_px;
+  const int pad = patch + 2;
+  const cv::Rect crop = cv::Rect(box.x - pad, box.y - pad, box.width + 2 * pad, box.height + 2 * pad) & whole;
+  int levels = 0;
+  while (levels < options.orb_levels &&
+         cvRound(std::min(crop.width, crop.height) / std::pow(options.orb_scale_factor, levels)) > 2 * patch) {
+    ++levels;
+  }
+  if (box.empty() || levels == 0) return features;
+  cv::Mat mask = cv::Mat::zeros(crop.size(), CV_8UC1);
+  mask(box - crop.tl()).setTo(255);
+  cv::ORB::create(options.orb_features_per_roi, static_cast<float>(options.orb_scale_factor), levels, patch, 0, 2,
+                  cv::ORB::HARRIS_SCORE, patch, options.orb_fast_threshold)
+      ->detectAndCompute(image(crop), mask, features.keypoints, features.descriptors);
+  for (cv::KeyPoint& keypoint : features.keypoints) keypoint.pt += cv::Point2f(crop.tl());
+  return features;
+}
+
+// DetectOrbInBox runs FAST on the box only and cv::ORB's other steps itself:
+// it must give cv::ORB's keypoints (every field, bit for bit, in cv::ORB's
+// order) and descriptors, whatever the box, its place against the image
+// border, the texture (fine noise puts thousands of FAST corners in a box, so
+// that both of ORB's keep-the-best cuts bind) and the options.
+TEST(DetectOrbInBox, GivesExactlyWhatOrbGivesOnThePaddedBox) {
+  std::mt19937_64 rng(CurrentTestSeed());
+  cv::Mat noise(kSizePx, kSizePx, CV_8UC1);
+  cv::randu(noise, 0, 256);
+  cv::Mat blurred_noise;
+  cv::GaussianBlur(noise, blurred_noise, cv::Size(0, 0), 1.2);
+  const std::vector<cv::Mat> images = {ShiftedPair().image1, noise, blurred_noise};
+  struct Case {
+    int features, levels, patch, fast;
+    double scale;
+  };
+  const std::vector<Case> cases = {{500, 3, 31, 10, 1.2}, {60, 3, 31, 10, 1.2}, {500, 4, 31, 5, 1.5},
+                                   {30, 2, 15, 20, 2.0},  {500, 1, 31, 10, 1.2}, {200, 5, 21, 8, 1.3}};
+  std::uniform_int_distribution<int> side(4, 160), place(-40, kSizePx);
+  int compared = 0, capped = 0, at_border = 0;
+  for (const Case& c : cases) {
+    MatchingOptions options;
+    options.orb_features_per_roi = c.features;
+    options.orb_levels = c.levels;
+    options.orb_patch_size_px = c.patch;
+    options.orb_fast_threshold = c.fast;
+    options.orb_scale_factor = c.scale;
+    for (const cv::Mat& image : images) {
+      for (int trial = 0; trial < 12; ++trial) {
+        const cv::Rect box(place(rng), place(rng), side(rng), side(rng));
+        const OrbFeatures expected = OrbOnPaddedBox(image, box, options);
+        const OrbFeatures got = DetectOrbInBox(image, box, options);
+        const std::string where = "box " + std::to_string(box.x) + "," + std::to_string(box.y) + " " +
+                                  std::to_string(box.width) + "x" + std::to_string(box.height) +
+                                  ", features " + std::to_string(c.features) + ", levels " +
+                                  std::to_string(c.levels) + ", scale " + std::to_string(c.scale);
+        ASSERT_EQ(got.keypoints.size(), expected.keypoints.size()) << where;
+        for (size_t i = 0; i < got.keypoints.size(); ++i) {
+          const cv::KeyPoint& a = got.keypoints[i];
+          const cv::KeyPoint& b = expected.keypoints[i];
+          ASSERT_TRUE(a.pt.x == b.pt.x && a.pt.y == b.pt.y && a.size == b.size && a.angle == b.angle &&
+                      a.response == b.response && a.octave == b.octave && a.class_id == b.class_id)
+              << where << ", keypoint " << i << ": " << a.pt << " octave " << a.octave << " angle " << a.angle
+              << " response " << a.response << " against " << b.pt << " octave " << b.octave << " angle "
+              << b.angle << " response " << b.response;
+        }
+        ASSERT_EQ(got.descriptors.rows, expected.descriptors.rows) << where;
+        if (!got.keypoints.empty()) {
+          ASSERT_EQ(got.descriptors.type(), CV_8UC1);
+          EXPECT_EQ(cv::norm(got.descriptors, expected.descriptors, cv::NORM_HAMMING), 0.0) << where;
+          ++compared;
+          if (static_cast<int>(got.keypoints.size()) >= c.features * 9 / 10) ++capped;
+          const cv::Rect inside = box & cv::Rect(0, 0, kSizePx, kSizePx);
+          if (inside.x < c.patch || inside.y < c.patch || inside.br().x > kSizePx - c.patch ||
+              inside.br().y > kSizePx - c.patch) {
+            ++at_border;
+          }
+        }
+      }
+    }
+  }
+  // The draw covers what the comparison is for.
+  EXPECT_GE(compared, 100);
+  EXPECT_GE(capped, 5);
+  EXPECT_GE(at_border, 20);
+  EXPECT_TRUE(DetectOrbInBox(images[0], cv::Rect(-30, -30, 10, 10), MatchingOptions()).keypoints.empty());
+  EXPECT_THROW(DetectOrbInBox(cv::Mat::zeros(64, 64, CV_16UC1), cv::Rect(0, 0, 64, 64), MatchingOptions()),
+               InputError);
 }
 
 TEST(MatchingRoiPair, EmptyOrOutsideBoxesGiveNothing) {

@@ -86,8 +86,10 @@ cv::Rect Padded(const cv::Rect& box, int pad, const cv::Size& image_size) {
 // hda.DetectOrbInBox compares the two on every field and byte).
 class OrbInBox {
  public:
-  OrbInBox(const cv::Mat& crop, const cv::Rect& box_in_crop, int levels, const MatchingOptions& options)
-      : crop_(crop), options_(options), levels_(levels) {
+  // `box_in_crop` empty: no mask (cv::ORB given none), the whole crop.
+  OrbInBox(const cv::Mat& crop, const cv::Rect& box_in_crop, int levels, const MatchingOptions& options,
+           int max_features)
+      : crop_(crop), options_(options), levels_(levels), max_features_(max_features) {
     // cv::ORB keeps its scale factor as a double made from a float.
     const double scale_factor = static_cast<double>(static_cast<float>(options.orb_scale_factor));
     BuildPyramid(box_in_crop, scale_factor);
@@ -96,36 +98,11 @@ class OrbInBox {
   }
 
   std::vector<cv::KeyPoint> Detect() const {
-    const int patch = options_.orb_patch_size_px;
     std::vector<cv::KeyPoint> all;
     std::vector<size_t> counts(static_cast<size_t>(levels_));
     for (int level = 0; level < levels_; ++level) {
-      const cv::Mat& image = images_[static_cast<size_t>(level)];
-      const cv::Mat& mask = masks_[static_cast<size_t>(level)];
-      std::vector<cv::KeyPoint> keypoints;
-      const cv::Rect extent = cv::boundingRect(mask);
-      if (!extent.empty()) {
-        // FAST tests pixels 3 or more from the edge of what it is given and
-        // compares each corner's score with its 8 neighbours': 4 pixels of
-        // margin give every pixel of the extent the answer the whole level
-        // would give it.
-        constexpr int kFastMarginPx = 4;
-        const cv::Rect searched =
-            cv::Rect(extent.x - kFastMarginPx, extent.y - kFastMarginPx, extent.width + 2 * kFastMarginPx,
-                     extent.height + 2 * kFastMarginPx) &
-            cv::Rect(0, 0, image.cols, image.rows);
-        cv::FAST(image(searched), keypoints, options_.orb_fast_threshold, /*nonmaxSuppression=*/true);
-        const cv::Point2f shift(static_cast<float>(searched.x), static_cast<float>(searched.y));
-        for (cv::KeyPoint& keypoint : keypoints) keypoint.pt += shift;
-        cv::KeyPointsFilter::runByPixelsMask(keypoints, mask);
-      }
-      cv::KeyPointsFilter::runByImageBorder(keypoints, image.size(), patch);
-      cv::KeyPointsFilter::retainBest(keypoints, 2 * features_[static_cast<size_t>(level)]);
-      for (cv::KeyPoint& keypoint : keypoints) {
-        keypoint.octave = level;
-        keypoint.size = static_cast<float>(patch) * scales_[static_cast<size_t>(level)];
-        keypoint.response = HarrisResponse(image, keypoint.pt);
-      }
+      std::vector<cv::KeyPoint> keypoints = LevelCorners(level);
+      for (cv::KeyPoint& keypoint : keypoints) keypoint.response = HarrisResponse(Level(level), keypoint.pt);
       counts[static_cast<size_t>(level)] = keypoints.size();
       all.insert(all.end(), keypoints.begin(), keypoints.end());
     }
@@ -147,14 +124,71 @@ class OrbInBox {
     return kept;
   }
 
+  // How many keypoints Detect() would give, without the angles, and with the
+  // Harris responses only on a level where the cut by them can bind.
+  size_t Count() const {
+    size_t total = 0;
+    for (int level = 0; level < levels_; ++level) {
+      std::vector<cv::KeyPoint> keypoints = LevelCorners(level);
+      const int keep = features_[static_cast<size_t>(level)];
+      if (keypoints.size() > static_cast<size_t>(std::max(keep, 0))) {
+        for (cv::KeyPoint& keypoint : keypoints) keypoint.response = HarrisResponse(Level(level), keypoint.pt);
+        cv::KeyPointsFilter::retainBest(keypoints, keep);
+      }
+      total += keypoints.size();
+    }
+    return total;
+  }
+
+ private:
+  const cv::Mat& Level(int level) const { return images_[static_cast<size_t>(level)]; }
+
+  // A level's FAST corners inside the mask and at least the edge threshold
+  // from the level's border, the 2n best by FAST score, with their level and
+  // size: cv::ORB's keypoints of the level before the Harris responses.
+  std::vector<cv::KeyPoint> LevelCorners(int level) const {
+    const int patch = options_.orb_patch_size_px;
+    const cv::Mat& image = Level(level);
+    const cv::Rect whole(0, 0, image.cols, image.rows);
+    // Where a keypoint can be: inside the mask's extent (when there is a
+    // mask) and the edge threshold from the border.
+    cv::Rect extent(patch, patch, image.cols - 2 * patch, image.rows - 2 * patch);
+    if (!masks_.empty()) extent &= cv::boundingRect(masks_[static_cast<size_t>(level)]);
+    std::vector<cv::KeyPoint> keypoints;
+    if (extent.width > 0 && extent.height > 0) {
+      // FAST tests pixels 3 or more from the edge of what it is given and
+      // compares each corner's score with its 8 neighbours': 4 pixels of
+      // margin give every pixel of the extent the answer the whole level
+      // would give it.
+      constexpr int kFastMarginPx = 4;
+      const cv::Rect searched = cv::Rect(extent.x - kFastMarginPx, extent.y - kFastMarginPx,
+                                         extent.width + 2 * kFastMarginPx, extent.height + 2 * kFastMarginPx) &
+                                whole;
+      cv::FAST(image(searched), keypoints, options_.orb_fast_threshold, /*nonmaxSuppression=*/true);
+      const cv::Point2f shift(static_cast<float>(searched.x), static_cast<float>(searched.y));
+      for (cv::KeyPoint& keypoint : keypoints) keypoint.pt += shift;
+      if (!masks_.empty()) cv::KeyPointsFilter::runByPixelsMask(keypoints, masks_[static_cast<size_t>(level)]);
+    }
+    cv::KeyPointsFilter::runByImageBorder(keypoints, image.size(), patch);
+    cv::KeyPointsFilter::retainBest(keypoints, 2 * features_[static_cast<size_t>(level)]);
+    for (cv::KeyPoint& keypoint : keypoints) {
+      keypoint.octave = level;
+      keypoint.size = static_cast<float>(patch) * scales_[static_cast<size_t>(level)];
+    }
+    return keypoints;
+  }
+
  private:
   void BuildPyramid(const cv::Rect& box_in_crop, double scale_factor) {
+    const bool masked = !box_in_crop.empty();
     images_.resize(static_cast<size_t>(levels_));
-    masks_.resize(static_cast<size_t>(levels_));
+    if (masked) masks_.resize(static_cast<size_t>(levels_));
     scales_.resize(static_cast<size_t>(levels_));
     images_[0] = crop_;
-    masks_[0] = cv::Mat::zeros(crop_.size(), CV_8UC1);
-    masks_[0](box_in_crop).setTo(255);
+    if (masked) {
+      masks_[0] = cv::Mat::zeros(crop_.size(), CV_8UC1);
+      masks_[0](box_in_crop).setTo(255);
+    }
     scales_[0] = 1.0f;
     for (size_t level = 1; level < images_.size(); ++level) {
       const float scale = static_cast<float>(std::pow(scale_factor, static_cast<double>(level)));
@@ -167,16 +201,17 @@ class OrbInBox {
       const cv::Size size(cvRound(static_cast<float>(crop_.cols) * inverse),
                           cvRound(static_cast<float>(crop_.rows) * inverse));
       cv::resize(images_[level - 1], images_[level], size, 0, 0, cv::INTER_LINEAR_EXACT);
+      if (!masked) continue;
       cv::resize(masks_[level - 1], masks_[level], size, 0, 0, cv::INTER_LINEAR_EXACT);
       cv::threshold(masks_[level], masks_[level], 254, 0, cv::THRESH_TOZERO);
     }
   }
 
-  // orb_features_per_roi shared over the levels in a geometric series, as
+  // max_features shared over the levels in a geometric series, as
   // cv::ORB shares it (in float).
   void FeaturesPerLevel(double scale_factor) {
     const float factor = static_cast<float>(1.0 / scale_factor);
-    float per_level = static_cast<float>(options_.orb_features_per_roi) * (1.0f - factor) /
+    float per_level = static_cast<float>(max_features_) * (1.0f - factor) /
                       (1.0f - static_cast<float>(std::pow(static_cast<double>(factor), static_cast<double>(levels_))));
     features_.assign(static_cast<size_t>(levels_), 0);
     int sum = 0;
@@ -185,7 +220,7 @@ class OrbInBox {
       sum += features_[static_cast<size_t>(level)];
       per_level *= factor;
     }
-    features_[static_cast<size_t>(levels_ - 1)] = std::max(options_.orb_features_per_roi - sum, 0);
+    features_[static_cast<size_t>(levels_ - 1)] = std::max(max_features_ - sum, 0);
   }
 
   // Half-width of each row of the circular patch the angle is measured on,
@@ -258,6 +293,7 @@ class OrbInBox {
   cv::Mat crop_;
   const MatchingOptions& options_;
   int levels_;
+  int max_features_;
   std::vector<cv::Mat> images_, masks_;
   std::vector<float> scales_;
   std::vector<int> features_;
@@ -291,7 +327,7 @@ OrbFeatures DetectInBox(const cv::Mat& image, const cv::Rect& box, const Matchin
   if (levels == 0) return features;
 
   const cv::Mat crop_image = image(crop);
-  features.keypoints = OrbInBox(crop_image, box - crop.tl(), levels, options).Detect();
+  features.keypoints = OrbInBox(crop_image, box - crop.tl(), levels, options, options.orb_features_per_roi).Detect();
   if (features.keypoints.empty()) return features;
   const size_t detected = features.keypoints.size();
   cv::Ptr<cv::ORB> orb = cv::ORB::create(
@@ -679,6 +715,19 @@ OrbFeatures DetectOrbInBox(const cv::Mat& image, const cv::Rect& box_px, const M
   const cv::Rect box = box_px & cv::Rect(cv::Point(0, 0), image.size());
   if (box.empty()) return OrbFeatures();
   return DetectInBox(image, box, options);
+}
+
+size_t CountOrbKeypoints(const cv::Mat& image, const MatchingOptions& options, int max_features) {
+  ThrowIfInvalid(options.Validate());
+  if (image.type() != CV_8UC1) {
+    throw InputError("CountOrbKeypoints: image type " + cv::typeToString(image.type()) +
+                     " is not supported: expected CV_8UC1");
+  }
+  if (max_features < 1) {
+    throw InputError("CountOrbKeypoints: max_features = " + std::to_string(max_features) + ": expected >= 1");
+  }
+  if (image.empty()) return 0;
+  return OrbInBox(image, cv::Rect(), options.orb_levels, options, max_features).Count();
 }
 
 RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1_px,

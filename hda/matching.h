@@ -11,6 +11,7 @@
 // allows, which does not change the results.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <functional>
 #include <vector>
@@ -111,6 +112,12 @@ struct OrbFeatures {
   cv::Mat descriptors;  // CV_8UC1, a row of 32 bytes per keypoint
 };
 OrbFeatures DetectOrbInBox(const cv::Mat& image, const cv::Rect& box, const MatchingOptions& options);
+
+// How many keypoints cv::ORB's detect() finds on the whole of a CV_8UC1
+// image with the options' levels, scale factor, patch and FAST threshold and
+// `max_features` as its cap (nfeatures, >= 1), counted without computing the
+// orientations, and the Harris responses only on a level where the cap binds.
+size_t CountOrbKeypoints(const cv::Mat& image, const MatchingOptions& options, int max_features);
 
 // Where navigation expects image-1 pixels in image 2: fills `pixels2` and
 // `valid` (0 where there is no expectation) parallel to `pixels1`.

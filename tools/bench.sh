@@ -42,12 +42,17 @@ install_packages() {
 }
 
 # configure_and_build DIR [extra cmake args...]
+# A new build folder is configured RelWithDebInfo with line tables only
+# (-g1: file, line and function in every backtrace and profile, no variable
+# locations), which compiles in two thirds of the time of -g and makes the
+# same code. Extra arguments come after, so they can change that.
 configure_and_build() {
   local dir=$1
   shift
   if [[ ! -f $dir/CMakeCache.txt ]]; then
     say "Configuring $dir"
-    cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "$@" >/dev/null
+    cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+      "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" "$@" >/dev/null
   fi
   say "Building $dir"
   cmake --build "$dir" -j "$jobs" || die "build failed in $dir"
@@ -87,7 +92,10 @@ case $command in
     configure_and_build "$build_dir"
     run_tests "$build_dir"
     if [[ ${HDABENCH_SKIP_SANITIZE:-0} != 1 ]]; then
-      configure_and_build "${build_dir}-sanitize" -DHDABENCH_SANITIZE=ON
+      # -O1, as the sanitizers' documentation advises: half the compile time
+      # of -O2 under ASan and UBSan, every check kept.
+      configure_and_build "${build_dir}-sanitize" -DHDABENCH_SANITIZE=ON \
+        "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG"
       # Not the tests whose time goes to programs the sanitizers do not see
       # (label external: colmap, Python, Chromium, Slurm); the normal build ran them.
       run_tests "${build_dir}-sanitize" -LE external

@@ -9,8 +9,9 @@
 #include <limits>
 #include <sstream>
 
-#include <opencv2/features2d.hpp>
+#include <opencv2/core.hpp>
 
+#include "hda/matching.h"
 #include "hda/pipeline.h"
 #include "hda/quadtree.h"
 #include "tools/util/error.h"
@@ -240,13 +241,7 @@ double OrbKeypointDensity(const cv::Mat& image, const hda::MatchingOptions& matc
   // gigabytes of keypoints.)
   const double uncapped = std::min(static_cast<double>(matching.orb_levels) * static_cast<double>(eight.total()) + 1000.0,
                                    static_cast<double>(std::numeric_limits<int>::max() / 4));
-  const cv::Ptr<cv::ORB> orb = cv::ORB::create(
-      /*nfeatures=*/static_cast<int>(uncapped), static_cast<float>(matching.orb_scale_factor),
-      matching.orb_levels, matching.orb_patch_size_px, /*firstLevel=*/0, /*WTA_K=*/2,
-      cv::ORB::HARRIS_SCORE, matching.orb_patch_size_px, matching.orb_fast_threshold);
-  std::vector<cv::KeyPoint> keypoints;
-  orb->detect(eight, keypoints);
-  return static_cast<double>(keypoints.size()) / lit;
+  return static_cast<double>(hda::CountOrbKeypoints(eight, matching, static_cast<int>(uncapped))) / lit;
 }
 
 const std::vector<std::string>& GeometryScaledKeys() {

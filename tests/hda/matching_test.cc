@@ -569,6 +569,42 @@ TEST(DetectOrbInBox, GivesExactlyWhatOrbGivesOnThePaddedBox) {
                InputError);
 }
 
+// CountOrbKeypoints counts what cv::ORB's detect() finds on a whole image,
+// with a cap that binds on some levels (Harris responses then decide) and
+// one that binds nowhere.
+TEST(CountOrbKeypoints, CountsWhatOrbDetects) {
+  cv::Mat noise(kSizePx + 37, kSizePx - 19, CV_8UC1);
+  cv::randu(noise, 0, 256);
+  cv::Mat blurred_noise;
+  cv::GaussianBlur(noise, blurred_noise, cv::Size(0, 0), 1.2);
+  struct Case {
+    int levels, patch, fast;
+    double scale;
+  };
+  int compared = 0;
+  for (const cv::Mat& image : {ShiftedPair().image1, noise, blurred_noise}) {
+    for (const Case& c : {Case{3, 31, 10, 1.2}, Case{4, 31, 5, 1.5}, Case{2, 15, 20, 2.0}, Case{5, 21, 8, 1.3}}) {
+      MatchingOptions options;
+      options.orb_levels = c.levels;
+      options.orb_patch_size_px = c.patch;
+      options.orb_fast_threshold = c.fast;
+      options.orb_scale_factor = c.scale;
+      for (const int cap : {40, 300, 1000000}) {
+        std::vector<cv::KeyPoint> keypoints;
+        cv::ORB::create(cap, static_cast<float>(c.scale), c.levels, c.patch, 0, 2, cv::ORB::HARRIS_SCORE, c.patch,
+                        c.fast)
+            ->detect(image, keypoints);
+        EXPECT_EQ(CountOrbKeypoints(image, options, cap), keypoints.size())
+            << "levels " << c.levels << ", scale " << c.scale << ", cap " << cap;
+        if (!keypoints.empty()) ++compared;
+      }
+    }
+  }
+  EXPECT_GE(compared, 30);
+  EXPECT_EQ(CountOrbKeypoints(cv::Mat::zeros(64, 64, CV_8UC1), MatchingOptions(), 500), 0u);
+  EXPECT_THROW(CountOrbKeypoints(noise, MatchingOptions(), 0), InputError);
+}
+
 TEST(MatchingRoiPair, EmptyOrOutsideBoxesGiveNothing) {
   const ImagePair& pair = ShiftedPair();
   for (const cv::Rect& box : {cv::Rect(10, 10, 0, 0), cv::Rect(10, 10, -5, 20),

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <utility>
 #include <sstream>
 #include <string>
 
@@ -17,6 +19,69 @@ namespace {
 
 void ThrowIfInvalid(const char* function, const std::vector<std::string>& errors) {
   hdabench::ThrowIfInvalid(std::string(function) + ": invalid QuadtreeOptions: ", errors);
+}
+
+// Mean and population standard deviation from a block's sum and sum of
+// squares over `area` pixels, times `scale`.
+BlockStats StatsOfSums(double sum, double sqsum, int area, double scale) {
+  const double n = static_cast<double>(area);
+  const double mean = sum / n;
+  // Rounding can make the difference slightly negative for uniform blocks.
+  const double variance = std::max(0.0, sqsum / n - mean * mean);
+  return BlockStats{mean * scale, std::sqrt(variance) * scale};
+}
+
+// The quadtree's halving of a block: its four quarters, top-left, top-right,
+// bottom-left, bottom-right (the right and bottom ones take the odd pixel),
+// or none when a quarter would be narrower than min_block_px.
+bool Quarters(const cv::Rect& box, int min_block_px, cv::Rect quarters[4]) {
+  const int left_w = box.width / 2, top_h = box.height / 2;
+  if (left_w < min_block_px || top_h < min_block_px) return false;
+  const int right_w = box.width - left_w, bottom_h = box.height - top_h;
+  quarters[0] = cv::Rect(box.x, box.y, left_w, top_h);
+  quarters[1] = cv::Rect(box.x + left_w, box.y, right_w, top_h);
+  quarters[2] = cv::Rect(box.x, box.y + top_h, left_w, bottom_h);
+  quarters[3] = cv::Rect(box.x + left_w, box.y + top_h, right_w, bottom_h);
+  return true;
+}
+
+// Every block the quadtree could visit, depth first (a block, then its
+// quarters' subtrees in order), with its pixel sum and sum of squares
+// (exact: 64-bit integers) and the size of its subtree. The sums of a block
+// that has quarters are theirs added up, so each pixel is read once: what
+// integral images of the whole image (two of doubles, 16 bytes a pixel)
+// gave, without them.
+struct SumNode {
+  std::uint64_t sum = 0;
+  std::uint64_t sqsum = 0;
+  size_t subtree = 1;  // this node and its descendants
+};
+
+template <typename Pixel>
+void SumTree(const cv::Mat& image, const cv::Rect& box, int min_block_px, std::vector<SumNode>* tree) {
+  const size_t index = tree->size();
+  tree->emplace_back();
+  cv::Rect quarters[4];
+  SumNode node;
+  if (Quarters(box, min_block_px, quarters)) {
+    for (const cv::Rect& quarter : quarters) {
+      const size_t child = tree->size();
+      SumTree<Pixel>(image, quarter, min_block_px, tree);
+      node.sum += (*tree)[child].sum;
+      node.sqsum += (*tree)[child].sqsum;
+    }
+  } else {
+    for (int y = box.y; y < box.y + box.height; ++y) {
+      const Pixel* row = image.ptr<Pixel>(y);
+      for (int x = box.x; x < box.x + box.width; ++x) {
+        const std::uint64_t value = row[x];
+        node.sum += value;
+        node.sqsum += value * value;
+      }
+    }
+  }
+  node.subtree = tree->size() - index;
+  (*tree)[index] = node;
 }
 
 }  // namespace
@@ -98,11 +163,7 @@ BlockStats BlockStatsFromIntegral(const cv::Mat& sum, const cv::Mat& sqsum, cons
                    sum.at<double>(y0, x0);
   const double sq = sqsum.at<double>(y1, x1) - sqsum.at<double>(y0, x1) -
                     sqsum.at<double>(y1, x0) + sqsum.at<double>(y0, x0);
-  const double n = static_cast<double>(box_px.area());
-  const double mean = s / n;
-  // Rounding can make the difference slightly negative for uniform blocks.
-  const double variance = std::max(0.0, sq / n - mean * mean);
-  return BlockStats{mean * scale, std::sqrt(variance) * scale};
+  return StatsOfSums(s, sq, box_px.area(), scale);
 }
 
 QuadtreeResult GivenRois(const cv::Mat& image, const std::vector<cv::Rect>& boxes_px) {
@@ -155,25 +216,35 @@ QuadtreeResult RunQuadtree(const cv::Mat& image, int min_block_px, const Quadtre
     result.rejected_boxes.push_back(whole);
     return result;
   }
-  cv::Mat sum, sqsum;
-  cv::integral(image, sum, sqsum, CV_64F, CV_64F);
+  std::vector<SumNode> tree;
+  if (image.type() == CV_8UC1) {
+    SumTree<std::uint8_t>(image, whole, min_block_px, &tree);
+  } else {
+    SumTree<std::uint16_t>(image, whole, min_block_px, &tree);
+  }
 
   // Depth first with an explicit stack; children are pushed in reverse so
   // that they are visited top-left, top-right, bottom-left, bottom-right.
-  std::vector<cv::Rect> stack = {whole};
+  std::vector<std::pair<cv::Rect, size_t>> stack = {{whole, 0}};
   while (!stack.empty()) {
-    const cv::Rect box = stack.back();
+    const auto [box, index] = stack.back();
     stack.pop_back();
     ++result.blocks_visited;
-    const BlockStats stats = BlockStatsFromIntegral(sum, sqsum, box, scale);
-    const int left_w = box.width / 2, top_h = box.height / 2;
-    const bool can_split = left_w >= min_block_px && top_h >= min_block_px;
-    if (stats.stddev_dn >= options.max_block_stddev && can_split) {
-      const int right_w = box.width - left_w, bottom_h = box.height - top_h;
-      stack.emplace_back(box.x + left_w, box.y + top_h, right_w, bottom_h);
-      stack.emplace_back(box.x, box.y + top_h, left_w, bottom_h);
-      stack.emplace_back(box.x + left_w, box.y, right_w, top_h);
-      stack.emplace_back(box.x, box.y, left_w, top_h);
+    const SumNode& node = tree[index];
+    // The sums are exact integers; as doubles they are what the integral
+    // images' corners gave while below 2^53 (any 8-bit image, and 16-bit
+    // ones up to about 2 Mpx at full scale).
+    const BlockStats stats =
+        StatsOfSums(static_cast<double>(node.sum), static_cast<double>(node.sqsum), box.area(), scale);
+    cv::Rect quarters[4];
+    if (stats.stddev_dn >= options.max_block_stddev && Quarters(box, min_block_px, quarters)) {
+      size_t child = index + 1;
+      size_t children[4];
+      for (size_t& c : children) {
+        c = child;
+        child += tree[c].subtree;
+      }
+      for (int q = 3; q >= 0; --q) stack.emplace_back(quarters[q], children[q]);
       continue;
     }
     if (stats.mean_dn < options.min_block_mean) {

@@ -185,6 +185,62 @@ TEST(BlockStatsFromIntegral, EqualsBruteForceOnRandomBlocks) {
   }
 }
 
+// RunQuadtree sums each pixel once into a tree of blocks: its ROIs must
+// carry, to the bit, the statistics the integral images give for their boxes,
+// and it must visit the blocks a quadtree on those statistics visits (here
+// recomputed from the integral images), for 8- and 16-bit images of odd
+// sizes with smooth, textured and dark parts.
+TEST(RunQuadtree, StatisticsAndVisitsEqualThoseFromIntegralImages) {
+  std::mt19937_64 rng(CurrentTestSeed());
+  std::normal_distribution<double> grain(0.0, 1.0);
+  for (const int type : {CV_8UC1, CV_16UC1}) {
+    cv::Mat image(301, 467, type);
+    for (int row = 0; row < image.rows; ++row) {
+      for (int col = 0; col < image.cols; ++col) {
+        // Dark top-left, smooth bands, and grain whose strength grows to the right.
+        const double base = (row < 80 && col < 120) ? 10.0 : 90.0 + 20.0 * std::sin(row * 0.05);
+        const double level = std::clamp(base + grain(rng) * col / 30.0, 0.0, 255.0);
+        if (type == CV_8UC1) {
+          image.at<unsigned char>(row, col) = static_cast<unsigned char>(level);
+        } else {
+          image.at<unsigned short>(row, col) = static_cast<unsigned short>(level * 257.0);
+        }
+      }
+    }
+    const double scale = type == CV_16UC1 ? 1.0 / 257.0 : 1.0;
+    cv::Mat sum, sqsum;
+    cv::integral(image, sum, sqsum, CV_64F, CV_64F);
+    const QuadtreeOptions options;
+    const int min_block = 9;
+    const QuadtreeResult result = RunQuadtree(image, min_block, options);
+    ASSERT_FALSE(result.rois.empty());
+    EXPECT_GT(result.rejected_dark, 0);
+    EXPECT_GT(result.rejected_variable, 0);
+    for (const Roi& roi : result.rois) {
+      const BlockStats stats = BlockStatsFromIntegral(sum, sqsum, roi.box_px, scale);
+      EXPECT_EQ(roi.mean_dn, stats.mean_dn) << roi.box_px;
+      EXPECT_EQ(roi.stddev_dn, stats.stddev_dn) << roi.box_px;
+    }
+    // The visits of the same quadtree on the integral images' statistics.
+    int visited = 0;
+    std::vector<cv::Rect> stack = {cv::Rect(0, 0, image.cols, image.rows)};
+    while (!stack.empty()) {
+      const cv::Rect box = stack.back();
+      stack.pop_back();
+      ++visited;
+      const int left = box.width / 2, top = box.height / 2;
+      if (BlockStatsFromIntegral(sum, sqsum, box, scale).stddev_dn >= options.max_block_stddev &&
+          left >= min_block && top >= min_block) {
+        stack.emplace_back(box.x, box.y, left, top);
+        stack.emplace_back(box.x + left, box.y, box.width - left, top);
+        stack.emplace_back(box.x, box.y + top, left, box.height - top);
+        stack.emplace_back(box.x + left, box.y + top, box.width - left, box.height - top);
+      }
+    }
+    EXPECT_EQ(result.blocks_visited, visited);
+  }
+}
+
 TEST(RunQuadtree, EmptyImageGivesNothing) {
   const QuadtreeResult result = RunQuadtree(cv::Mat(), 16, QuadtreeOptions());
   EXPECT_TRUE(result.rois.empty());

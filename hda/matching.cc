@@ -625,17 +625,18 @@ int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& 
 
 // Normalised image coordinates (x/z, y/z) of pixels; valid[i] is 0 where the
 // camera cannot unproject pixel i or its ray is not in front of the camera.
+// `bearings` receives the camera model's unit bearings.
 std::vector<cv::Point2d> Normalised(const calib::CameraModel& camera,
                                     const std::vector<cv::Point2d>& pixels,
-                                    std::vector<unsigned char>* valid) {
+                                    std::vector<unsigned char>* valid,
+                                    std::vector<Eigen::Vector3d>* bearings) {
   std::vector<Eigen::Vector2d> pixels_eigen;
   pixels_eigen.reserve(pixels.size());
   for (const cv::Point2d& p : pixels) pixels_eigen.emplace_back(p.x, p.y);
-  std::vector<Eigen::Vector3d> bearings;
-  camera.Unproject(pixels_eigen, &bearings, valid);
+  camera.Unproject(pixels_eigen, bearings, valid);
   std::vector<cv::Point2d> normalised(pixels.size());
   for (size_t i = 0; i < pixels.size(); ++i) {
-    const Eigen::Vector3d& b = bearings[i];
+    const Eigen::Vector3d& b = (*bearings)[i];
     if ((*valid)[i] == 0 || !(b.z() > 0)) {
       (*valid)[i] = 0;
       continue;
@@ -776,8 +777,9 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
   // Normalised coordinates of both points: a match with a pixel the camera
   // cannot unproject, or whose ray is not in front of it, takes no part.
   std::vector<unsigned char> valid1, valid2;
-  const std::vector<cv::Point2d> normalised1 = Normalised(camera, points1, &valid1);
-  const std::vector<cv::Point2d> normalised2 = Normalised(camera, points2, &valid2);
+  std::vector<Eigen::Vector3d> bearings1, bearings2;
+  const std::vector<cv::Point2d> normalised1 = Normalised(camera, points1, &valid1, &bearings1);
+  const std::vector<cv::Point2d> normalised2 = Normalised(camera, points2, &valid2, &bearings2);
   std::vector<size_t> used;
   std::vector<cv::Point2d> ransac1, ransac2;
   cv::Point2d centroid2(0, 0);
@@ -809,6 +811,8 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
     if (inlier_mask.at<unsigned char>(static_cast<int>(k)) == 0) continue;
     result.points1_px.push_back(points1[used[k]]);
     result.points2_px.push_back(points2[used[k]]);
+    result.bearings1.push_back(bearings1[used[k]]);
+    result.bearings2.push_back(bearings2[used[k]]);
   }
   result.ransac_inliers = static_cast<int>(result.points1_px.size());
   return result;

@@ -16,6 +16,7 @@
 #include <functional>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/core/mat.hpp>
 #include <opencv2/core/types.hpp>
 
@@ -92,6 +93,11 @@ struct RoiMatches {
   // order of the image-1 keypoints (cv::ORB's order).
   std::vector<cv::Point2d> points1_px;
   std::vector<cv::Point2d> points2_px;
+  // Their unit bearings from the camera model (calib::CameraModel::Unproject,
+  // which RANSAC needed), parallel to the points, so that a caller need not
+  // unproject them again. A caller that moves a point clears its side.
+  std::vector<Eigen::Vector3d> bearings1;
+  std::vector<Eigen::Vector3d> bearings2;
   // Counts at each stage.
   int keypoints1 = 0;        // ORB keypoints in the image-1 box
   int keypoints2 = 0;        // ORB keypoints in the image-2 box

@@ -204,15 +204,23 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
   const HdaOptions& options = *ctx.options;
   const PredictionOptions& nav = options.prediction;
   const size_t n = matches.points1_px.size();
-  std::vector<Eigen::Vector2d> pixels1(n), pixels2(n);
-  for (size_t i = 0; i < n; ++i) {
-    pixels1[i] = Eigen::Vector2d(matches.points1_px[i].x, matches.points1_px[i].y);
-    pixels2[i] = Eigen::Vector2d(matches.points2_px[i].x, matches.points2_px[i].y);
-  }
+  // The bearings matching computed for RANSAC, where it gave them; a side
+  // whose points were moved since (or given without) is unprojected here.
+  const auto bearings_of = [&](const std::vector<cv::Point2d>& points, const std::vector<Eigen::Vector3d>& given,
+                               std::vector<Eigen::Vector3d>* bearings, std::vector<unsigned char>* valid) {
+    if (given.size() == n) {
+      *bearings = given;
+      valid->assign(n, 1);
+      return;
+    }
+    std::vector<Eigen::Vector2d> pixels(n);
+    for (size_t i = 0; i < n; ++i) pixels[i] = Eigen::Vector2d(points[i].x, points[i].y);
+    ctx.camera->Unproject(pixels, bearings, valid);
+  };
   std::vector<Eigen::Vector3d> b1, b2;
   std::vector<unsigned char> valid1, valid2;
-  ctx.camera->Unproject(pixels1, &b1, &valid1);
-  ctx.camera->Unproject(pixels2, &b2, &valid2);
+  bearings_of(matches.points1_px, matches.bearings1, &b1, &valid1);
+  bearings_of(matches.points2_px, matches.bearings2, &b2, &valid2);
 
   const double k = nav.sigma_multiplier;
   const double sigma_angle = options.assumed_pixel_sigma_px / ctx.focal_px;
@@ -632,6 +640,7 @@ RoiMatches MatchRoi(const Context& ctx, const RoiResult& roi, const Eigen::Vecto
       p.x += noise(rng);
       p.y += noise(rng);
     }
+    matches.bearings2.clear();  // the moved points' are unprojected anew
   }
   return matches;
 }

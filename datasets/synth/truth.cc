@@ -3,13 +3,17 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "datasets/map_preview.h"
 #include "tools/util/error.h"
+#include "tools/util/files.h"
 
 namespace hdabench::datasets::synth {
 
@@ -157,9 +161,15 @@ void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double m
                radius, cv::Scalar(0, 220, 255), cv::FILLED);
   }
   const std::filesystem::path dir(out_dir);
-  WritePngAtomically(dir / "elevation.png", elevation_color);
-  WritePngAtomically(dir / "slope.png", slope_color);
-  WritePngAtomically(dir / "hazards.png", hazards);
+  for (const auto& [name, map] : {std::pair<const char*, const cv::Mat*>{"elevation.png", &elevation_color},
+                                  {"slope.png", &slope_color},
+                                  {"hazards.png", &hazards}}) {
+    WritePngAtomically(dir / name, *map);
+    // Its preview for the report (the bytes a report would make from the
+    // written PNG, which decodes to this image), when the map is larger.
+    const std::string preview = PreviewPng(*map, kMapPreviewSidePx);
+    if (!preview.empty()) util::WriteFileAtomically(dir / kMapPreviewFolder / name, preview);
+  }
 }
 
 }  // namespace hdabench::datasets::synth

@@ -45,7 +45,9 @@ RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi)
 
 // Writes elevation.png, slope.png and hazards.png (slope over max_slope_deg
 // measured over a 1 m baseline, or a rock taller than max_hazard_m) of the
-// dataset's truth DEM into out_dir, each atomically. Throws InputError when
+// dataset's truth DEM into out_dir, each atomically, and each one's preview
+// for the report into out_dir/preview/ (datasets/map_preview.h) when the map
+// is larger than a preview. Throws InputError when
 // the dataset has no DEM in memory or a file cannot be written.
 void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double max_slope_deg = 10.0,
                     double max_hazard_m = 0.30);

@@ -11,9 +11,8 @@
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
+#include "datasets/map_preview.h"
 #include "tools/util/error.h"
 #include "tools/util/files.h"
 #include "tools/util/options_check.h"
@@ -37,7 +36,6 @@ constexpr size_t kPngSignatureSize = 8;
 constexpr int kPlotsExitNoMatplotlib = 5;
 // The dataset's maps are at DEM resolution (thousands of pixels): the page
 // gets them shrunk to this many pixels on the longer side.
-constexpr int kMapMaxSidePx = 1024;
 
 // ---------------------------------------------------------------- files
 
@@ -111,23 +109,27 @@ bool IsPng(const std::string& bytes) {
          bytes.compare(0, kPngSignatureSize, kPngSignature, kPngSignatureSize) == 0;
 }
 
-// A PNG shrunk (area averaging) so that its longer side is at most
-// max_side_px; the bytes unchanged when already small enough or when OpenCV
-// cannot decode them. `note` receives "shrunk from W x H px" when shrunk.
-std::string ShrinkPng(const std::string& bytes, int max_side_px, std::string* note) {
-  const cv::Mat encoded(1, static_cast<int>(bytes.size()), CV_8UC1,
-                        const_cast<char*>(bytes.data()));
-  const cv::Mat image = cv::imdecode(encoded, cv::IMREAD_COLOR);
-  if (image.empty() || std::max(image.cols, image.rows) <= max_side_px) return bytes;
-  const double scale = max_side_px / static_cast<double>(std::max(image.cols, image.rows));
-  const cv::Size size(std::max(1, static_cast<int>(std::lround(image.cols * scale))),
-                      std::max(1, static_cast<int>(std::lround(image.rows * scale))));
-  cv::Mat small;
-  cv::resize(image, small, size, 0, 0, cv::INTER_AREA);
-  std::vector<unsigned char> out;
-  if (!cv::imencode(".png", small, out, {cv::IMWRITE_PNG_COMPRESSION, 6})) return bytes;
-  *note = "shrunk from " + std::to_string(image.cols) + " x " + std::to_string(image.rows) + " px";
-  return std::string(out.begin(), out.end());
+// A map as the report shows it: its preview (datasets/map_preview.h) with
+// "shrunk from W x H px" in `note`; the bytes unchanged when no larger than a
+// preview or when OpenCV cannot decode them. The preview written beside the
+// map (maps/preview/) is taken when it has the preview's size for the map's;
+// otherwise it is made here, the same bytes from a decode of the map.
+std::string MapAsShown(const std::string& bytes, const fs::path& preview_path, std::string* note) {
+  int width = 0, height = 0;
+  if (!datasets::PngSizeOf(bytes, &width, &height) || std::max(width, height) <= datasets::kMapPreviewSidePx) {
+    return bytes;
+  }
+  std::string preview, error;
+  int preview_width = 0, preview_height = 0;
+  const cv::Size expected = datasets::PreviewSize(width, height, datasets::kMapPreviewSidePx);
+  if (!(fs::is_regular_file(preview_path) && util::ReadFileBytes(preview_path, &preview, &error) &&
+        datasets::PngSizeOf(preview, &preview_width, &preview_height) && preview_width == expected.width &&
+        preview_height == expected.height)) {
+    preview = datasets::PreviewPngOfBytes(bytes, datasets::kMapPreviewSidePx);
+  }
+  if (preview.empty()) return bytes;
+  *note = "shrunk from " + std::to_string(width) + " x " + std::to_string(height) + " px";
+  return preview;
 }
 
 // ---------------------------------------------------------------- text
@@ -541,7 +543,8 @@ void AddMaps(const fs::path& dataset_dir, Page* page) {
                map.caption, &page->maps, &page->notes);
     if (!page->maps.empty() && page->maps.back().title == map.title) {
       std::string shrunk;
-      page->maps.back().png = ShrinkPng(page->maps.back().png, kMapMaxSidePx, &shrunk);
+      page->maps.back().png = MapAsShown(page->maps.back().png,
+                                         dataset_dir / "maps" / datasets::kMapPreviewFolder / map.file, &shrunk);
       if (!shrunk.empty()) page->maps.back().caption += " (" + shrunk + ")";
     }
   }

@@ -16,6 +16,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "datasets/map_preview.h"
+#include "tools/util/files.h"
 #include "tools/util/process.h"
 #include "tests/support/test_support.h"
 
@@ -332,6 +337,42 @@ TEST(ReportCommand, TheSameFolderGivesTheSameBytes) {
     const std::string name = entry.path().filename().string();
     EXPECT_TRUE(name.rfind("report.", 0) != 0 || name == "report.html" || name == "report.md") << name;
   }
+}
+
+// The scene maps a report embeds come from the previews beside them when
+// they are there and of the right size, and are made from the maps otherwise:
+// the same page either way.
+TEST(ReportCommand, MapPreviewsGiveTheSamePageAsTheMapsThemselves) {
+  const fs::path dir = FreshTestDir();
+  const fs::path dataset = dir / "dataset";
+  fs::copy(Dataset(), dataset, fs::copy_options::recursive);
+  // Maps larger than a preview (the small scene's own may not be).
+  fs::remove_all(dataset / "maps");
+  fs::create_directories(dataset / "maps" / hdabench::datasets::kMapPreviewFolder);
+  for (const char* name : {"elevation.png", "slope.png", "hazards.png"}) {
+    cv::Mat map(1300, 1700, CV_8UC3);
+    cv::randu(map, 0, 256);
+    ASSERT_TRUE(cv::imwrite((dataset / "maps" / name).string(), map));
+    hdabench::util::WriteFileAtomically(dataset / "maps" / hdabench::datasets::kMapPreviewFolder / name,
+                                        hdabench::datasets::PreviewPng(map, hdabench::datasets::kMapPreviewSidePx));
+  }
+  const fs::path out = dir / "run";
+  const CommandResult run = Hdabench({"run", dataset.string(), "--out", out.string(), "--no-figures", "--quiet"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const std::string with_previews = ReadText(out / "report.html");
+  EXPECT_NE(with_previews.find("id=\"map-slope\""), std::string::npos);
+  EXPECT_NE(with_previews.find("shrunk from 1700 x 1300 px"), std::string::npos);
+  // A preview of another size is not taken; no previews at all: made from the maps.
+  const fs::path slope_preview = dataset / "maps" / hdabench::datasets::kMapPreviewFolder / "slope.png";
+  cv::Mat other(100, 100, CV_8UC3, cv::Scalar(1, 2, 3));
+  ASSERT_TRUE(cv::imwrite(slope_preview.string(), other));
+  CommandResult again = Hdabench({"report", out.string(), "--dataset", dataset.string()});
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_TRUE(ReadText(out / "report.html") == with_previews) << "a wrong-size preview changed the page";
+  fs::remove_all(dataset / "maps" / hdabench::datasets::kMapPreviewFolder);
+  again = Hdabench({"report", out.string(), "--dataset", dataset.string()});
+  ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
+  EXPECT_TRUE(ReadText(out / "report.html") == with_previews) << "the page without previews differs";
 }
 
 TEST(ReportCommand, AFolderThatIsNeitherARunNorACompareFolderIsExitCode3) {

@@ -302,6 +302,35 @@ class GateCommand : public ::testing::Test {
     ADD_FAILURE() << "no flight " << metric << " in " << metrics_file;
     return 0.0;
   }
+  // Starts `hdabench gate ARGS` (stdout to /dev/null, stderr to err_file or
+  // /dev/null), sends it `signal_number` once `file` exists (at most 300 s),
+  // and returns its wait status.
+  static int RunGateUntil(const std::vector<std::string>& gate_args, const fs::path& file, int signal_number,
+                          const fs::path& err_file) {
+    std::vector<std::string> args = {HDABENCH_EXE, "gate"};
+    args.insert(args.end(), gate_args.begin(), gate_args.end());
+    const pid_t child = fork();
+    if (child < 0) return -1;
+    if (child == 0) {
+      std::vector<char*> argv;
+      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+      argv.push_back(nullptr);
+      const int null = ::open("/dev/null", O_WRONLY);
+      const int err = err_file.empty() ? null : ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      if (null >= 0) ::dup2(null, 1);
+      if (err >= 0) ::dup2(err, 2);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
+    while (!fs::exists(file) && std::chrono::steady_clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    ::kill(child, signal_number);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    return status;
+  }
   static fs::path* scene_;
 };
 fs::path* GateCommand::scene_ = nullptr;
@@ -376,31 +405,10 @@ TEST_F(GateCommand, KilledHalfwayItResumesWithoutRedoingAndGivesTheSameResults) 
   const fs::path suite = WriteSuite(dir);
   const fs::path loose = WriteThresholds(
       dir, "loose.json", {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", 90}}});
-  const std::vector<std::string> args = {HDABENCH_EXE, "gate", "--suite", suite.string(),
-                                         "--thresholds", loose.string(), "--jobs", "1", "--quiet",
-                                         "--out", (dir / "resumed").string()};
-  const pid_t child = fork();
-  ASSERT_GE(child, 0);
-  if (child == 0) {
-    std::vector<char*> argv;
-    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    const int null = ::open("/dev/null", O_WRONLY);
-    if (null >= 0) {
-      ::dup2(null, 1);
-      ::dup2(null, 2);
-    }
-    ::execv(argv[0], argv.data());
-    ::_exit(127);
-  }
   const fs::path first = dir / "resumed" / "entries" / "sites-10m" / "compare.json";
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
-  while (!fs::exists(first) && std::chrono::steady_clock::now() < deadline) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  }
-  ::kill(child, SIGKILL);
-  int status = 0;
-  ::waitpid(child, &status, 0);
+  const int status = RunGateUntil({"--suite", suite.string(), "--thresholds", loose.string(), "--jobs", "1",
+                                   "--quiet", "--out", (dir / "resumed").string()},
+                                  first, SIGKILL, "");
   ASSERT_TRUE(fs::exists(first)) << "the first entry never completed";
   ASSERT_TRUE(WIFSIGNALED(status)) << "the gate finished before it could be killed";
   EXPECT_FALSE(fs::exists(dir / "resumed" / "entries" / "sites-14m" / "compare.json"));
@@ -437,6 +445,35 @@ TEST_F(GateCommand, KilledHalfwayItResumesWithoutRedoingAndGivesTheSameResults) 
               ReadText(dir / "whole" / "entries" / entry / "compare.json"))
         << entry;
   }
+}
+
+// SIGINT (Ctrl-C) once the first entry is complete: the gate says it was
+// interrupted and exits with 130; the rerun takes the finished entry as it is
+// and finishes the suite.
+TEST_F(GateCommand, InterruptedItSaysSoExitsWith130AndTheRerunFinishes) {
+  const fs::path dir = FreshTestDir();
+  const fs::path suite = WriteSuite(dir);
+  const fs::path loose = WriteThresholds(
+      dir, "loose.json", {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", 90}}});
+  const fs::path err_file = dir / "gate.err";
+  const fs::path first = dir / "out" / "entries" / "sites-10m" / "compare.json";
+  const int status = RunGateUntil({"--suite", suite.string(), "--thresholds", loose.string(), "--jobs", "1",
+                                   "--quiet", "--out", (dir / "out").string()},
+                                  first, SIGINT, err_file);
+  ASSERT_TRUE(fs::exists(first)) << "the first entry never completed";
+  ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  if (WEXITSTATUS(status) == 0) GTEST_SKIP() << "the gate finished before the interrupt reached it";
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  EXPECT_NE(ReadText(err_file).find("hdabench gate: interrupted by SIGINT: stopped"), std::string::npos)
+      << ReadText(err_file);
+
+  const CommandResult rerun = RunHdabench(
+      {"gate", "--suite", suite.string(), "--thresholds", loose.string(), "--jobs", "1", "--out",
+       (dir / "out").string()},
+      dir);
+  ASSERT_EQ(rerun.exit_code, 0) << rerun.err;
+  EXPECT_NE(rerun.err.find("sites-10m: complete from an earlier run"), std::string::npos) << rerun.err;
+  EXPECT_TRUE(fs::exists(dir / "out" / "entries" / "sites-14m" / "compare.json"));
 }
 
 // A small lateral observability study as a gate entry: a worse

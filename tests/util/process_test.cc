@@ -1,7 +1,15 @@
 #include "tools/util/process.h"
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
 #include <filesystem>
 #include <string>
+#include <system_error>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -106,6 +114,81 @@ TEST(RunProcess, ASignalIsReported) {
   EXPECT_EQ(result.signal, 9);
   EXPECT_EQ(result.exit_code, -1);
   EXPECT_NE(result.error.find("killed by signal 9"), std::string::npos) << result.error;
+}
+
+// The pid of a process whose parent is `parent` and whose command line starts
+// with `program` (from /proc), or 0.
+pid_t ChildRunning(pid_t parent, const std::string& program) {
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator("/proc", ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    const std::string stat = ReadText(entry.path() / "stat");
+    const size_t close = stat.rfind(')');
+    if (close == std::string::npos) continue;
+    int ppid = 0;
+    char state = 0;
+    if (std::sscanf(stat.c_str() + close + 1, " %c %d", &state, &ppid) != 2 || ppid != parent) continue;
+    const std::string cmdline = ReadText(entry.path() / "cmdline");
+    if (cmdline.compare(0, program.size(), program) == 0) return static_cast<pid_t>(std::stoi(name));
+  }
+  return 0;
+}
+
+// True once `pid` has ended: gone, or a zombie waiting for its new parent.
+bool Ended(pid_t pid) {
+  const std::string stat = ReadText(fs::path("/proc") / std::to_string(pid) / "stat");
+  const size_t close = stat.rfind(')');
+  return stat.empty() || close == std::string::npos || (close + 2 < stat.size() && stat[close + 2] == 'Z');
+}
+
+// A process that installed the interrupt handlers and is waiting in
+// RunProcess for `sleep 60` gets `signal_number`: it ends the sleep's process
+// group, says so on stderr and exits with `expected_code`.
+void ExpectAnInterruptEndsTheProgramsStarted(int signal_number, int expected_code, const std::string& name) {
+  int err[2];
+  ASSERT_EQ(::pipe(err), 0);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    ::dup2(err[1], STDERR_FILENO);
+    ::close(err[0]);
+    util::InstallInterruptHandlers("the test");
+    util::RunProcess({"sleep", "60"}, util::ProcessOptions());
+    ::_exit(0);  // the sleep ended some other way
+  }
+  ::close(err[1]);
+  pid_t sleeper = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while ((sleeper = ChildRunning(child, "sleep")) == 0 && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  // Past exec, the caller has long registered it; a little more for slow (sanitized) builds.
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ::kill(child, signal_number);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  std::string said;
+  char buffer[512];
+  ssize_t got = 0;
+  while ((got = ::read(err[0], buffer, sizeof buffer)) > 0) said.append(buffer, static_cast<size_t>(got));
+  ::close(err[0]);
+  ASSERT_GT(sleeper, 0) << "the sleep never started";
+  ASSERT_TRUE(WIFEXITED(status)) << name;
+  EXPECT_EQ(WEXITSTATUS(status), expected_code) << name;
+  EXPECT_EQ(said, "the test: interrupted by " + name +
+                      ": stopped, with the programs it had started; every file written so far is whole, and a "
+                      "rerun does the rest\n");
+  const auto end_deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!Ended(sleeper) && std::chrono::steady_clock::now() < end_deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_TRUE(Ended(sleeper)) << "the program started (sleep, pid " << sleeper << ") is still running after " << name;
+}
+
+TEST(InterruptHandlers, SigintAndSigtermEndTheProgramsStartedAndExitWith130And143) {
+  ExpectAnInterruptEndsTheProgramsStarted(SIGINT, util::kExitInterrupted, "SIGINT");
+  ExpectAnInterruptEndsTheProgramsStarted(SIGTERM, util::kExitTerminated, "SIGTERM");
 }
 
 TEST(RunProcess, InvalidCallsThrowInputError) {

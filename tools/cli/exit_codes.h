@@ -9,5 +9,7 @@ constexpr int kExitUsage = 2;           // bad command line: unknown command or 
 constexpr int kExitInput = 3;           // an input could not be used (missing, unreadable or malformed file)
 constexpr int kExitExternal = 4;        // another program the bench runs failed (COLMAP, mrcal tools, the report's Python)
 constexpr int kExitInternal = 70;       // a bug in hdabench: an unexpected exception
+// 130 and 143: ended by SIGINT or SIGTERM (util::kExitInterrupted and
+// util::kExitTerminated, tools/util/process.h), with the programs it started.
 
 }  // namespace hdabench::tools

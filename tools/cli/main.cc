@@ -4,12 +4,14 @@
 // the modules.
 #include <exception>
 #include <iostream>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/process.h"
 #include "tools/cli/command_line.h"
 #include "tools/cli/exit_codes.h"
 #include "tools/cli/version.h"
@@ -85,6 +87,10 @@ int Main(int argc, char** argv) {
 // The binary: Main, with escaped exceptions mapped to exit codes.
 int main(int argc, char** argv) {
   using namespace hdabench::tools;
+  // SIGINT and SIGTERM end the programs the command started too, then the
+  // command (exit codes 130 and 143).
+  const std::string command = argc > 1 && argv[1][0] != '-' ? std::string(" ") + argv[1] : std::string();
+  hdabench::util::InstallInterruptHandlers("hdabench" + command);
   try {
     return Main(argc, argv);
   } catch (const CLI::ValidationError& e) {

@@ -7,6 +7,8 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
@@ -28,6 +30,42 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+
+// The process groups of the programs RunProcess is running, for the
+// interrupt handler: lock-free slots (0: free), which a signal handler may read.
+constexpr size_t kMaxLiveGroups = 256;
+std::atomic<pid_t> g_live_groups[kMaxLiveGroups];
+static_assert(std::atomic<pid_t>::is_always_lock_free, "the handler reads the slots");
+
+size_t RegisterGroup(pid_t pid) {
+  for (size_t i = 0; i < kMaxLiveGroups; ++i) {
+    pid_t expected = 0;
+    if (g_live_groups[i].compare_exchange_strong(expected, pid)) return i;
+  }
+  return kMaxLiveGroups;  // all taken: that program is not ended by an interrupt
+}
+
+void UnregisterGroup(size_t slot) {
+  if (slot < kMaxLiveGroups) g_live_groups[slot].store(0);
+}
+
+// The handler's messages (0: SIGINT, 1: SIGTERM), composed before any
+// signal: the handler may only write() them. Plain arrays, so that nothing
+// destroys them while a signal may come.
+constexpr size_t kMessageSize = 512;
+char g_messages[2][kMessageSize];
+size_t g_message_lengths[2] = {0, 0};
+
+void OnInterrupt(int signal_number) {
+  for (std::atomic<pid_t>& slot : g_live_groups) {
+    const pid_t pid = slot.load();
+    if (pid > 0) ::kill(-pid, SIGTERM);
+  }
+  const int which = signal_number == SIGINT ? 0 : 1;
+  const ssize_t written = ::write(STDERR_FILENO, g_messages[which], g_message_lengths[which]);
+  static_cast<void>(written);
+  ::_exit(signal_number == SIGINT ? kExitInterrupted : kExitTerminated);
+}
 
 bool IsExecutableFile(const std::string& path) {
   struct stat info {};
@@ -97,6 +135,8 @@ void WriteAll(int fd, const void* data, size_t size) {
   sigemptyset(&none);
   ::sigprocmask(SIG_SETMASK, &none, nullptr);
   ::signal(SIGPIPE, SIG_DFL);
+  ::signal(SIGINT, SIG_DFL);
+  ::signal(SIGTERM, SIG_DFL);
   ::execve(path, argv, envp);
   ReportAndExit(report_fd, 3);
 }
@@ -283,6 +323,7 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOpti
               report[1]);
   }
   ::setpgid(pid, pid);  // also done in the child: whichever runs first wins
+  const size_t slot = RegisterGroup(pid);
   ::close(report[1]);
   if (log_fd >= 0) ::close(log_fd);
 
@@ -294,6 +335,7 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOpti
     int status = 0;
     while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
     }
+    UnregisterGroup(slot);
     result.wall_s = SecondsSince(start);
     result.error = ExecFailureText(path, report_data);
     return result;
@@ -301,8 +343,29 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOpti
   result.started = true;
 
   const int status = WaitWithTimeout(pid, start, options, &result);
+  UnregisterGroup(slot);
   RecordExit(status, path, options, &result);
   return result;
+}
+
+void InstallInterruptHandlers(const std::string& what) {
+  const std::string rest =
+      ": stopped, with the programs it had started; every file written so far is whole, and a rerun "
+      "does the rest\n";
+  const std::string messages[2] = {what + ": interrupted by SIGINT" + rest, what + ": interrupted by SIGTERM" + rest};
+  for (int i = 0; i < 2; ++i) {
+    g_message_lengths[i] = std::min(messages[i].size(), kMessageSize);
+    std::memcpy(g_messages[i], messages[i].data(), g_message_lengths[i]);
+  }
+  struct sigaction action {};
+  action.sa_handler = OnInterrupt;
+  sigemptyset(&action.sa_mask);
+  // Both signals blocked while the handler runs: it exits before either could
+  // run it a second time.
+  sigaddset(&action.sa_mask, SIGINT);
+  sigaddset(&action.sa_mask, SIGTERM);
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
 }
 
 std::string LastLineOfLog(const std::string& log_file) {

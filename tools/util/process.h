@@ -54,6 +54,21 @@ std::string FindExecutable(const std::string& name);
 // found, not executable, non-zero exit, signal, timeout) is in the result.
 ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOptions& options);
 
+// Ending the program on SIGINT (Ctrl-C) or SIGTERM (kill, a batch
+// scheduler). RunProcess puts each program in its own process group, so a
+// signal to the bench does not reach them: without this, COLMAP would go on
+// running after the bench that started it was stopped. After
+// InstallInterruptHandlers either signal sends SIGTERM to the process group
+// of every program RunProcess is running (a child hdabench does the same with
+// its own), prints "<what>: interrupted by SIGINT: ..." (or SIGTERM) on
+// stderr and exits with kExitInterrupted or kExitTerminated, the codes a
+// shell gives a program those signals end. Files written with
+// WriteFileAtomically are whole or absent (a temporary left behind is ignored
+// by a rerun); a rerun does what was not finished.
+constexpr int kExitInterrupted = 130;  // 128 + SIGINT
+constexpr int kExitTerminated = 143;   // 128 + SIGTERM
+void InstallInterruptHandlers(const std::string& what);
+
 // The last non-blank line of a program's log (ProcessOptions::log_file),
 // without its line end: what a failing program said last. Empty when the file
 // is missing, unreadable or blank.

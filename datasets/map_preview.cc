@@ -45,10 +45,13 @@ std::string PreviewPngOfBytes(const std::string& png_bytes, int max_side_px) {
   return PreviewPng(cv::imdecode(encoded, cv::IMREAD_COLOR), max_side_px);
 }
 
+bool IsPng(const std::string& bytes) {
+  return bytes.size() > kPngSignatureSize &&
+         bytes.compare(0, kPngSignatureSize, kPngSignature, kPngSignatureSize) == 0;
+}
+
 bool PngSizeOf(const std::string& png_bytes, int* width_px, int* height_px) {
-  if (png_bytes.size() < kPngWidthOffset + 8 ||
-      png_bytes.compare(0, kPngSignatureSize, kPngSignature, kPngSignatureSize) != 0 ||
-      png_bytes.compare(12, 4, "IHDR") != 0) {
+  if (png_bytes.size() < kPngWidthOffset + 8 || !IsPng(png_bytes) || png_bytes.compare(12, 4, "IHDR") != 0) {
     return false;
   }
   *width_px = static_cast<int>(BigEndian32(png_bytes, kPngWidthOffset));

@@ -26,6 +26,9 @@ std::string PreviewPng(const cv::Mat& image, int max_side_px);
 // bytes do not decode.
 std::string PreviewPngOfBytes(const std::string& png_bytes, int max_side_px);
 
+// True when the bytes start with the PNG signature and hold more after it.
+bool IsPng(const std::string& bytes);
+
 // Width and height from a PNG's header (its IHDR chunk); false when the bytes
 // do not start like a PNG.
 bool PngSizeOf(const std::string& png_bytes, int* width_px, int* height_px);

@@ -52,11 +52,15 @@ void ThrowIfInvalid(const std::vector<std::string>& errors) {
   hdabench::ThrowIfInvalid("MatchRoiPair: invalid MatchingOptions: ", errors);
 }
 
-void CheckImage(const cv::Mat& image, const char* name, const calib::CameraModel& camera) {
+// Throws InputError unless `image` is CV_8UC1: "<what> type ... is not supported".
+void RequireEightBit(const cv::Mat& image, const std::string& what) {
   if (image.type() != CV_8UC1) {
-    throw InputError(std::string("MatchRoiPair: ") + name + " type " +
-                     cv::typeToString(image.type()) + " is not supported: expected CV_8UC1");
+    throw InputError(what + " type " + cv::typeToString(image.type()) + " is not supported: expected CV_8UC1");
   }
+}
+
+void CheckImage(const cv::Mat& image, const char* name, const calib::CameraModel& camera) {
+  RequireEightBit(image, std::string("MatchRoiPair: ") + name);
   if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {
     throw InputError(std::string("MatchRoiPair: ") + name + " size " + std::to_string(image.cols) +
                      "x" + std::to_string(image.rows) + " differs from the camera's imager " +
@@ -89,10 +93,10 @@ class OrbInBox {
   // `box_in_crop` empty: no mask (cv::ORB given none), the whole crop.
   OrbInBox(const cv::Mat& crop, const cv::Rect& box_in_crop, int levels, const MatchingOptions& options,
            int max_features)
-      : crop_(crop), options_(options), levels_(levels), max_features_(max_features) {
+      : options_(options), levels_(levels), max_features_(max_features) {
     // cv::ORB keeps its scale factor as a double made from a float.
     const double scale_factor = static_cast<double>(static_cast<float>(options.orb_scale_factor));
-    BuildPyramid(box_in_crop, scale_factor);
+    BuildPyramid(crop, box_in_crop, scale_factor);
     FeaturesPerLevel(scale_factor);
     CircleRows();
   }
@@ -130,8 +134,8 @@ class OrbInBox {
     size_t total = 0;
     for (int level = 0; level < levels_; ++level) {
       std::vector<cv::KeyPoint> keypoints = LevelCorners(level);
-      const int keep = features_[static_cast<size_t>(level)];
-      if (keypoints.size() > static_cast<size_t>(std::max(keep, 0))) {
+      const int keep = features_[static_cast<size_t>(level)];  // >= 0
+      if (keypoints.size() > static_cast<size_t>(keep)) {
         for (cv::KeyPoint& keypoint : keypoints) keypoint.response = HarrisResponse(Level(level), keypoint.pt);
         cv::KeyPointsFilter::retainBest(keypoints, keep);
       }
@@ -178,15 +182,14 @@ class OrbInBox {
     return keypoints;
   }
 
- private:
-  void BuildPyramid(const cv::Rect& box_in_crop, double scale_factor) {
+  void BuildPyramid(const cv::Mat& crop, const cv::Rect& box_in_crop, double scale_factor) {
     const bool masked = !box_in_crop.empty();
     images_.resize(static_cast<size_t>(levels_));
     if (masked) masks_.resize(static_cast<size_t>(levels_));
     scales_.resize(static_cast<size_t>(levels_));
-    images_[0] = crop_;
+    images_[0] = crop;
     if (masked) {
-      masks_[0] = cv::Mat::zeros(crop_.size(), CV_8UC1);
+      masks_[0] = cv::Mat::zeros(crop.size(), CV_8UC1);
       masks_[0](box_in_crop).setTo(255);
     }
     scales_[0] = 1.0f;
@@ -198,8 +201,8 @@ class OrbInBox {
       // differ where the quotient lies within a float step of a half:
       // 117 rows at 1.2 give 97.5 and 98 rows, not 97.49999 and 97.)
       const float inverse = 1.0f / scale;
-      const cv::Size size(cvRound(static_cast<float>(crop_.cols) * inverse),
-                          cvRound(static_cast<float>(crop_.rows) * inverse));
+      const cv::Size size(cvRound(static_cast<float>(crop.cols) * inverse),
+                          cvRound(static_cast<float>(crop.rows) * inverse));
       cv::resize(images_[level - 1], images_[level], size, 0, 0, cv::INTER_LINEAR_EXACT);
       if (!masked) continue;
       cv::resize(masks_[level - 1], masks_[level], size, 0, 0, cv::INTER_LINEAR_EXACT);
@@ -290,7 +293,6 @@ class OrbInBox {
     return cv::fastAtan2(static_cast<float>(m01), static_cast<float>(m10));
   }
 
-  cv::Mat crop_;
   const MatchingOptions& options_;
   int levels_;
   int max_features_;
@@ -709,10 +711,7 @@ const char* ToString(MatchingStatus status) {
 
 OrbFeatures DetectOrbInBox(const cv::Mat& image, const cv::Rect& box_px, const MatchingOptions& options) {
   ThrowIfInvalid(options.Validate());
-  if (image.type() != CV_8UC1) {
-    throw InputError("DetectOrbInBox: image type " + cv::typeToString(image.type()) +
-                     " is not supported: expected CV_8UC1");
-  }
+  RequireEightBit(image, "DetectOrbInBox: image");
   const cv::Rect box = box_px & cv::Rect(cv::Point(0, 0), image.size());
   if (box.empty()) return OrbFeatures();
   return DetectInBox(image, box, options);
@@ -720,10 +719,7 @@ OrbFeatures DetectOrbInBox(const cv::Mat& image, const cv::Rect& box_px, const M
 
 size_t CountOrbKeypoints(const cv::Mat& image, const MatchingOptions& options, int max_features) {
   ThrowIfInvalid(options.Validate());
-  if (image.type() != CV_8UC1) {
-    throw InputError("CountOrbKeypoints: image type " + cv::typeToString(image.type()) +
-                     " is not supported: expected CV_8UC1");
-  }
+  RequireEightBit(image, "CountOrbKeypoints: image");
   if (max_features < 1) {
     throw InputError("CountOrbKeypoints: max_features = " + std::to_string(max_features) + ": expected >= 1");
   }

@@ -30,12 +30,8 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-constexpr char kPngSignature[] = "\x89PNG\r\n\x1a\n";
-constexpr size_t kPngSignatureSize = 8;
 // Exit code of report_plots.py when matplotlib or numpy cannot be imported.
 constexpr int kPlotsExitNoMatplotlib = 5;
-// The dataset's maps are at DEM resolution (thousands of pixels): the page
-// gets them shrunk to this many pixels on the longer side.
 
 // ---------------------------------------------------------------- files
 
@@ -103,11 +99,6 @@ std::string Text(const Json& j) {
   return j.dump();
 }
 int IntOr(const Json& j, int fallback) { return j.is_number_integer() ? j.get<int>() : fallback; }
-
-bool IsPng(const std::string& bytes) {
-  return bytes.size() > kPngSignatureSize &&
-         bytes.compare(0, kPngSignatureSize, kPngSignature, kPngSignatureSize) == 0;
-}
 
 // A map as the report shows it: its preview (datasets/map_preview.h) with
 // "shrunk from W x H px" in `note`; the bytes unchanged when no larger than a
@@ -435,7 +426,7 @@ void AddPngFile(const fs::path& path, const std::string& id, const std::string& 
                 const std::string& caption, std::vector<Figure>* figures,
                 std::vector<std::string>* notes) {
   const std::string bytes = ReadFileOrThrow(path);
-  if (!IsPng(bytes)) {
+  if (!datasets::IsPng(bytes)) {
     notes->push_back(path.string() + " is not a PNG file: left out.");
     return;
   }
@@ -596,7 +587,7 @@ void DrawPlots(const fs::path& run_dir, const ReportOptions& options, Page* page
   for (const Json& plot : plots) {
     const std::string file = Text(Member(plot, "file"));
     std::string bytes, error;
-    if (!util::ReadFileBytes(out / file, &bytes, &error) || !IsPng(bytes)) {
+    if (!util::ReadFileBytes(out / file, &bytes, &error) || !datasets::IsPng(bytes)) {
       page->plots_error = "the plotting script did not write a PNG " + file;
       page->plots.clear();
       return;

@@ -50,6 +50,9 @@ TEST(MapPreview, FromThePngBytesItIsThePreviewOfTheImage) {
   EXPECT_TRUE(PreviewPngOfBytes("not a png", kMapPreviewSidePx).empty());
   EXPECT_TRUE(PreviewPngOfBytes("", kMapPreviewSidePx).empty());
   EXPECT_FALSE(PngSizeOf("\x89PNG\r\n", &width, &height));
+  EXPECT_TRUE(IsPng(from_image));
+  EXPECT_FALSE(IsPng(std::string("\x89PNG\r\n\x1a\n")));  // the signature alone
+  EXPECT_FALSE(IsPng("GIF89a and more"));
 }
 
 // WriteTruthMaps writes each map and, beside it, its preview.

@@ -28,7 +28,7 @@ namespace hdabench::calib {
 namespace {
 
 namespace fs = std::filesystem;
-using Json = nlohmann::ordered_json;
+using OrderedJson = nlohmann::ordered_json;
 using Clock = std::chrono::steady_clock;
 
 double SecondsSince(Clock::time_point start) {
@@ -178,7 +178,7 @@ double NumberAfter(const std::string& text, const std::string& key) {
   }
 }
 
-Json NumberOrNull(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
+OrderedJson NumberOrNull(double value) { return std::isfinite(value) ? OrderedJson(value) : OrderedJson(nullptr); }
 
 std::string DetectionsCsv(const CalibrateResult& result) {
   std::ostringstream out;
@@ -198,8 +198,8 @@ std::string DetectionsCsv(const CalibrateResult& result) {
   return out.str();
 }
 
-Json SummaryJson(const CalibrateOptions& options, const CalibrateResult& result) {
-  Json j;
+OrderedJson SummaryJson(const CalibrateOptions& options, const CalibrateResult& result) {
+  OrderedJson j;
   j["schema"] = "hdabench-calibration";
   j["version"] = 1;
   j["board"] = {{"width", options.board.width},
@@ -210,13 +210,13 @@ Json SummaryJson(const CalibrateOptions& options, const CalibrateResult& result)
   j["imager_px"] = {result.imager_width_px, result.imager_height_px};
   j["focal_seed_px"] = result.focal_seed_px;
   j["mrcal_rms_per_coordinate_px"] = NumberOrNull(result.mrcal_rms_px);
-  Json models = Json::array();
+  OrderedJson models = OrderedJson::array();
   for (const std::string& m : result.model_paths) models.push_back(fs::path(m).filename().string());
   j["models"] = models;
   j["analysis"] = fs::path(result.analysis.json_path).filename().string();
-  Json images = Json::array();
+  OrderedJson images = OrderedJson::array();
   for (const ImageUse& use : result.images) {
-    Json row = {{"camera", use.camera}, {"path", use.path}, {"name", use.name}, {"used", use.used}};
+    OrderedJson row = {{"camera", use.camera}, {"path", use.path}, {"name", use.name}, {"used", use.used}};
     if (use.used) row["detector"] = use.detector;
     if (!use.used) row["reason"] = use.reason;
     images.push_back(row);
@@ -229,7 +229,7 @@ Json SummaryJson(const CalibrateOptions& options, const CalibrateResult& result)
 }
 
 // Throws one InputError listing every invalid option, before anything is written.
-void ThrowIfInvalid(const CalibrateOptions& options) {
+void ThrowIfOptionsInvalid(const CalibrateOptions& options) {
   hdabench::ThrowIfInvalid("calibration options:\n  ", options.Validate(), "\n  ");
 }
 
@@ -495,7 +495,7 @@ std::vector<std::string> CalibrateOptions::Validate() const {
 }
 
 CalibrateResult Calibrate(const CalibrateOptions& options) {
-  ThrowIfInvalid(options);
+  ThrowIfOptionsInvalid(options);
   PrepareOutputFolder(options.out_dir);
   const fs::path out(options.out_dir);
   CalibrateResult result;

@@ -27,6 +27,8 @@ struct Rigid3d {
     return Rigid3d(r_inv, -(r_inv * translation));
   }
   Eigen::Matrix3d RotationMatrix() const { return rotation.toRotationMatrix(); }
+  // Every coefficient of the rotation and the translation is finite.
+  bool AllFinite() const { return rotation.coeffs().allFinite() && translation.allFinite(); }
 };
 
 }  // namespace hdabench

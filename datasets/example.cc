@@ -16,9 +16,8 @@ namespace hdabench::datasets {
 
 namespace {
 
+using util::DegToRad;
 using util::kPi;
-
-double DegToRad(double deg) { return deg * kPi / 180.0; }
 
 // Regolith-like albedo in [0, 1] at ground point (x, y): equally weighted
 // octaves of value noise from 96 m down to 3 m wavelength, so that there is

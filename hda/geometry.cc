@@ -19,14 +19,11 @@ namespace {
 using util::kPi;
 using util::kDegToRad;
 using util::kRadToDeg;
-
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
+using util::kInfinity;
 
 bool IsFinite(const Eigen::Vector3d& v) { return v.allFinite(); }
 
-bool IsFinite(const Rigid3d& pose) {
-  return pose.rotation.coeffs().allFinite() && pose.translation.allFinite();
-}
+bool IsFinite(const Rigid3d& pose) { return pose.AllFinite(); }
 
 // Angle between two non-zero vectors, radians in [0, pi]; atan2 keeps full
 // precision near 0 and pi, where acos of the dot product does not.

@@ -20,15 +20,13 @@ namespace hdabench::hda {
 namespace {
 
 using util::kDegToRad;
+using util::kInfinity;
 
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
 // Step of the central differences of GroundMotionJacobian, pixels.
 constexpr double kMotionStepPx = 4.0;
 
-bool IsFinite(const Rigid3d& pose) {
-  return pose.rotation.coeffs().allFinite() && pose.translation.allFinite() &&
-         pose.rotation.norm() > 0.0;
-}
+// Finite, with a rotation that can be normalized.
+bool IsUsablePose(const Rigid3d& pose) { return pose.AllFinite() && pose.rotation.norm() > 0.0; }
 
 Rigid3d Normalized(const Rigid3d& pose) {
   return Rigid3d(pose.rotation.normalized(), pose.translation);
@@ -106,10 +104,10 @@ void CheckInput(const HdaInput& input, const calib::CameraModel& camera, const H
                        std::to_string(camera.WidthPx()) + "x" + std::to_string(camera.HeightPx()));
     }
   }
-  if (!IsFinite(input.local_from_cam1)) {
+  if (!IsUsablePose(input.local_from_cam1)) {
     throw InputError("RunHda: local_from_cam1 is not finite (or has a zero quaternion)");
   }
-  if (!IsFinite(input.cam2_from_cam1)) {
+  if (!IsUsablePose(input.cam2_from_cam1)) {
     throw InputError("RunHda: cam2_from_cam1 is not finite (or has a zero quaternion)");
   }
   if (!std::isfinite(input.lrf_range_m) || !(input.lrf_range_m > 0.0)) {

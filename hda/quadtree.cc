@@ -17,7 +17,7 @@ namespace hdabench::hda {
 
 namespace {
 
-void ThrowIfInvalid(const char* function, const std::vector<std::string>& errors) {
+void ThrowIfQuadtreeOptionsInvalid(const char* function, const std::vector<std::string>& errors) {
   hdabench::ThrowIfInvalid(std::string(function) + ": invalid QuadtreeOptions: ", errors);
 }
 
@@ -143,7 +143,7 @@ double ProjectedSiteSidePx(const calib::CameraModel& camera, double lrf_range_m,
 
 int MinimumBlockSizePx(const calib::CameraModel& camera, double lrf_range_m,
                        const QuadtreeOptions& options) {
-  ThrowIfInvalid("MinimumBlockSizePx", options.Validate());
+  ThrowIfQuadtreeOptionsInvalid("MinimumBlockSizePx", options.Validate());
   const double site_px =
       ProjectedSiteSidePx(camera, lrf_range_m, options.site_size_m, "MinimumBlockSizePx");
   // The epsilon keeps an exact product (3000.0 computed as 2999.9999999) from
@@ -197,7 +197,7 @@ QuadtreeResult GivenRois(const cv::Mat& image, const std::vector<cv::Rect>& boxe
 }
 
 QuadtreeResult RunQuadtree(const cv::Mat& image, int min_block_px, const QuadtreeOptions& options) {
-  ThrowIfInvalid("RunQuadtree", options.Validate());
+  ThrowIfQuadtreeOptionsInvalid("RunQuadtree", options.Validate());
   if (min_block_px < 1) {
     throw InputError("RunQuadtree: min_block_px = " + std::to_string(min_block_px) +
                      ": expected >= 1");

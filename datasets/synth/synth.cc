@@ -18,9 +18,8 @@ namespace hdabench::datasets::synth {
 
 namespace {
 
+using util::DegToRad;
 using util::kPi;
-
-double DegToRad(double deg) { return deg * kPi / 180.0; }
 
 // Largest DEM the generator builds (nodes); a larger footprint needs a coarser
 // dem_spacing_m. 60 M nodes of float are 240 MB.

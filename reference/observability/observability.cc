@@ -29,7 +29,7 @@ namespace {
 
 using util::kDegToRad;
 using util::kRadToDeg;
-constexpr double kInfinity = std::numeric_limits<double>::infinity();
+using util::kInfinity;
 constexpr double kMoonGravityMps2 = 1.62;
 // Trials handed to a thread at a time.
 constexpr int kTrialsPerItem = 64;

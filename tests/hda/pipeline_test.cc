@@ -21,13 +21,13 @@ using util::kDegToRad;
 using testing_support::CurrentTestSeed;
 using testing_support::InputErrorOf;
 
-constexpr int kSizePx = 512;
-constexpr double kFocalPx = 1000.0;
+constexpr int kPairSizePx = 512;
+constexpr double kPairFocalPx = 1000.0;
 constexpr double kHeightM = 200.0;  // camera 1 above the local origin, looking straight down
 
 calib::CameraModel Camera() {
-  const double c = (kSizePx - 1) / 2.0;
-  return calib::CameraModel("LENSMODEL_PINHOLE", {kFocalPx, kFocalPx, c, c}, kSizePx, kSizePx);
+  const double c = (kPairSizePx - 1) / 2.0;
+  return calib::CameraModel("LENSMODEL_PINHOLE", {kPairFocalPx, kPairFocalPx, c, c}, kPairSizePx, kPairSizePx);
 }
 
 // A textured ground as a continuous function of the image-1 pixel: a sum of
@@ -57,9 +57,9 @@ struct Texture {
   // The image whose pixel (x, y) shows the ground at image-1 pixel
   // image1_from_image(x, y) (a homography, homogeneous).
   cv::Mat Render(const Eigen::Matrix3d& image1_from_image) const {
-    cv::Mat image(kSizePx, kSizePx, CV_8UC1);
-    for (int r = 0; r < kSizePx; ++r) {
-      for (int c = 0; c < kSizePx; ++c) {
+    cv::Mat image(kPairSizePx, kPairSizePx, CV_8UC1);
+    for (int r = 0; r < kPairSizePx; ++r) {
+      for (int c = 0; c < kPairSizePx; ++c) {
         const Eigen::Vector3d p = image1_from_image * Eigen::Vector3d(c, r, 1.0);
         image.at<unsigned char>(r, c) = cv::saturate_cast<unsigned char>(At(p.x() / p.z(), p.y() / p.z()));
       }
@@ -98,8 +98,8 @@ Scene MakeScene(double slope_deg, const Eigen::Vector3d& c2_in_cam1, std::uint64
   const double d = normal_in_cam.dot(local_r_cam.transpose() * (Eigen::Vector3d::Zero() - centre_in_local));
   // x2 ~ K (I + t n^T / d) K^-1 x1 with t = -c2 (R = I).
   Eigen::Matrix3d k;
-  const double c = (kSizePx - 1) / 2.0;
-  k << kFocalPx, 0, c, 0, kFocalPx, c, 0, 0, 1;
+  const double c = (kPairSizePx - 1) / 2.0;
+  k << kPairFocalPx, 0, c, 0, kPairFocalPx, c, 0, 0, 1;
   const Eigen::Matrix3d h =
       k * (Eigen::Matrix3d::Identity() + (-c2_in_cam1) * normal_in_cam.transpose() / d) * k.inverse();
   const Texture texture(seed);
@@ -242,7 +242,7 @@ TEST(RunHda, AWrongNavigationPoseRejectsTheMatches) {
 
 TEST(RunHda, AnAllBlackImageGivesNoRoiAndSaysWhy) {
   Scene scene = MakeScene(0.0, Lateral(), CurrentTestSeed());
-  scene.input.image1 = cv::Mat::zeros(kSizePx, kSizePx, CV_8UC1);
+  scene.input.image1 = cv::Mat::zeros(kPairSizePx, kPairSizePx, CV_8UC1);
   const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
   EXPECT_TRUE(result.rois.empty());
   EXPECT_EQ(result.quadtree.rejected_dark, 1);
@@ -353,7 +353,7 @@ TEST(RunHda, BadInputsAreNamed) {
     }
   };
   HdaInput input = scene.input;
-  input.image1 = cv::Mat(kSizePx, kSizePx, CV_32FC1, cv::Scalar(1.0f));
+  input.image1 = cv::Mat(kPairSizePx, kPairSizePx, CV_32FC1, cv::Scalar(1.0f));
   expect_error(input, "RunHda: image 1 type CV_32FC1 is not supported: expected CV_8UC1 or CV_16UC1");
   input = scene.input;
   input.image2 = cv::Mat(100, 200, CV_8UC1, cv::Scalar(100));

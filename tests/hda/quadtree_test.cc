@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tools/util/error.h"
+#include "tests/support/cameras.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::hda {
@@ -16,10 +17,7 @@ namespace {
 using testing_support::CurrentTestSeed;
 using testing_support::InputErrorOf;
 
-// Pinhole 1024 x 1024 with f = 1000 px and the principal point at the centre.
-calib::CameraModel Pinhole1000() {
-  return calib::CameraModel("LENSMODEL_PINHOLE", {1000.0, 1000.0, 511.5, 511.5}, 1024, 1024);
-}
+using testing_support::Pinhole1000;
 
 // A 0/255 checkerboard of single pixels: mean 127.5, stddev 127.5.
 void FillChecker(cv::Mat* image, const cv::Rect& box) {

@@ -6,6 +6,7 @@
 
 #include "tools/util/error.h"
 #include "tools/util/angles.h"
+#include "tests/support/cameras.h"
 
 namespace hdabench::hda {
 namespace {
@@ -15,9 +16,7 @@ using util::kPi;
 constexpr double kFocalPx = 1000.0;
 constexpr double kRangeM = 566.0;
 
-calib::CameraModel Pinhole1000() {
-  return calib::CameraModel("LENSMODEL_PINHOLE", {kFocalPx, kFocalPx, 511.5, 511.5}, 1024, 1024);
-}
+using testing_support::Pinhole1000;  // f = kFocalPx
 
 // Camera 2 displaced by position_in_cam1 (metres) with the same attitude.
 Rigid3d Translated(const Eigen::Vector3d& position_in_cam1) {

@@ -20,16 +20,13 @@ using hdabench::testing_support::FreshTestDir;
 using hdabench::testing_support::ReadText;
 using hdabench::testing_support::SplitLines;
 
-const fs::path& Dataset() { return hdabench::testing_support::SmallSyntheticDataset(); }
-
-CommandResult Hdabench(const std::vector<std::string>& args) {
-  return hdabench::testing_support::RunInOwnFolder(args);
-}
+using hdabench::testing_support::RunInOwnFolder;
+using hdabench::testing_support::SmallSyntheticDataset;
 
 TEST(ImageryCommand, PairWritesItsTablesAndTheSameBytesTwice) {
   const fs::path dir = FreshTestDir();
   const CommandResult first =
-      Hdabench({"imagery", "pair", Dataset().string(), "--out", (dir / "a").string(), "--max-ratio", "100"});
+      RunInOwnFolder({"imagery", "pair", SmallSyntheticDataset().string(), "--out", (dir / "a").string(), "--max-ratio", "100"});
   ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
   EXPECT_NE(first.out.find("Photometric residual at true correspondences, frames 0,6"), std::string::npos)
       << first.out;
@@ -51,40 +48,40 @@ TEST(ImageryCommand, PairWritesItsTablesAndTheSameBytesTwice) {
   EXPECT_EQ(csv[0].rfind("id,x,y,w,h,pixels,hidden,spread_dn,", 0), 0u) << csv[0];
 
   const CommandResult second =
-      Hdabench({"imagery", "pair", Dataset().string(), "--out", (dir / "b").string(), "--max-ratio", "100"});
+      RunInOwnFolder({"imagery", "pair", SmallSyntheticDataset().string(), "--out", (dir / "b").string(), "--max-ratio", "100"});
   ASSERT_EQ(second.exit_code, 0) << second.err;
   EXPECT_EQ(ReadText(dir / "a" / "imagery.csv"), ReadText(dir / "b" / "imagery.csv"));
   EXPECT_EQ(ReadText(dir / "a" / "imagery.json"), ReadText(dir / "b" / "imagery.json"));
 
   // A limit below what is measured fails, with exit code 1.
   const CommandResult strict =
-      Hdabench({"imagery", "pair", Dataset().string(), "--out", (dir / "c").string(), "--max-ratio", "0.5"});
+      RunInOwnFolder({"imagery", "pair", SmallSyntheticDataset().string(), "--out", (dir / "c").string(), "--max-ratio", "0.5"});
   EXPECT_EQ(strict.exit_code, 1) << strict.err;
   EXPECT_NE(strict.out.find("FAIL"), std::string::npos) << strict.out;
 }
 
 TEST(ImageryCommand, PairRefusesADatasetWithoutImagingTruth) {
   const fs::path dir = FreshTestDir();
-  const CommandResult create = Hdabench({"dataset", "create", (dir / "example").string()});
+  const CommandResult create = RunInOwnFolder({"dataset", "create", (dir / "example").string()});
   ASSERT_EQ(create.exit_code, 0) << create.err;
-  const CommandResult r = Hdabench({"imagery", "pair", (dir / "example").string(), "--out", (dir / "out").string()});
+  const CommandResult r = RunInOwnFolder({"imagery", "pair", (dir / "example").string(), "--out", (dir / "out").string()});
   EXPECT_EQ(r.exit_code, 3) << r.out << r.err;
   EXPECT_NE(r.err.find("hdabench imagery pair: "), std::string::npos) << r.err;
 }
 
 TEST(ImageryCommand, EdgePassesForTheCameraModelAndFailsForPointSampling) {
-  const CommandResult camera = Hdabench({"imagery", "edge"});
+  const CommandResult camera = RunInOwnFolder({"imagery", "edge"});
   EXPECT_EQ(camera.exit_code, 0) << camera.out << camera.err;
   EXPECT_NE(camera.out.find("PASS"), std::string::npos) << camera.out;
-  const CommandResult blurred = Hdabench({"imagery", "edge", "--set", "render.defocus_sigma_px=1.2"});
+  const CommandResult blurred = RunInOwnFolder({"imagery", "edge", "--set", "render.defocus_sigma_px=1.2"});
   EXPECT_EQ(blurred.exit_code, 0) << blurred.out << blurred.err;
-  const CommandResult point = Hdabench({"imagery", "edge", "--set", "render.anti_aliasing=quincunx"});
+  const CommandResult point = RunInOwnFolder({"imagery", "edge", "--set", "render.anti_aliasing=quincunx"});
   EXPECT_EQ(point.exit_code, 1) << point.out << point.err;
   EXPECT_NE(point.out.find("FAIL"), std::string::npos) << point.out;
-  const CommandResult other = Hdabench({"imagery", "edge", "--set", "sun_elevation_deg=3"});
+  const CommandResult other = RunInOwnFolder({"imagery", "edge", "--set", "sun_elevation_deg=3"});
   EXPECT_EQ(other.exit_code, 2) << other.err;
   EXPECT_NE(other.err.find("render.key=value"), std::string::npos) << other.err;
-  const CommandResult bad = Hdabench({"imagery", "edge", "--set", "render.fill_factor=2"});
+  const CommandResult bad = RunInOwnFolder({"imagery", "edge", "--set", "render.fill_factor=2"});
   EXPECT_EQ(bad.exit_code, 2) << bad.err;
   EXPECT_NE(bad.err.find("fill_factor: 2; expected in (0, 1]"), std::string::npos) << bad.err;
 }

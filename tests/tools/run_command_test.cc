@@ -23,18 +23,15 @@ using hdabench::testing_support::FreshTestDir;
 using hdabench::testing_support::ReadText;
 using hdabench::testing_support::SplitLines;
 
-const fs::path& Dataset() { return hdabench::testing_support::SmallSyntheticDataset(); }
-
-CommandResult Hdabench(const std::vector<std::string>& args) {
-  return hdabench::testing_support::RunInOwnFolder(args);
-}
+using hdabench::testing_support::RunInOwnFolder;
+using hdabench::testing_support::SmallSyntheticDataset;
 
 TEST(RunCommand, WritesEveryFileAndTheSameResultOnEveryRun) {
   const fs::path dir = FreshTestDir();
   // An ample budget: which ROIs a wall-time budget reaches depends on the
   // machine's load, and this test compares the bytes of three runs.
   const CommandResult first =
-      Hdabench({"run", Dataset().string(), "--out", (dir / "a").string(), "--budget-s", "10000"});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", (dir / "a").string(), "--budget-s", "10000"});
   ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
   EXPECT_NE(first.err.find("hdabench run: loading"), std::string::npos) << first.err;
   EXPECT_EQ(first.out.rfind("hda: ", 0), 0u) << first.out;
@@ -64,13 +61,13 @@ TEST(RunCommand, WritesEveryFileAndTheSameResultOnEveryRun) {
   // A second run into another folder gives the same result bytes; a third
   // into the first folder replaces its files with the same bytes.
   const CommandResult second =
-      Hdabench({"run", Dataset().string(), "--out", (dir / "b").string(), "--quiet", "--no-figures",
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", (dir / "b").string(), "--quiet", "--no-figures",
                 "--budget-s", "10000"});
   ASSERT_EQ(second.exit_code, 0) << second.out << second.err;
   EXPECT_EQ(second.err, "");
   EXPECT_FALSE(fs::exists(dir / "b" / "figures"));
-  const CommandResult third = Hdabench(
-      {"run", Dataset().string(), "--out", (dir / "a").string(), "--quiet", "--budget-s", "10000"});
+  const CommandResult third = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", (dir / "a").string(), "--quiet", "--budget-s", "10000"});
   ASSERT_EQ(third.exit_code, 0) << third.out << third.err;
   for (const char* name : {"result.json", "rois.csv"}) {
     EXPECT_EQ(ReadText(dir / "a" / name), ReadText(dir / "b" / name)) << name;
@@ -83,7 +80,7 @@ TEST(RunCommand, WritesEveryFileAndTheSameResultOnEveryRun) {
 
 TEST(RunCommand, BudgetFlagsReachTheResult) {
   const fs::path dir = FreshTestDir();
-  const CommandResult run = Hdabench({"run", Dataset().string(), "--out", dir.string(), "--quiet",
+  const CommandResult run = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--quiet",
                                  "--no-figures", "--processor-scale", "0.5", "--budget-s", "4"});
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "result.json"));
@@ -91,7 +88,7 @@ TEST(RunCommand, BudgetFlagsReachTheResult) {
   EXPECT_EQ(result["options"]["compute_budget_s"], 4.0);
   EXPECT_EQ(result["budget_s"], 2.0);
   const CommandResult negative =
-      Hdabench({"run", Dataset().string(), "--out", dir.string(), "--processor-scale", "-1"});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--processor-scale", "-1"});
   EXPECT_EQ(negative.exit_code, 2) << negative.out << negative.err;
   EXPECT_NE(negative.err.find("processor_scale"), std::string::npos) << negative.err;
 }
@@ -104,8 +101,8 @@ TEST(RunCommand, ParamsFileAndSetReachTheResult) {
       dir / "p.json",
       R"({"format": "hdabench-flight-params", "parameters": {"max_relief_m": 20, "max_relief_m_why": "x",
           "matching": {"ratio_test": 0.7}, "min_points": 12}})");
-  const CommandResult run = Hdabench(
-      {"run", Dataset().string(), "--out", (dir / "a").string(), "--no-figures", "--no-report",
+  const CommandResult run = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", (dir / "a").string(), "--no-figures", "--no-report",
        "--params", (dir / "p.json").string(), "--set", "hda.min_points=15", "--set",
        "hda.prediction.sigma_multiplier=2.5"});
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
@@ -126,7 +123,7 @@ TEST(RunCommand, ParamsFileAndSetReachTheResult) {
 
   // The options a run used, written back as a parameter file, reproduce it.
   hdabench::testing_support::WriteText(dir / "used.json", options.dump());
-  const CommandResult again = Hdabench({"run", Dataset().string(), "--out", (dir / "b").string(),
+  const CommandResult again = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", (dir / "b").string(),
                                         "--no-figures", "--no-report", "--quiet", "--params",
                                         (dir / "used.json").string()});
   ASSERT_EQ(again.exit_code, 0) << again.err;
@@ -138,27 +135,27 @@ TEST(RunCommand, ParamsFileAndSetReachTheResult) {
 
 TEST(RunCommand, BadParamsAndSetAreNamed) {
   const fs::path dir = FreshTestDir();
-  const CommandResult unknown = Hdabench(
-      {"run", Dataset().string(), "--out", dir.string(), "--set", "hda.quadtree.site_sise_m=5"});
+  const CommandResult unknown = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--set", "hda.quadtree.site_sise_m=5"});
   EXPECT_EQ(unknown.exit_code, 2);
   EXPECT_NE(unknown.err.find("unknown flight-method parameter 'quadtree.site_sise_m'; known:"),
             std::string::npos) << unknown.err;
   EXPECT_NE(unknown.err.find("quadtree.site_size_m"), std::string::npos) << unknown.err;
   const CommandResult form =
-      Hdabench({"run", Dataset().string(), "--out", dir.string(), "--set", "max_relief_m=5"});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--set", "max_relief_m=5"});
   EXPECT_EQ(form.exit_code, 2);
   EXPECT_NE(form.err.find("expected hda.KEY=VALUE"), std::string::npos) << form.err;
   const CommandResult value =
-      Hdabench({"run", Dataset().string(), "--out", dir.string(), "--set", "hda.max_relief_m=-5"});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--set", "hda.max_relief_m=-5"});
   EXPECT_EQ(value.exit_code, 2);
   EXPECT_NE(value.err.find("max_relief_m = -5: expected >= 0"), std::string::npos) << value.err;
-  const CommandResult missing = Hdabench(
-      {"run", Dataset().string(), "--out", dir.string(), "--params", (dir / "nope.json").string()});
+  const CommandResult missing = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--params", (dir / "nope.json").string()});
   EXPECT_EQ(missing.exit_code, 3);
   EXPECT_NE(missing.err.find("nope.json: cannot read the parameter file"), std::string::npos) << missing.err;
   hdabench::testing_support::WriteText(dir / "bad.json", R"({"min_points": 2})");
-  const CommandResult bad = Hdabench(
-      {"run", Dataset().string(), "--out", dir.string(), "--params", (dir / "bad.json").string()});
+  const CommandResult bad = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--params", (dir / "bad.json").string()});
   EXPECT_EQ(bad.exit_code, 3);
   EXPECT_NE(bad.err.find("bad.json"), std::string::npos) << bad.err;
   EXPECT_NE(bad.err.find("min_points = 2"), std::string::npos) << bad.err;
@@ -167,18 +164,18 @@ TEST(RunCommand, BadParamsAndSetAreNamed) {
 
 TEST(RunCommand, EqualFramesAreAUsageError) {
   const fs::path dir = FreshTestDir();
-  const CommandResult run = Hdabench({"run", Dataset().string(), "--frames", "0,0", "--out", dir.string()});
+  const CommandResult run = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--frames", "0,0", "--out", dir.string()});
   EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
   EXPECT_NE(run.err.find("--frames 0,0: the two frames must differ"), std::string::npos) << run.err;
   const CommandResult malformed =
-      Hdabench({"run", Dataset().string(), "--frames", "1-2", "--out", dir.string()});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--frames", "1-2", "--out", dir.string()});
   EXPECT_EQ(malformed.exit_code, 2) << malformed.out << malformed.err;
   EXPECT_NE(malformed.err.find("--frames"), std::string::npos) << malformed.err;
 }
 
 TEST(RunCommand, AFrameOutsideTheDatasetIsNamed) {
   const CommandResult run =
-      Hdabench({"run", Dataset().string(), "--frames", "0,99", "--out", FreshTestDir().string()});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--frames", "0,99", "--out", FreshTestDir().string()});
   EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
   EXPECT_NE(run.err.find("frame 99 is not in"), std::string::npos) << run.err;
 }
@@ -186,12 +183,12 @@ TEST(RunCommand, AFrameOutsideTheDatasetIsNamed) {
 TEST(RunCommand, AMissingDatasetIsAnInputErrorNamingIt) {
   const fs::path dir = FreshTestDir();
   const fs::path absent = dir / "absent";
-  const CommandResult run = Hdabench({"run", absent.string(), "--out", (dir / "out").string()});
+  const CommandResult run = RunInOwnFolder({"run", absent.string(), "--out", (dir / "out").string()});
   EXPECT_EQ(run.exit_code, 3) << run.out << run.err;
   EXPECT_NE(run.err.find(absent.string()), std::string::npos) << run.err;
   // A folder that is not a dataset: its problems, the same exit code.
   fs::create_directories(dir / "empty");
-  const CommandResult empty = Hdabench({"run", (dir / "empty").string(), "--out", (dir / "out").string()});
+  const CommandResult empty = RunInOwnFolder({"run", (dir / "empty").string(), "--out", (dir / "out").string()});
   EXPECT_EQ(empty.exit_code, 3) << empty.out << empty.err;
   EXPECT_NE(empty.err.find("problem(s) in"), std::string::npos) << empty.err;
 }
@@ -200,7 +197,7 @@ TEST(RunCommand, AnOutputFolderUnderAFileIsAnInputError) {
   const fs::path file = FreshTestDir() / "file";
   hdabench::testing_support::WriteText(file, "x");
   const fs::path out = file / "out";
-  const CommandResult run = Hdabench({"run", Dataset().string(), "--out", out.string()});
+  const CommandResult run = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", out.string()});
   EXPECT_EQ(run.exit_code, 3) << run.out << run.err;
   EXPECT_NE(run.err.find(out.string()), std::string::npos) << run.err;
 }
@@ -213,7 +210,7 @@ TEST(RunCommand, AnOutputFolderUnderAFileIsAnInputError) {
 TEST(RunCommand, AnOutputFolderInsideTheDatasetIsRefusedAndNothingIsWritten) {
   const fs::path dir = FreshTestDir();
   const fs::path dataset = dir / "dataset";
-  fs::copy(Dataset(), dataset, fs::copy_options::recursive);
+  fs::copy(SmallSyntheticDataset(), dataset, fs::copy_options::recursive);
   const auto listing = [&dataset] {
     std::vector<std::string> files;
     for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dataset)) {
@@ -234,14 +231,14 @@ TEST(RunCommand, AnOutputFolderInsideTheDatasetIsRefusedAndNothingIsWritten) {
       std::vector<std::string> args = {command, dataset.string(), "--out", out.string(), "--no-figures",
                                        "--no-report"};
       if (command == "compare") args.insert(args.end(), {"--methods", "flight"});
-      const CommandResult refused = Hdabench(args);
+      const CommandResult refused = RunInOwnFolder(args);
       EXPECT_EQ(refused.exit_code, 3) << command << " --out " << out << "\n" << refused.out << refused.err;
       EXPECT_NE(refused.err.find("is the dataset folder"), std::string::npos) << refused.err;
       EXPECT_NE(refused.err.find(out.string()), std::string::npos) << refused.err;
     }
   }
   EXPECT_EQ(listing(), before);
-  const CommandResult beside = Hdabench({"run", dataset.string(), "--out", (dir / "dataset-results").string(),
+  const CommandResult beside = RunInOwnFolder({"run", dataset.string(), "--out", (dir / "dataset-results").string(),
                                          "--no-figures", "--no-report", "--budget-s", "10000"});
   EXPECT_EQ(beside.exit_code, 0) << beside.out << beside.err;
   EXPECT_TRUE(fs::exists(dir / "dataset-results" / "result.json"));
@@ -254,11 +251,11 @@ TEST(RunCommand, AnOutputFolderHoldingAnotherCommandsResultsIsRefused) {
   const fs::path dir = FreshTestDir();
   // An ample budget for run: its bytes are compared across two runs.
   const auto command = [&](const std::string& name, const fs::path& out) {
-    std::vector<std::string> args = {name, Dataset().string(), "--out", out.string(), "--no-figures",
+    std::vector<std::string> args = {name, SmallSyntheticDataset().string(), "--out", out.string(), "--no-figures",
                                      "--no-report"};
     if (name == "compare") args.insert(args.end(), {"--methods", "flight"});
     if (name == "run") args.insert(args.end(), {"--budget-s", "10000"});
-    return Hdabench(args);
+    return RunInOwnFolder(args);
   };
   ASSERT_EQ(command("compare", dir / "compared").exit_code, 0);
   ASSERT_EQ(command("run", dir / "ran").exit_code, 0);
@@ -277,7 +274,7 @@ TEST(RunCommand, AnOutputFolderHoldingAnotherCommandsResultsIsRefused) {
   EXPECT_FALSE(fs::exists(dir / "ran" / "compare.json"));
   EXPECT_EQ(ReadText(dir / "ran" / "result.json"), ran);
 
-  fs::copy(Dataset(), dir / "another-dataset", fs::copy_options::recursive);
+  fs::copy(SmallSyntheticDataset(), dir / "another-dataset", fs::copy_options::recursive);
   const CommandResult into_dataset = command("run", dir / "another-dataset");
   EXPECT_EQ(into_dataset.exit_code, 3) << into_dataset.out << into_dataset.err;
   EXPECT_NE(into_dataset.err.find("holds a dataset"), std::string::npos) << into_dataset.err;
@@ -301,7 +298,7 @@ TEST(RunCommand, PlanarTargetIngestedAndRunOnTheBoard) {
                                            (data / "mrcal/camera-1.cameramodel").string(), "--board", "9x6"};
   std::vector<std::string> args = ingest;
   args.insert(args.end(), {"--out", (dir / "target").string()});
-  const CommandResult ingested = Hdabench(args);
+  const CommandResult ingested = RunInOwnFolder(args);
   ASSERT_EQ(ingested.exit_code, 0) << ingested.out << ingested.err;
   EXPECT_NE(ingested.out.find("PnP reprojection RMS"), std::string::npos) << ingested.out;
   EXPECT_NE(ingested.out.find("against the models' extrinsics"), std::string::npos) << ingested.out;
@@ -310,7 +307,7 @@ TEST(RunCommand, PlanarTargetIngestedAndRunOnTheBoard) {
   const std::string roi = ingested.out.substr(at + 6, ingested.out.find(' ', at + 6) - at - 6);
 
   const CommandResult run =
-      Hdabench({"run", (dir / "target").string(), "--roi", roi, "--params",
+      RunInOwnFolder({"run", (dir / "target").string(), "--roi", roi, "--params",
                 (fs::path(HDABENCH_SOURCE_DIR) / "params/planar-target.json").string(), "--out",
                 (dir / "run").string(), "--no-figures", "--no-report", "--quiet"});
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
@@ -323,14 +320,14 @@ TEST(RunCommand, PlanarTargetIngestedAndRunOnTheBoard) {
   EXPECT_EQ(result["options"]["matching"]["guide_radius_px"], 6);
 
   // An ROI outside image 1: exit 3, named. A malformed one: exit 2.
-  const CommandResult outside = Hdabench({"run", (dir / "target").string(), "--roi", "600,400,100,100",
+  const CommandResult outside = RunInOwnFolder({"run", (dir / "target").string(), "--roi", "600,400,100,100",
                                           "--out", (dir / "outside").string(), "--quiet"});
   EXPECT_EQ(outside.exit_code, 3) << outside.err;
   EXPECT_NE(outside.err.find("given ROI 1 (x 600, y 400, 100 x 100 px) is not inside image 1 (640 x 480 px)"),
             std::string::npos)
       << outside.err;
   const CommandResult malformed =
-      Hdabench({"run", (dir / "target").string(), "--roi", "1,2,3", "--out", (dir / "bad").string()});
+      RunInOwnFolder({"run", (dir / "target").string(), "--roi", "1,2,3", "--out", (dir / "bad").string()});
   EXPECT_EQ(malformed.exit_code, 2) << malformed.err;
 
   // ingest target: a bad board is a usage error, an image without the board
@@ -338,20 +335,20 @@ TEST(RunCommand, PlanarTargetIngestedAndRunOnTheBoard) {
   args = ingest;
   args[args.size() - 1] = "9by6";
   args.insert(args.end(), {"--out", (dir / "bad-board").string()});
-  const CommandResult bad_board = Hdabench(args);
+  const CommandResult bad_board = RunInOwnFolder(args);
   EXPECT_EQ(bad_board.exit_code, 2) << bad_board.err;
   EXPECT_FALSE(fs::exists(dir / "bad-board"));
   args = ingest;
   args[3] = (fs::path(HDABENCH_SOURCE_DIR) / "tests/data/opencv-stereo-chessboard/README.md").string();
   args.insert(args.end(), {"--out", (dir / "no-image").string()});
-  const CommandResult no_image = Hdabench(args);
+  const CommandResult no_image = RunInOwnFolder(args);
   EXPECT_EQ(no_image.exit_code, 3) << no_image.err;
   EXPECT_NE(no_image.err.find("README.md: not an image OpenCV can read"), std::string::npos) << no_image.err;
   EXPECT_FALSE(fs::exists(dir / "no-image") && !fs::is_empty(dir / "no-image"));
 }
 
 TEST(RunCommand, HasHelp) {
-  const CommandResult run = Hdabench({"run", "--help"});
+  const CommandResult run = RunInOwnFolder({"run", "--help"});
   EXPECT_EQ(run.exit_code, 0);
   for (const char* text : {"Usage", "--frames", "--out", "--processor-scale", "--budget-s",
                            "--no-figures", "--quiet"}) {

@@ -381,6 +381,8 @@ std::string FlightResultJson(const FlightRun& run) {
                  {"width_px", run.image_width_px},
                  {"height_px", run.image_height_px}};
   j["inputs"] = {{"baseline_m", Number(run.baseline_m)}, {"lrf_range_m", Number(run.lrf_range_m)}};
+  // Only when the range is not the LRF's, so that every other result keeps its bytes.
+  if (run.range_source != RangeSource::kLrf) j["inputs"]["range_source"] = ToString(run.range_source);
   const hda::QuadtreeResult& q = result.quadtree;
   Json rejected = Json::array();
   for (const cv::Rect& box : q.rejected_boxes) rejected.push_back(BoxJson(box));
@@ -517,7 +519,9 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run) {
 std::string FlightReport(const FlightRun& run) {
   std::ostringstream out;
   out << run.result.Summary() << "; frames " << run.frame1 << "," << run.frame2 << ", baseline "
-      << util::FixedCell(run.baseline_m, 2) << " m, LRF range " << util::FixedCell(run.lrf_range_m, 1) << " m\n";
+      << util::FixedCell(run.baseline_m, 2) << " m, "
+      << (run.range_source == RangeSource::kLrf ? "LRF range " : "range from the navigation (no LRF range) ")
+      << util::FixedCell(run.lrf_range_m, 1) << " m\n";
   if (run.result.rois.empty()) return out.str();
   const bool truth = run.AnyTruth();
   std::vector<std::vector<std::string>> rows;

@@ -3,13 +3,77 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
+#include "tools/util/text.h"
 #include "datasets/synth/truth.h"
 
 namespace hdabench::reference {
+
+namespace {
+
+// The slant range at a frame and where it came from. The LRF's, when it has a
+// sample there. Otherwise the navigation's: along camera 1's optical axis
+// from its centre to the level ground through the ILS (the mission map's
+// height of the landing site), which needs the axis at least
+// kMinAxisDepressionDeg below the horizon. InputError when neither exists.
+constexpr double kMinAxisDepressionDeg = 10.0;
+
+struct SlantRange {
+  double range_m = 0.0;
+  RangeSource source = RangeSource::kLrf;
+};
+
+SlantRange RangeAtFrame(const datasets::Dataset& dataset, int frame) {
+  const double time_s = dataset.frames[static_cast<size_t>(frame)].time_s;
+  std::string lrf_problem;
+  try {
+    return {dataset.LrfRangeAt(time_s), RangeSource::kLrf};
+  } catch (const std::out_of_range& e) {
+    lrf_problem = e.what();
+  }
+  const std::string no_lrf = "no LRF range at frame " + std::to_string(frame) + " (" + lrf_problem + ")";
+  Rigid3d local_from_cam;
+  try {
+    local_from_cam = dataset.CamFromLocal(frame).Inverse();
+  } catch (const std::out_of_range& e) {
+    throw InputError(no_lrf + ", and no navigation there either (" + e.what() + ")");
+  }
+  const double g = dataset.gravity_in_local_mps2.norm();
+  const Eigen::Vector3d up = -dataset.gravity_in_local_mps2 / g;
+  const Eigen::Vector3d axis = local_from_cam.rotation * Eigen::Vector3d::UnitZ();
+  const double height_m = up.dot(local_from_cam.translation - dataset.ils_in_local_m);
+  const double descent = -up.dot(axis);  // sine of the axis' depression below the horizon
+  if (!(g > 0.0) || !(descent > std::sin(kMinAxisDepressionDeg * util::kDegToRad)) || !(height_m > 0.0)) {
+    throw InputError(no_lrf + ", and camera " + std::to_string(frame) +
+                     "'s optical axis does not meet the level ground through the ILS from above (axis " +
+                     util::FixedText(std::asin(std::clamp(descent, -1.0, 1.0)) * util::kRadToDeg, 1) +
+                     " deg below the horizon, camera " + util::FixedText(height_m, 1) +
+                     " m above the ILS): the flight method needs a range to place the level ground and "
+                     "size the sites");
+  }
+  return {height_m / descent, RangeSource::kNavigation};
+}
+
+// Runs `pose` (a pose query of the dataset), turning a time outside the
+// navigation into an InputError naming the frames.
+template <typename Query>
+auto PoseOfFrames(int frame1, int frame2, Query query) {
+  try {
+    return query();
+  } catch (const std::out_of_range& e) {
+    throw InputError("no navigation for frames " + std::to_string(frame1) + "," + std::to_string(frame2) +
+                     " (" + e.what() + ")");
+  }
+}
+
+}  // namespace
+
+const char* ToString(RangeSource source) { return source == RangeSource::kLrf ? "lrf" : "navigation"; }
 
 std::pair<int, int> DefaultFramePair(const datasets::Dataset& dataset) {
   const int n = static_cast<int>(dataset.frames.size());
@@ -17,11 +81,12 @@ std::pair<int, int> DefaultFramePair(const datasets::Dataset& dataset) {
     throw InputError("dataset " + dataset.name + " has " + std::to_string(n) +
                      " frame(s): the flight method needs 2");
   }
-  const double range = dataset.LrfRangeAt(dataset.frames[0].time_s);
+  const double range = RangeAtFrame(dataset, 0).range_m;
   int best = 1;
   double best_error = std::numeric_limits<double>::infinity();
   for (int j = 1; j < n; ++j) {
-    const double error = std::abs(dataset.BaselineM(0, j) / range - kPaperBaselineToRange);
+    const double error =
+        std::abs(PoseOfFrames(0, j, [&] { return dataset.BaselineM(0, j); }) / range - kPaperBaselineToRange);
     if (error < best_error) {
       best_error = error;
       best = j;
@@ -51,11 +116,18 @@ hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int fra
   hda::HdaInput input;
   input.image1 = record1.image;
   input.image2 = record2.image;
-  input.local_from_cam1 = dataset.CamFromLocal(frame1).Inverse();
-  input.cam2_from_cam1 = dataset.Cam2FromCam1(frame1, frame2);
+  input.local_from_cam1 = PoseOfFrames(frame1, frame2, [&] { return dataset.CamFromLocal(frame1).Inverse(); });
+  input.cam2_from_cam1 = PoseOfFrames(frame1, frame2, [&] { return dataset.Cam2FromCam1(frame1, frame2); });
   input.gravity_in_local_mps2 = dataset.gravity_in_local_mps2;
   input.ils_in_local_m = dataset.ils_in_local_m;
-  input.lrf_range_m = dataset.LrfRangeAt(record1.time_s);
+  const SlantRange range = RangeAtFrame(dataset, frame1);
+  input.lrf_range_m = range.range_m;
+  if (range.source == RangeSource::kNavigation) {
+    // The range along camera 1's optical axis from its centre.
+    input.lrf_origin_in_cam1_m = Eigen::Vector3d::Zero();
+    input.lrf_beam_in_cam1 = Eigen::Vector3d::UnitZ();
+    return input;
+  }
   // The beam of the last sample at or before frame 1 (the first one if none).
   auto after = std::upper_bound(
       dataset.lrf.begin(), dataset.lrf.end(), record1.time_s,
@@ -107,8 +179,9 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   run.lens_model = dataset.camera.LensModelName();
   run.image_width_px = dataset.camera.WidthPx();
   run.image_height_px = dataset.camera.HeightPx();
-  run.baseline_m = dataset.BaselineM(frame1, frame2);
+  run.baseline_m = PoseOfFrames(frame1, frame2, [&] { return dataset.BaselineM(frame1, frame2); });
   run.lrf_range_m = input.lrf_range_m;
+  run.range_source = RangeAtFrame(dataset, frame1).source;
   run.options = options;
   run.given_rois = !given_rois_px.empty();
   run.result = hda::RunHda(input, dataset.camera, options);
@@ -123,8 +196,8 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
     return RunFlight(dataset, frame1, frame2, settings.options, given_rois_px);  // MakeHdaInput names the frame
   }
   PairGeometry geometry;
-  geometry.lrf_range_m = dataset.LrfRangeAt(dataset.frames[static_cast<size_t>(frame1)].time_s);
-  geometry.baseline_m = dataset.BaselineM(frame1, frame2);
+  geometry.lrf_range_m = RangeAtFrame(dataset, frame1).range_m;
+  geometry.baseline_m = PoseOfFrames(frame1, frame2, [&] { return dataset.BaselineM(frame1, frame2); });
   const cv::Mat& image1 = dataset.frames[static_cast<size_t>(frame1)].image;
   // The texture only sets the site size: not counted when the site is given.
   if (!image1.empty() && settings.given.count("quadtree.site_size_m") == 0) {

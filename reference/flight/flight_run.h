@@ -27,12 +27,25 @@ inline constexpr double kPaperBaselineToRange = 30.0 / 566.0;
 // dataset has fewer than 2 frames.
 std::pair<int, int> DefaultFramePair(const datasets::Dataset& dataset);
 
+// Where the slant range at image 1 came from.
+enum class RangeSource {
+  kLrf,         // the LRF's sample at image 1's time
+  kNavigation,  // no LRF range there: along camera 1's optical axis to the level ground through
+                // the ILS, from the navigation (docs/faults.md, "Without the LRF")
+};
+const char* ToString(RangeSource source);  // "lrf", "navigation"
+
 // The method's inputs for frames (frame1, frame2) from the dataset's measured
 // navigation (never its truth): local_from_cam1, cam2_from_cam1, gravity, ILS,
 // and the LRF sample at frame 1's time (range interpolated, beam and origin
-// moved into cam1). The images must be in memory (LoadOptions::keep_images);
+// moved into cam1). Without an LRF range at frame 1's time (an LRF absent, or
+// whose log does not cover it), the range along camera 1's optical axis from
+// its centre to the level ground through the ILS, when the axis points at
+// least 10 deg below the horizon (RangeSource::kNavigation). The images must be in memory (LoadOptions::keep_images);
 // the returned input shares their pixels. Throws InputError for a frame index
-// outside the dataset, equal frames, or images not loaded.
+// outside the dataset, equal frames, images not loaded, no range at frame 1
+// by either way, or no navigation at the frames' times (a dataset changed in
+// memory, datasets/faults.h).
 hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int frame2);
 
 // Truth of one ROI (datasets/synth/truth.h definitions, in image 1).
@@ -69,7 +82,8 @@ struct FlightRun {
   int image_width_px = 0;         // the imager
   int image_height_px = 0;
   double baseline_m = 0.0;        // navigation baseline between the two frames, metres
-  double lrf_range_m = 0.0;       // LRF range at frame 1, metres
+  double lrf_range_m = 0.0;       // slant range at frame 1, metres: the LRF's, or see range_source
+  RangeSource range_source = RangeSource::kLrf;
   hda::HdaOptions options;        // the options RunHda was given
   // The values of `options` set from the pair's geometry (ResolveHdaOptions);
   // empty when the options were given whole.

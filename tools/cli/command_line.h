@@ -38,6 +38,8 @@ std::vector<Command> AddIngestCommands(CLI::App& app);
 std::vector<Command> AddCalibrateCommands(CLI::App& app);
 // observability, observability merge (observability_command.cc).
 std::vector<Command> AddObservabilityCommands(CLI::App& app);
+// faults (faults_command.cc).
+Command AddFaultsCommand(CLI::App& app);
 // demo (demo_command.cc).
 Command AddDemoCommand(CLI::App& app);
 

@@ -114,6 +114,7 @@ constexpr ResultSignature kResultSignatures[] = {
     {"imagery.json", "the results of hdabench imagery pair"},
     {"study.json", "an observability study"},
     {"metrics.json", "the results of hdabench gate"},
+    {"faults.json", "the results of hdabench faults"},
 };
 
 }  // namespace

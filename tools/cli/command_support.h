@@ -77,7 +77,7 @@ bool IsSameOrInsideFolder(const std::string& path, const std::string& folder);
 // dataset (DIR/manifest.json)", "the results of hdabench compare
 // (DIR/compare.json)", ...: the first of the files that mark a dataset or a
 // command's results (manifest.json, result.json, compare.json, imagery.json,
-// study.json, metrics.json) at its top, but `own_file`, the mark of the
+// study.json, metrics.json, faults.json) at its top, but `own_file`, the mark of the
 // command's own results. Empty when it holds none, or out_dir is empty.
 std::string OtherCommandsResults(const std::string& out_dir, const std::string& own_file);
 

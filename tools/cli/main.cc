@@ -47,6 +47,7 @@ std::vector<Command> AddCommands(CLI::App& app) {
   Append(commands, AddIngestCommands(app));
   Append(commands, AddCalibrateCommands(app));
   Append(commands, AddObservabilityCommands(app));
+  commands.push_back(AddFaultsCommand(app));
   commands.push_back(AddDemoCommand(app));
   return commands;
 }

@@ -1,0 +1,94 @@
+// `hdabench faults` as a user meets it: the study's files and table, the
+// same bytes twice, a fault the method cannot run under named per case, and
+// its errors.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "tests/support/test_support.h"
+#include "tests/tools/small_dataset.h"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using hdabench::testing_support::CommandResult;
+using hdabench::testing_support::FreshTestDir;
+using hdabench::testing_support::ReadText;
+using hdabench::testing_support::RunInOwnFolder;
+using hdabench::testing_support::SmallSyntheticDataset;
+using hdabench::testing_support::SplitLines;
+
+TEST(FaultsCommand, EachCaseIsMeasuredOrNamedAndTheBytesAreTheSameTwice) {
+  const fs::path dir = FreshTestDir();
+  const std::vector<std::string> faults = {"--fault", "lrf-absent", "--fault", "lrf-scale=0.05",
+                                           "--fault", "attitude-bias=2", "--fault", "lrf-stuck=30"};
+  std::vector<std::string> args = {"faults", SmallSyntheticDataset().string(), "--out", (dir / "a").string(),
+                                   "--quiet"};
+  args.insert(args.end(), faults.begin(), faults.end());
+  const CommandResult first = RunInOwnFolder(args);
+  ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
+  EXPECT_NE(first.out.find("attitude-bias=2"), std::string::npos) << first.out;
+  const nlohmann::json json = nlohmann::json::parse(ReadText(dir / "a" / "faults.json"));
+  EXPECT_EQ(json["format"], "hdabench-faults");
+  const nlohmann::json& cases = json["cases"];
+  ASSERT_EQ(cases.size(), 5u);
+  EXPECT_EQ(cases[0]["case"], "clean");
+  ASSERT_TRUE(cases[0]["ran"].get<bool>());
+  EXPECT_GT(cases[0]["with_slope"].get<int>(), 0);
+  EXPECT_EQ(cases[0]["range_source"], "lrf");
+  // Without the LRF the range comes from the navigation (to the level ground through the ILS): slopes,
+  // and the table says so.
+  EXPECT_EQ(cases[1]["case"], "lrf-absent");
+  ASSERT_TRUE(cases[1]["ran"].get<bool>()) << cases[1]["error"];
+  EXPECT_EQ(cases[1]["range_source"], "navigation");
+  EXPECT_GT(cases[1]["with_slope"].get<int>(), 0);
+  EXPECT_NE(first.out.find("lrf-absent (range from nav)"), std::string::npos) << first.out;
+  // A 5 % LRF bias and a 2 deg attitude bias still give slopes; the attitude bias moves them.
+  EXPECT_TRUE(cases[2]["ran"].get<bool>());
+  ASSERT_TRUE(cases[3]["ran"].get<bool>());
+  EXPECT_GT(cases[3]["moved_count"].get<int>(), 0);
+  EXPECT_GT(cases[3]["moved_median_deg"].get<double>(), 0.1);
+  // Stuck 30 s before image 1 does not apply: the LRF log starts 0.2 s before it. Said, and not
+  // counted as the method's failure.
+  EXPECT_FALSE(cases[4]["applied"].get<bool>());
+  EXPECT_NE(cases[4]["error"].get<std::string>().find("not applied: fault lrf-stuck=30: the LRF log does not reach back"),
+            std::string::npos);
+  EXPECT_EQ(SplitLines(ReadText(dir / "a" / "faults.csv")).size(), 6u);
+  EXPECT_EQ(ReadText(dir / "a" / "faults.md"), first.out.substr(0, first.out.find("wrote ")));
+
+  args[3] = (dir / "b").string();
+  const CommandResult second = RunInOwnFolder(args);
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  for (const char* name : {"faults.json", "faults.csv", "faults.md"}) {
+    EXPECT_EQ(ReadText(dir / "a" / name), ReadText(dir / "b" / name)) << name;
+  }
+}
+
+TEST(FaultsCommand, BadFlagsAndFoldersAreNamed) {
+  const fs::path dir = FreshTestDir();
+  const std::string dataset = SmallSyntheticDataset().string();
+  const CommandResult unknown = RunInOwnFolder({"faults", dataset, "--out", (dir / "x").string(), "--fault", "lrf-gone"});
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("unknown fault 'lrf-gone': expected one of lrf-absent"), std::string::npos) << unknown.err;
+  const CommandResult bad_number =
+      RunInOwnFolder({"faults", dataset, "--out", (dir / "x").string(), "--fault", "lrf-scale=0.1,big"});
+  EXPECT_EQ(bad_number.exit_code, 2);
+  EXPECT_NE(bad_number.err.find("'big' is not a finite number (fraction)"), std::string::npos) << bad_number.err;
+  const CommandResult inside = RunInOwnFolder({"faults", dataset, "--out", (fs::path(dataset) / "faults").string()});
+  EXPECT_EQ(inside.exit_code, 3);
+  EXPECT_NE(inside.err.find("is the dataset folder"), std::string::npos) << inside.err;
+  EXPECT_FALSE(fs::exists(fs::path(dataset) / "faults"));
+  const CommandResult nothing = RunInOwnFolder({"faults"});
+  EXPECT_EQ(nothing.exit_code, 2);
+  const CommandResult list = RunInOwnFolder({"faults", "--list"});
+  EXPECT_EQ(list.exit_code, 0);
+  for (const char* name : {"lrf-absent", "lrf-scale", "attitude-bias", "clock-offset", "frame-repeated"}) {
+    EXPECT_NE(list.out.find(name), std::string::npos) << name;
+  }
+}
+
+}  // namespace

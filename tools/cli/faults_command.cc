@@ -1,0 +1,169 @@
+// `hdabench faults`: the flight method on one pair of a dataset, clean and
+// under each sensor fault at a sweep of magnitudes (reference/faults/,
+// docs/faults.md); writes faults.csv, faults.json and faults.md and prints
+// the table.
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core/utility.hpp>
+
+#include "datasets/faults.h"
+#include "reference/faults/fault_study.h"
+#include "tools/cli/command_line.h"
+#include "tools/cli/command_support.h"
+#include "tools/cli/exit_codes.h"
+#include "tools/util/error.h"
+#include "tools/util/files.h"
+#include "tools/util/text.h"
+
+namespace hdabench::tools {
+
+namespace {
+
+struct FaultsArgs {
+  std::string dataset_dir;
+  std::string out_dir;
+  std::string frames_text;
+  std::vector<std::string> fault_texts;
+  std::uint64_t seed = 1;
+  std::string params_file;
+  std::vector<std::string> hda_sets;
+  reference::FaultRequirements requirements;
+  bool list = false;
+  bool quiet = false;
+};
+
+// "NAME" or "NAME=M1,M2,...": the fault at each magnitude (its default sweep
+// when none is given). Throws CLI::ValidationError (exit 2) naming the flag.
+std::vector<datasets::Fault> ParseFaultFlag(const std::string& text) {
+  const size_t equals = text.find('=');
+  const std::string name = text.substr(0, equals);
+  datasets::FaultKind kind;
+  try {
+    kind = datasets::ParseFaultKind(name);
+  } catch (const InputError& e) {
+    throw CLI::ValidationError("--fault", e.what());
+  }
+  const datasets::FaultInfo& info = datasets::InfoOf(kind);
+  std::vector<datasets::Fault> faults;
+  if (equals == std::string::npos) {
+    for (const double m : info.sweep) faults.push_back({kind, m});
+    return faults;
+  }
+  if (info.unit[0] == '\0') {
+    throw CLI::ValidationError("--fault", "'" + text + "': " + name + " takes no magnitude");
+  }
+  std::string rest = text.substr(equals + 1);
+  size_t start = 0;
+  while (start <= rest.size()) {
+    const size_t comma = rest.find(',', start);
+    const std::string item = rest.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    double value = 0.0;
+    if (util::ParseDouble(item, &value) != util::ParseStatus::kOk) {
+      throw CLI::ValidationError("--fault", "'" + text + "': '" + item + "' is not a finite number (" +
+                                                info.unit + ")");
+    }
+    faults.push_back({kind, value});
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return faults;
+}
+
+std::string CatalogueText() {
+  std::vector<std::vector<std::string>> rows = {{"fault", "unit", "default sweep", "what it does"}};
+  for (const datasets::FaultInfo& info : datasets::FaultCatalogue()) {
+    std::string sweep;
+    if (info.unit[0] != '\0') {
+      for (const double m : info.sweep) sweep += (sweep.empty() ? "" : ",") + util::ShortestText(m);
+    }
+    rows.push_back({info.name, info.unit[0] == '\0' ? "-" : info.unit, sweep.empty() ? "-" : sweep,
+                    info.description});
+  }
+  return util::FormatTextTable(rows, {true, true, true, true});
+}
+
+int RunFaults(const FaultsArgs& args, std::ostream& out, std::ostream& err) {
+  if (args.list) {
+    out << CatalogueText();
+    return kExitOk;
+  }
+  if (args.dataset_dir.empty() || args.out_dir.empty()) {
+    err << "hdabench faults: give DATASET and --out DIR (or --list for the faults)\n";
+    return kExitUsage;
+  }
+  const auto progress = [&](const std::string& line) {
+    if (!args.quiet) err << "hdabench faults: " << line << "\n";
+  };
+  std::vector<datasets::Fault> faults;
+  for (const std::string& text : args.fault_texts) {
+    const std::vector<datasets::Fault> some = ParseFaultFlag(text);
+    faults.insert(faults.end(), some.begin(), some.end());
+  }
+  if (faults.empty()) faults = reference::DefaultFaultSweep();
+  reference::HdaSettings settings;
+  const int settings_code = BuildHdaSettings(args.params_file, {}, args.hda_sets, "faults", err, &settings);
+  if (settings_code != kExitOk) return settings_code;
+
+  const PairLoad pair = LoadDatasetPair(args.dataset_dir, ParseFramesFlag(args.frames_text), args.out_dir,
+                                        "faults", err, progress, /*read_dem=*/false, "faults.json");
+  if (pair.exit_code != kExitOk) return pair.exit_code;
+  // One core, as on the flight computer (results do not depend on it).
+  cv::setNumThreads(1);
+  progress(std::to_string(faults.size()) + " fault case(s) on frames " + std::to_string(pair.frames.first) + "," +
+           std::to_string(pair.frames.second) + ", and the clean run");
+  return WithExitCodes("hdabench faults: ", err, [&] {
+    const reference::FaultStudy study =
+        reference::RunFaultStudy(*pair.dataset, pair.frames.first, pair.frames.second, settings, faults,
+                                 args.requirements, args.seed, progress);
+    const std::string table = reference::FaultStudyMarkdown(study);
+    util::WriteFileAtomically(std::filesystem::path(args.out_dir) / "faults.csv", reference::FaultStudyCsv(study));
+    util::WriteFileAtomically(std::filesystem::path(args.out_dir) / "faults.md", table);
+    // faults.json last: it marks the folder as holding a whole study.
+    util::WriteFileAtomically(std::filesystem::path(args.out_dir) / "faults.json", reference::FaultStudyJson(study));
+    out << table;
+    out << "wrote faults.csv, faults.md and faults.json to " << args.out_dir << "\n";
+  });
+}
+
+}  // namespace
+
+Command AddFaultsCommand(CLI::App& app) {
+  const auto args = std::make_shared<FaultsArgs>();
+  CLI::App* faults = app.add_subcommand(
+      "faults",
+      "The flight method under sensor faults (LRF, navigation, clock, images) at a sweep of magnitudes,\n"
+      "against the truth and the clean run (docs/faults.md)");
+  faults->add_option("DATASET", args->dataset_dir, "Dataset folder (with truth for the slope errors)");
+  faults->add_option("--out", args->out_dir, "Output folder (created if missing): faults.csv, faults.json, faults.md");
+  faults->add_option("--frames", args->frames_text,
+                     "Two different frame indices i,j (default: as hdabench run)");
+  faults->add_option("--fault", args->fault_texts,
+                     "A fault and its magnitudes, NAME or NAME=M1,M2,... (repeatable; default: every fault\n"
+                     "at its default sweep; --list shows them)")
+      ->allow_extra_args(false);
+  faults->add_option("--seed", args->seed, "Seed of the faults' random numbers (lrf-noise)")->capture_default_str();
+  faults->add_option("--max-median-deg", args->requirements.max_median_deg,
+                     "Requirement: slope error median at most this")
+      ->capture_default_str();
+  faults->add_option("--max-p90-deg", args->requirements.max_p90_deg,
+                     "Requirement: slope error 90th percentile at most this")
+      ->capture_default_str();
+  faults->add_option("--min-within-two-sigma", args->requirements.min_within_two_sigma,
+                     "Requirement: share of slopes within 2 predicted sigmas at least this")
+      ->capture_default_str();
+  faults->add_option("--min-share", args->requirements.min_evaluated_share,
+                     "Requirement: share of ROIs with a slope at least this")
+      ->capture_default_str();
+  faults->add_option("--params", args->params_file, kParamsHelp);
+  faults->add_option("--set", args->hda_sets, kSetHelp)->allow_extra_args(false);
+  faults->add_flag("--list", args->list, "Print the faults, their units and default sweeps, and exit");
+  faults->add_flag("--quiet", args->quiet, "No progress lines");
+  return {faults, [args] { return RunFaults(*args, std::cout, std::cerr); }};
+}
+
+}  // namespace hdabench::tools

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
 #include <sstream>
 #include <tuple>
@@ -10,6 +11,7 @@
 
 #include "reference/flight/flight_run.h"
 #include "tools/util/error.h"
+#include "tools/util/python_script.h"
 #include "tools/util/statistics.h"
 #include "tools/util/text.h"
 
@@ -318,6 +320,11 @@ std::string FaultStudyMarkdown(const FaultStudy& study) {
   }
   out << util::FormatTextTable(crossing_rows, {true, true, false, false, false, false});
   return out.str();
+}
+
+std::string WriteFaultPlots(const std::string& dir, const std::string& python) {
+  const std::string absolute = std::filesystem::absolute(dir).string();
+  return util::RunPlotScript(python, "faults", "faults_plots.py", FaultsPlotsScript(), {absolute, absolute}, 300.0);
 }
 
 }  // namespace hdabench::reference

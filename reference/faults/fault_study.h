@@ -101,4 +101,13 @@ std::string FaultStudyCsv(const FaultStudy& study);
 std::string FaultStudyJson(const FaultStudy& study);
 std::string FaultStudyMarkdown(const FaultStudy& study);
 
+// Draws DIR/faults.png from DIR/faults.json (faults_plots.py: per fault with
+// a magnitude, the slope error median and p90 and the shares with a slope and
+// within 2 sigma against the magnitude, requirements dotted) with `python` (a
+// path or a name looked up in PATH). Returns "" when drawn, else why not.
+std::string WriteFaultPlots(const std::string& dir, const std::string& python);
+
+// The text of faults_plots.py, compiled in.
+const std::string& FaultsPlotsScript();
+
 }  // namespace hdabench::reference

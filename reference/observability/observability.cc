@@ -625,30 +625,16 @@ MergedStudy MergeStudyFolders(const std::vector<std::string>& dirs) {
 }
 
 std::string WriteStudyPlots(const std::string& dir, const std::string& python) {
-  const std::string interpreter = util::FindExecutable(python);
-  if (interpreter.empty()) {
+  const std::filesystem::path figures = std::filesystem::path(dir) / "figures";
+  if (util::FindExecutable(python).empty()) {
     return "the Python interpreter '" + python + "' was not found; the plots need Python 3 with matplotlib";
   }
-  const std::filesystem::path figures = std::filesystem::path(dir) / "figures";
   std::error_code ec;
   std::filesystem::create_directories(figures, ec);
   if (ec) return figures.string() + ": cannot create the folder: " + ec.message();
-  const util::PythonScript script("observability", "observability_plots.py", ObservabilityPlotsScript());
-  const std::filesystem::path log = script.folder() / "plots.log";
-  util::PythonScriptOptions run;
-  run.python = interpreter;
-  run.log_file = log.string();
-  run.working_dir = script.folder().string();
-  run.timeout_s = 300.0;
-  run.single_threaded_math = true;
-  const util::ProcessResult result =
-      script.Run({std::filesystem::absolute(dir).string(), std::filesystem::absolute(figures).string()}, run);
-  if (!result.Ok()) {
-    const std::string last_line = util::LastLineOfLog(log.string());
-    return "the plotting script (observability_plots.py under " + interpreter + ") failed: " + result.error +
-           (last_line.empty() ? "" : ": " + last_line);
-  }
-  return "";
+  return util::RunPlotScript(python, "observability", "observability_plots.py", ObservabilityPlotsScript(),
+                             {std::filesystem::absolute(dir).string(), std::filesystem::absolute(figures).string()},
+                             300.0);
 }
 
 }  // namespace hdabench::reference

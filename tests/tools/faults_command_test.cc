@@ -59,6 +59,8 @@ TEST(FaultsCommand, EachCaseIsMeasuredOrNamedAndTheBytesAreTheSameTwice) {
             std::string::npos);
   EXPECT_EQ(SplitLines(ReadText(dir / "a" / "faults.csv")).size(), 6u);
   EXPECT_EQ(ReadText(dir / "a" / "faults.md"), first.out.substr(0, first.out.find("wrote ")));
+  // The figure (Python with matplotlib, a Debian package of tools/debian-packages.txt).
+  EXPECT_EQ(ReadText(dir / "a" / "faults.png").substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8)) << first.err;
 
   args[3] = (dir / "b").string();
   const CommandResult second = RunInOwnFolder(args);

@@ -1,7 +1,7 @@
 // `hdabench faults`: the flight method on one pair of a dataset, clean and
 // under each sensor fault at a sweep of magnitudes (reference/faults/,
-// docs/faults.md); writes faults.csv, faults.json and faults.md and prints
-// the table.
+// docs/faults.md); writes faults.csv, faults.json and faults.md, prints the
+// table, and draws faults.png.
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -33,6 +33,8 @@ struct FaultsArgs {
   std::string params_file;
   std::vector<std::string> hda_sets;
   reference::FaultRequirements requirements;
+  std::string python = "/usr/bin/python3";
+  bool no_figures = false;
   bool list = false;
   bool quiet = false;
 };
@@ -127,6 +129,14 @@ int RunFaults(const FaultsArgs& args, std::ostream& out, std::ostream& err) {
     util::WriteFileAtomically(std::filesystem::path(args.out_dir) / "faults.json", reference::FaultStudyJson(study));
     out << table;
     out << "wrote faults.csv, faults.md and faults.json to " << args.out_dir << "\n";
+    if (args.no_figures) return;
+    // The figure never changes the exit code: without it the study is whole.
+    const std::string problem = reference::WriteFaultPlots(args.out_dir, args.python);
+    if (problem.empty()) {
+      out << "wrote faults.png\n";
+    } else {
+      err << "hdabench faults: warning: no faults.png: " << problem << "\n";
+    }
   });
 }
 
@@ -161,6 +171,8 @@ Command AddFaultsCommand(CLI::App& app) {
       ->capture_default_str();
   faults->add_option("--params", args->params_file, kParamsHelp);
   faults->add_option("--set", args->hda_sets, kSetHelp)->allow_extra_args(false);
+  faults->add_option("--python", args->python, "Python 3 with matplotlib, for faults.png")->capture_default_str();
+  faults->add_flag("--no-figures", args->no_figures, "Do not draw faults.png");
   faults->add_flag("--list", args->list, "Print the faults, their units and default sweeps, and exit");
   faults->add_flag("--quiet", args->quiet, "No progress lines");
   return {faults, [args] { return RunFaults(*args, std::cout, std::cerr); }};

@@ -57,4 +57,27 @@ ProcessResult PythonScript::Run(const std::vector<std::string>& arguments,
   return RunProcess(argv, process);
 }
 
+std::string RunPlotScript(const std::string& python, const std::string& purpose, const std::string& file_name,
+                          const std::string& text, const std::vector<std::string>& arguments, double timeout_s) {
+  const std::string interpreter = FindExecutable(python);
+  if (interpreter.empty()) {
+    return "the Python interpreter '" + python + "' was not found; the plots need Python 3 with matplotlib";
+  }
+  const PythonScript script(purpose, file_name, text);
+  const fs::path log = script.folder() / "plots.log";
+  PythonScriptOptions run;
+  run.python = interpreter;
+  run.log_file = log.string();
+  run.working_dir = script.folder().string();
+  run.timeout_s = timeout_s;
+  run.single_threaded_math = true;
+  const ProcessResult result = script.Run(arguments, run);
+  if (!result.Ok()) {
+    const std::string last_line = LastLineOfLog(log.string());
+    return "the plotting script (" + file_name + " under " + interpreter + ") failed: " + result.error +
+           (last_line.empty() ? "" : ": " + last_line);
+  }
+  return "";
+}
+
 }  // namespace hdabench::util

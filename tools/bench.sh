@@ -4,15 +4,17 @@
 #   tools/bench.sh run     install what is missing, build, run the main job on the built-in default
 #   tools/bench.sh test    install what is missing, build, run the whole test suite
 #                          (the normal build, then the address + undefined-behaviour sanitizer build
-#                          without the tests labelled external),
-#                          then the merge gate on the CI-sized suite (gate/suite-ci.json)
+#                          without the tests labelled external), 30 s of each libFuzzer harness
+#                          (tools/fuzz.sh), then the merge gate on the CI-sized suite
+#                          (gate/suite-ci.json)
 #   tools/bench.sh setup   install what is missing and build, nothing else
 #
 # Debian packages come from tools/debian-packages.txt (the one list). apt runs only
 # when something is missing, and the build is incremental, so a second run is fast
 # and changes nothing. Environment: HDABENCH_BUILD_DIR (default build),
 # HDABENCH_JOBS (default: number of cores), HDABENCH_SKIP_SANITIZE=1 to test the
-# normal build only, HDABENCH_SKIP_GATE=1 to skip the gate.
+# normal build only, HDABENCH_SKIP_FUZZ=1 to skip the fuzzing, HDABENCH_SKIP_GATE=1 to
+# skip the gate.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -106,10 +108,15 @@ case $command in
       # bytes, made several times faster than under the sanitizers).
       HDABENCH_TEST_DATASETS_FROM=$build_dir run_tests "${build_dir}-sanitize" -LE external
     fi
+    # Every parser of outside input under libFuzzer for 30 s (docs/fuzzing.md).
+    if [[ ${HDABENCH_SKIP_FUZZ:-0} != 1 ]]; then
+      say "Fuzzing (tools/fuzz.sh --seconds 30)"
+      HDABENCH_FUZZ_BUILD_DIR=${build_dir}-fuzz "$root/tools/fuzz.sh" --seconds 30 || die "a fuzz harness crashed"
+    fi
     run_gate
     ;;
   -h | --help | help)
-    sed -n '2,15p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+    sed -n '2,17p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
     ;;
   *)
     die "usage: tools/bench.sh run|test|setup (see tools/bench.sh --help)" 2

@@ -1,0 +1,105 @@
+#!/usr/bin/env bash
+# The libFuzzer harnesses of every parser of outside input (tests/fuzz/,
+# docs/fuzzing.md): builds them with clang, AddressSanitizer and
+# UndefinedBehaviorSanitizer into build-fuzz/, and runs each from its seed
+# corpus (the repository's own files of its kind, and the valid files the
+# harness is built around) for a time or a number of runs.
+#
+#   tools/fuzz.sh [--seconds N | --runs N] [--only NAME[,NAME...]]
+#
+# Default: 30 seconds each (the test command's run). Prints per harness the
+# executions, the time, the corpus size and the crashes; a crash's input is
+# kept in build-fuzz/fuzz-artifacts/ and the script exits 1. The corpus each
+# run grows is kept in build-fuzz/fuzz-corpus/NAME and the next run starts
+# from it. Environment: HDABENCH_FUZZ_BUILD_DIR (default build-fuzz),
+# HDABENCH_JOBS (default: number of cores). Exit codes: 0 no crash, 1 a
+# harness crashed (or leaked, or a sanitizer reported), 2 bad usage, 3 no
+# clang or libFuzzer.
+set -euo pipefail
+
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+build_dir=${HDABENCH_FUZZ_BUILD_DIR:-$root/build-fuzz}
+jobs=${HDABENCH_JOBS:-$(nproc)}
+all=(npy png cameramodel dataset field_log colmap_model gate_files)
+limit=(-max_total_time=30)
+only=()
+
+die() { printf 'tools/fuzz.sh: error: %s\n' "$1" >&2; exit "${2:-2}"; }
+
+while (($#)); do
+  case $1 in
+    --seconds) [[ ${2:-} =~ ^[0-9]+$ ]] || die "--seconds needs a whole number"; limit=(-max_total_time="$2"); shift 2 ;;
+    --runs) [[ ${2:-} =~ ^[0-9]+$ ]] || die "--runs needs a whole number"; limit=(-runs="$2"); shift 2 ;;
+    --only) IFS=, read -r -a only <<<"${2:-}"; shift 2 ;;
+    -h | --help) sed -n '2,19p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) die "unknown argument '$1' (see tools/fuzz.sh --help)" ;;
+  esac
+done
+((${#only[@]})) || only=("${all[@]}")
+for name in "${only[@]}"; do
+  [[ " ${all[*]} " == *" $name "* ]] || die "no harness '$name' (there are: ${all[*]})"
+done
+
+clang=$(command -v clang++-14 || command -v clang++ || true)
+[[ -n $clang ]] || die "clang++ not found (Debian package clang, in tools/debian-packages.txt)" 3
+if [[ ! -f $build_dir/CMakeCache.txt ]]; then
+  printf '== Configuring %s\n' "$build_dir"
+  cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DCMAKE_CXX_COMPILER="$clang" \
+    -DCMAKE_C_COMPILER="${clang%++*}${clang##*++}" -DHDABENCH_FUZZ=ON -DHDABENCH_BUILD_TESTS=OFF \
+    -DCMAKE_UNITY_BUILD=ON >/dev/null || die "configuring $build_dir failed (is libFuzzer there: libclang-rt-14-dev?)" 3
+fi
+printf '== Building the harnesses in %s\n' "$build_dir"
+cmake --build "$build_dir" -j "$jobs" --target hdabench_fuzzers || die "building the harnesses failed" 1
+
+# seeds NAME DIR: the seed corpus of a harness (rebuilt every run).
+seeds() {
+  local name=$1 dir=$2 file
+  rm -rf "$dir"
+  mkdir -p "$dir"
+  # The valid files the harness is built around.
+  HDABENCH_FUZZ_SEEDS=$dir "$build_dir/tests/fuzz/${name}_fuzzer" -runs=0 "$dir" >/dev/null 2>&1 || true
+  case $name in
+    npy) git -C "$root" ls-files '*.npy' '*.npz' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
+    cameramodel) git -C "$root" ls-files '*.cameramodel' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
+    gate_files)
+      # Index byte 0: the suite; 1: the thresholds.
+      for file in "$root"/gate/suite*.json; do { printf '\000'; cat "$file"; } >"$dir/$(basename "$file")"; done
+      for file in "$root"/gate/thresholds*.json; do { printf '\001'; cat "$file"; } >"$dir/$(basename "$file")"; done
+      ;;
+  esac
+}
+
+mkdir -p "$build_dir/fuzz-artifacts"
+crashed=()
+rows=()
+for name in "${only[@]}"; do
+  corpus=$build_dir/fuzz-corpus/$name
+  seed_dir=$build_dir/fuzz-seeds/$name
+  log=$build_dir/fuzz-logs/$name.log
+  mkdir -p "$corpus" "$(dirname "$log")"
+  seeds "$name" "$seed_dir"
+  printf '== %s_fuzzer (%s)\n' "$name" "${limit[*]}"
+  start=$(date +%s)
+  status=0
+  # Leak checking on; a timeout of 10 s per input; inputs up to 64 KB.
+  "$build_dir/tests/fuzz/${name}_fuzzer" "${limit[@]}" -timeout=10 -max_len=65536 -print_final_stats=1 \
+    -artifact_prefix="$build_dir/fuzz-artifacts/$name-" "$corpus" "$seed_dir" >"$log" 2>&1 || status=$?
+  end=$(date +%s)
+  execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
+  files=$(find "$corpus" -type f | wc -l)
+  seconds=$((end - start))
+  verdict="no crash"
+  if ((status != 0)); then
+    verdict="CRASH (exit $status): $(grep -m1 -E 'ERROR: |SUMMARY: |runtime error' "$log" || tail -1 "$log")"
+    crashed+=("$name")
+  fi
+  rows+=("$(printf '%-14s %12s %8s %8s  %s' "$name" "${execs:-?}" "$seconds" "$files" "$verdict")")
+done
+printf '\n%-14s %12s %8s %8s  %s\n' harness executions seconds corpus verdict
+printf '%s\n' "${rows[@]}"
+if ((${#crashed[@]})); then
+  printf '\ntools/fuzz.sh: %s crashed; inputs in %s, logs in %s\n' "${crashed[*]}" \
+    "$build_dir/fuzz-artifacts" "$build_dir/fuzz-logs" >&2
+  exit 1
+fi

@@ -21,8 +21,11 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   folder = new hdabench::fuzz::DamagedFolder(
       "fuzz-dataset", {"manifest.json", "camera.cameramodel", "frames.csv", "nav.csv", "lrf.csv"});
   hdabench::datasets::ExampleDatasetOptions options;
+  // Small, so that the parser runs often: 2 frames of 32 px, navigation and LRF at 5 Hz.
   options.image_size_px = 32;
   options.num_frames = 2;
+  options.nav_rate_hz = 5.0;
+  options.lrf_rate_hz = 5.0;
   hdabench::datasets::WriteDataset(hdabench::datasets::MakeExampleDataset(options),
                                    (folder->path() / "example").string());
   // The example's files at the top of the scratch folder.

@@ -20,8 +20,11 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
   folder = new hdabench::fuzz::DamagedFolder("fuzz-field-log",
                                              {"log.json", "nav.csv", "lrf.csv", "camera.cameramodel"});
   hdabench::datasets::ExampleDatasetOptions options;
+  // Small, so that the parser runs often: 2 frames of 32 px, navigation and LRF at 5 Hz.
   options.image_size_px = 32;
   options.num_frames = 2;
+  options.nav_rate_hz = 5.0;
+  options.lrf_rate_hz = 5.0;
   hdabench::datasets::Geodetic origin;
   origin.lat_deg = 32.38;
   origin.lon_deg = -106.48;

@@ -6,6 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "tools/util/error.h"
 #include "tools/util/files.h"
 #include "reference/flight/flight_outputs.h"
 #include "tools/util/text.h"
@@ -264,12 +265,19 @@ std::vector<std::string> WriteCompareOutputs(const CompareRun& run, const cv::Ma
                                              const cv::Mat& image2, const std::string& dir,
                                              bool figures) {
   PrepareOutputFolder(dir);
-  std::vector<std::string> written;
+  // compare.json marks a whole comparison: removed first, written last, so a
+  // folder whose writing stopped halfway holds none (as result.json for run).
+  std::error_code ec;
+  fs::remove(fs::path(dir) / "compare.json", ec);
+  if (ec) {
+    throw InputError((fs::path(dir) / "compare.json").string() + ": cannot remove the earlier comparison (" +
+                     ec.message() + ")");
+  }
+  std::vector<std::string> written = {"compare.json"};  // listed first, as it always was
   const auto write = [&](const std::string& name, const std::string& bytes) {
     util::WriteFileAtomically(fs::path(dir) / name, bytes);
-    written.push_back(name);
+    if (name != "compare.json") written.push_back(name);
   };
-  write("compare.json", CompareResultJson(run));
   write("compare_timings.json", CompareTimingsJson(run));
   write("compare.csv", CompareRoisCsv(run));
   write("compare.md", CompareMarkdown(run));
@@ -277,6 +285,7 @@ std::vector<std::string> WriteCompareOutputs(const CompareRun& run, const cv::Ma
        WriteFlightOutputs(run.flight, image1, image2, (fs::path(dir) / "flight").string(), figures)) {
     written.push_back("flight/" + path);
   }
+  write("compare.json", CompareResultJson(run));
   return written;
 }
 

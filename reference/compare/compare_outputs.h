@@ -37,8 +37,10 @@ std::string CompareMarkdown(const CompareRun& run);
 
 // Writes compare.json, compare_timings.json, compare.csv and compare.md into
 // dir (created if missing), each atomically; and the flight method's outputs
-// (WriteFlightOutputs) into dir/flight. Returns the paths written, relative to
-// dir. Throws InputError naming a path that cannot be written.
+// (WriteFlightOutputs) into dir/flight. compare.json, the mark of a whole
+// comparison, is removed first and written last. Returns the paths written,
+// relative to dir, compare.json first. Throws InputError naming a path that
+// cannot be written.
 std::vector<std::string> WriteCompareOutputs(const CompareRun& run, const cv::Mat& image1,
                                              const cv::Mat& image2, const std::string& dir,
                                              bool figures);

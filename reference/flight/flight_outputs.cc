@@ -689,25 +689,34 @@ std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat&
                                             bool figures) {
   PrepareOutputFolder(dir);
   const fs::path root(dir);
+  // result.json marks a whole run (OtherCommandsResults, report, gate): it is
+  // removed first and written last, so a folder whose writing stopped halfway
+  // (a full disk, a kill) holds none and nothing takes it for a run's results.
+  std::error_code ec;
+  fs::remove(root / "result.json", ec);
+  if (ec) throw InputError((root / "result.json").string() + ": cannot remove the earlier result (" + ec.message() + ")");
   std::vector<std::string> written;
-  WriteText(root, "result.json", FlightResultJson(run), &written);
   WriteText(root, "timings.json", FlightTimingsJson(run), &written);
   WriteText(root, "rois.csv", FlightRoisCsv(run), &written);
   for (const hda::RoiResult& roi : run.result.rois) {
     if (!roi.points_in_local_m.empty()) WriteText(root, PlyName(roi), RoiPly(roi), &written);
   }
   RemoveStaleRoiFiles(root, "points", ".ply", written);
-  if (!figures) return written;
-  // Each image converted once for every figure, not once per figure.
-  const cv::Mat bgr1 = ToBgr(image1), bgr2 = ToBgr(image2);
-  WritePng(root, "figures/quadtree.png", QuadtreeFigure(bgr1, run.result), &written);
-  WritePng(root, "figures/matches.png", MatchesFigure(bgr1, bgr2, run.result), &written);
-  for (const hda::RoiResult& roi : run.result.rois) {
-    if (roi.counts.matches == 0 || !HasBox2(roi)) continue;
-    WritePng(root, "figures/roi_pairs/" + RoiFileStem(roi.id) + ".png",
-             RoiPairFigure(bgr1, bgr2, roi), &written);
+  if (figures) {
+    // Each image converted once for every figure, not once per figure.
+    const cv::Mat bgr1 = ToBgr(image1), bgr2 = ToBgr(image2);
+    WritePng(root, "figures/quadtree.png", QuadtreeFigure(bgr1, run.result), &written);
+    WritePng(root, "figures/matches.png", MatchesFigure(bgr1, bgr2, run.result), &written);
+    for (const hda::RoiResult& roi : run.result.rois) {
+      if (roi.counts.matches == 0 || !HasBox2(roi)) continue;
+      WritePng(root, "figures/roi_pairs/" + RoiFileStem(roi.id) + ".png",
+               RoiPairFigure(bgr1, bgr2, roi), &written);
+    }
+    RemoveStaleRoiFiles(root, "figures/roi_pairs", ".png", written);
   }
-  RemoveStaleRoiFiles(root, "figures/roi_pairs", ".png", written);
+  WriteText(root, "result.json", FlightResultJson(run), &written);
+  // Listed first, as it always was.
+  std::rotate(written.begin(), written.end() - 1, written.end());
   return written;
 }
 

@@ -92,8 +92,11 @@ void PrepareOutputFolder(const std::string& dir);
 // figures/quadtree.png, figures/matches.png, figures/roi_pairs/roi_NNN.png.
 // Each file is written to a temporary name and renamed into place; files of
 // the same names are replaced, and per-ROI files of an earlier run that this
-// run does not write are removed. Returns the paths written, relative to dir.
-// Throws InputError naming the path when a folder or file cannot be written.
+// run does not write are removed. result.json, the mark of a whole run, is
+// removed first and written last: a folder whose writing stopped halfway (a
+// full disk, a kill) holds none. Returns the paths written, relative to dir,
+// result.json first. Throws InputError naming the path when a folder or file
+// cannot be written.
 std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat& image1,
                                             const cv::Mat& image2, const std::string& dir,
                                             bool figures);

@@ -1,5 +1,7 @@
 // `hdabench run` as a user meets it: the files it writes, their determinism,
 // and its errors, on a small synthetic dataset.
+#include <sys/wait.h>
+
 #include <algorithm>
 #include <filesystem>
 #include <string>
@@ -200,6 +202,41 @@ TEST(RunCommand, AnOutputFolderUnderAFileIsAnInputError) {
   const CommandResult run = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", out.string()});
   EXPECT_EQ(run.exit_code, 3) << run.out << run.err;
   EXPECT_NE(run.err.find(out.string()), std::string::npos) << run.err;
+}
+
+// The output disk full: `hdabench run` under a file-size limit of 64 KB (with
+// SIGXFSZ ignored, a write past it fails with EFBIG, as on a full disk) stops
+// with exit 3 and a message naming the file it could not write; no temporary
+// file is left and no result.json claims a run. The rerun with room gives the
+// same files as a run that never met the limit.
+TEST(RunCommand, ADiskThatFillsUpHalfwayIsNamedAndTheRerunGivesTheSameResults) {
+  const fs::path dir = FreshTestDir();
+  const auto run = [&](const fs::path& out, const std::string& limit) {
+    const std::string command = "trap '' XFSZ; " + limit + "exec " +
+                                hdabench::testing_support::ShellQuote(HDABENCH_EXE) + " run " +
+                                hdabench::testing_support::ShellQuote(SmallSyntheticDataset().string()) + " --out " +
+                                hdabench::testing_support::ShellQuote(out.string()) +
+                                " --no-report --budget-s 10000 >" +
+                                hdabench::testing_support::ShellQuote((dir / "out.txt").string()) + " 2>" +
+                                hdabench::testing_support::ShellQuote((dir / "err.txt").string());
+    const int status = std::system(("bash -c " + hdabench::testing_support::ShellQuote(command)).c_str());
+    return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  };
+  ASSERT_EQ(run(dir / "room", ""), 0) << ReadText(dir / "err.txt");
+  EXPECT_EQ(run(dir / "full", "ulimit -f 64; "), 3) << ReadText(dir / "err.txt");
+  const std::string err = ReadText(dir / "err.txt");
+  EXPECT_NE(err.find("File too large"), std::string::npos) << err;
+  EXPECT_NE(err.find((dir / "full").string()), std::string::npos) << err;
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dir / "full")) {
+    EXPECT_NE(entry.path().extension(), ".tmp") << entry.path();
+  }
+  EXPECT_FALSE(fs::exists(dir / "full" / "result.json"));
+  ASSERT_EQ(run(dir / "full", ""), 0) << ReadText(dir / "err.txt");
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dir / "room")) {
+    if (!entry.is_regular_file() || entry.path().filename() == "timings.json") continue;
+    const fs::path twin = dir / "full" / fs::relative(entry.path(), dir / "room");
+    EXPECT_TRUE(ReadText(entry.path()) == ReadText(twin)) << twin;
+  }
 }
 
 // An output folder that is the dataset or lies inside it (however it is

@@ -714,7 +714,7 @@ Dataset IngestFieldLog(const std::string& config_path, FieldIngestReport* report
   Json j;
   try {
     j = Json::parse(Text(config_path));
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {
     throw InputError(config_path + ": not valid JSON: " + e.what());
   }
   if (!j.is_object()) throw InputError(config_path + ": expected a JSON object");

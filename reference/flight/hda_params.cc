@@ -206,7 +206,7 @@ void HdaSettings::ReadFile(const std::string& path) {
   Json j;
   try {
     j = Json::parse(text.str());
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {
     throw InputError(path + ": not valid JSON: " + e.what());
   }
   if (j.is_object() && j.contains("format") && j["format"] != "hdabench-flight-params") {

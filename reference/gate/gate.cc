@@ -47,7 +47,7 @@ Json ReadJsonFile(const std::string& path) {
   text << in.rdbuf();
   try {
     return Json::parse(text.str());
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {
     throw InputError(path + ": not valid JSON: " + e.what());
   }
 }

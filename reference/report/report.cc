@@ -47,7 +47,7 @@ Json ParseJsonFile(const fs::path& path) {
   const std::string text = ReadFileOrThrow(path);
   try {
     return Json::parse(text);
-  } catch (const Json::parse_error& e) {
+  } catch (const Json::exception& e) {
     throw InputError(path.string() + ": not valid JSON (" + e.what() + ")");
   }
 }
@@ -481,7 +481,7 @@ std::string DatasetName(const fs::path& dir) {
   try {
     const Json manifest = Json::parse(bytes);
     return Text(Member(manifest, "name"));
-  } catch (const Json::parse_error&) {
+  } catch (const Json::exception&) {
     return "";
   }
 }

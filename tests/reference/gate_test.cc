@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -36,6 +37,23 @@ std::string ErrorOf(const std::function<void()>& f) {
     return e.what();
   }
   return "no error";
+}
+
+// Found by the gate_files fuzz harness: a number too large for a double
+// ("444444444e4444") made nlohmann's parser throw out_of_range, not
+// parse_error, and the reader let it through (std::terminate in the harness,
+// an internal error in hdabench). Now an InputError naming the file, for the
+// suite and the thresholds alike.
+TEST(ReadGateSuite, ANumberTooLargeForADoubleIsNamedNotACrash) {
+  const fs::path dir = FreshTestDir();
+  WriteText(dir / "overflow.json", "{\n \"format\": 444444444e4444e4444444444444e-lateral.jsnovaR-cthegin;  'why20");
+  for (const auto& read : std::vector<std::function<void()>>{
+           [&] { ReadGateSuite((dir / "overflow.json").string()); },
+           [&] { ReadGateThresholds((dir / "overflow.json").string()); }}) {
+    const std::string error = ErrorOf(read);
+    EXPECT_NE(error.find((dir / "overflow.json").string() + ": not valid JSON"), std::string::npos) << error;
+    EXPECT_NE(error.find("number overflow"), std::string::npos) << error;
+  }
 }
 
 TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {

@@ -225,6 +225,16 @@ TEST(FieldLog, AGapLeavesTheFrameOutAndSaysSo) {
   EXPECT_TRUE(gap);
 }
 
+// Found by the field_log fuzz harness: a number too large for a double in
+// log.json made the JSON parser throw out_of_range, which escaped the ingest.
+TEST(FieldLog, ANumberTooLargeForADoubleIsNamedNotACrash) {
+  const fs::path dir = FreshTestDir();
+  WriteText(dir / "log.json", "{\"format\": \"hdabench-field-log\", \"format_version\": 8e94994948}");
+  const std::string message = InputErrorOf([&] { IngestFieldLog((dir / "log.json").string(), nullptr); });
+  EXPECT_NE(message.find((dir / "log.json").string() + ": not valid JSON"), std::string::npos) << message;
+  EXPECT_NE(message.find("number overflow"), std::string::npos) << message;
+}
+
 TEST(FieldLog, MalformedLogsAreNamedByFileAndLine) {
   const fs::path dir = FreshTestDir();
   int n = 0;

@@ -1,5 +1,6 @@
 #include "datasets/faults.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -130,6 +131,8 @@ const std::vector<FaultInfo>& FaultCatalogue() {
        {2.0, 4.0, 8.0, 16.0}},
       {FaultKind::kFrameRepeated, "frame-repeated", "", "image 2 is image 1 again (the camera sent one frame twice)",
        {1.0}},
+      {FaultKind::kFrameDropped, "frame-dropped", "",
+       "image 2 never arrived: the next frame the camera delivered takes its place", {1.0}},
   };
   return catalogue;
 }
@@ -154,6 +157,33 @@ std::string FaultLabel(const Fault& fault) {
   const FaultInfo& info = InfoOf(fault.kind);
   if (info.unit[0] == '\0') return info.name;
   return std::string(info.name) + "=" + util::ShortestText(fault.magnitude);
+}
+
+std::vector<Fault> ParseFaults(const std::string& text) {
+  const size_t equals = text.find('=');
+  const std::string name = text.substr(0, equals);
+  const FaultKind kind = ParseFaultKind(name);
+  const FaultInfo& info = InfoOf(kind);
+  std::vector<Fault> faults;
+  if (equals == std::string::npos) {
+    for (const double m : info.sweep) faults.push_back({kind, m});
+    return faults;
+  }
+  if (info.unit[0] == '\0') throw InputError("'" + text + "': " + name + " takes no magnitude");
+  const std::string rest = text.substr(equals + 1);
+  size_t start = 0;
+  while (start <= rest.size()) {
+    const size_t comma = rest.find(',', start);
+    const std::string item = rest.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    double value = 0.0;
+    if (util::ParseDouble(item, &value) != util::ParseStatus::kOk) {
+      throw InputError("'" + text + "': '" + item + "' is not a finite number (" + info.unit + ")");
+    }
+    faults.push_back({kind, value});
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return faults;
 }
 
 void ApplyFault(const Fault& fault, int frame1, int frame2, std::uint64_t seed, Dataset* target) {
@@ -279,6 +309,20 @@ void ApplyFaultInPlace(const Fault& fault, int frame1, int frame2, std::uint64_t
     case FaultKind::kFrameRepeated:
       PairImage(dataset, frame2, fault) = PairImage(dataset, frame1, fault);
       return;
+    case FaultKind::kFrameDropped: {
+      if (frame2 <= frame1) Refuse(fault, "image 2 (frame " + std::to_string(frame2) + ") must come after image 1");
+      if (frame2 + 1 >= n) {
+        Refuse(fault, "frame " + std::to_string(frame2) + " is the last: no frame after it takes its place");
+      }
+      dataset->frames.erase(dataset->frames.begin() + frame2);
+      for (size_t i = 0; i < dataset->frames.size(); ++i) dataset->frames[i].index = static_cast<int>(i);
+      std::vector<TruthPoints>& points = dataset->truth.points;
+      points.erase(std::remove_if(points.begin(), points.end(),
+                                  [&](const TruthPoints& p) { return p.frame == frame2; }),
+                   points.end());
+      for (TruthPoints& p : points) p.frame -= p.frame > frame2 ? 1 : 0;
+      return;
+    }
   }
 }
 

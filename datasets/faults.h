@@ -34,6 +34,8 @@ enum class FaultKind {
   kImageDark,        // both images' signal divided by MAGNITUDE (> 1), requantized
   kFrameRepeated,    // image 2 is image 1 again: the camera delivered one frame twice
                      // (magnitude unused)
+  kFrameDropped,     // image 2 never arrived: the next frame the camera delivered takes its
+                     // place, with its own time and truth (magnitude unused)
 };
 
 struct Fault {
@@ -66,14 +68,23 @@ FaultKind ParseFaultKind(const std::string& name);
 // "lrf-scale=0.05" style label of a fault ("lrf-absent" without a magnitude).
 std::string FaultLabel(const Fault& fault);
 
+// "NAME" or "NAME=M1,M2,...": the fault at each magnitude given, or at its
+// default sweep when none is given (one case for a fault without a
+// magnitude). Throws InputError naming the text: an unknown name, a
+// magnitude that is not a finite number, or one given to a fault that takes
+// none.
+std::vector<Fault> ParseFaults(const std::string& text);
+
 // Applies `fault` to `dataset` for the pair (frame1, frame2): its LRF,
 // navigation, frame times or the pair's images (which must be loaded for the
 // image faults). `seed` draws the noise of kLrfNoise (the same seed, the same
 // bytes). Throws InputError for a magnitude outside the fault's domain (not
 // finite, a scale that makes ranges non-positive, a gain <= 1, ...), a frame
-// outside the dataset, images not loaded for an image fault, or a clock
-// offset that puts a frame outside the navigation; the dataset is then left
-// as it was.
+// outside the dataset, images not loaded for an image fault, a clock
+// offset that puts a frame outside the navigation, or a dropped image 2 with
+// no frame after it (or not after image 1); the dataset is then left as it
+// was. A dropped frame removes frame2 from the frames and the truth and
+// numbers the later frames one lower, so that frame2 names the next frame.
 void ApplyFault(const Fault& fault, int frame1, int frame2, std::uint64_t seed, Dataset* dataset);
 
 }  // namespace hdabench::datasets

@@ -232,6 +232,11 @@ bool FlightHasSlope(const std::string& status) {
 
 std::string FormatValue(double value) { return util::FixedCell(value, 3); }
 
+// A method's pool as a person reads it: "flight", "flight under lrf-absent".
+std::string MethodLabel(const std::string& method, const std::string& fault) {
+  return fault.empty() ? method : method + " under " + fault;
+}
+
 // ---------------------------------------------------------------------------
 // Running entries
 
@@ -258,6 +263,9 @@ std::uint64_t Fnv1a(const std::string& text) {
 // metric of its own (flight_seconds_per_pair). The kick-outs have their own
 // tests, with a fake clock.
 constexpr double kGateComputeBudgetS = 1.0e6;
+
+// The seed of a fault's random numbers (lrf-noise), as `hdabench faults`'s default.
+constexpr std::uint64_t kGateFaultSeed = 1;
 
 // An observability setting whose plane is missing in more than 5 % of the
 // trials has no finite p95: it counts as the largest slope error there is.
@@ -295,7 +303,15 @@ Json EntrySpecJson(const GateEntry& e) {
   } else {
     j["hda"] = given;
   }
+  // Only when set, so that the records of entries without them stay as they were.
+  if (e.fault) j["fault"] = datasets::FaultLabel(*e.fault);
+  if (!e.methods.empty()) j["methods"] = e.methods;
   return j;
+}
+
+// The methods compared on an entry: its own, or the suite's.
+const std::vector<std::string>& EntryMethods(const GateEntry& e, const GateSuite& suite) {
+  return e.methods.empty() ? suite.methods : e.methods;
 }
 
 // The settings an entry's results depend on: a complete folder with other
@@ -305,7 +321,7 @@ std::string EntrySettings(const GateEntry& e, const GateSuite& suite, const Gate
   j["format"] = "hdabench-gate-entry";
   j["format_version"] = kGateFormatVersion;
   j["entry"] = EntrySpecJson(e);
-  j["methods"] = suite.methods;
+  j["methods"] = EntryMethods(e, suite);
   // Only when set, so that the folders of suites without it stay complete.
   if (suite.colmap.max_features) j["colmap_max_features"] = *suite.colmap.max_features;
   if (suite.colmap.first_octave) j["colmap_first_octave"] = *suite.colmap.first_octave;
@@ -327,13 +343,40 @@ std::string EntrySettings(const GateEntry& e, const GateSuite& suite, const Gate
 
 constexpr char kEntryRecord[] = "gate_entry.json";
 
-// The dataset folder of an entry: made if it is synthetic (under a temporary
-// name, renamed into place), found otherwise.
-std::string EntryDataset(const GateEntry& e, const GateSuite& suite, const GateRunOptions& o) {
+// The entry whose dataset an entry uses: the first of the suite with the same
+// source (an entry under a fault shares the dataset of its clean twin), which
+// is the entry itself when no earlier one has its source.
+const GateEntry& DatasetOwner(const GateEntry& e, const GateSuite& suite) {
+  const auto source = [](const GateEntry& entry) {
+    Json j = EntryDatasetSpecJson(entry);
+    j.erase("name");
+    return j;
+  };
+  const Json mine = source(e);
+  for (const GateEntry& other : suite.entries) {
+    if (source(other) == mine) return other;
+  }
+  return e;
+}
+
+// One lock per dataset folder: entries that share a dataset (run in
+// parallel) make it once.
+std::mutex& DatasetFolderLock(const std::string& folder) {
+  static std::mutex guard;
+  static std::map<std::string, std::mutex> locks;
+  const std::lock_guard<std::mutex> lock(guard);
+  return locks[folder];
+}
+
+// The dataset folder of an entry (its owner's, DatasetOwner): made if it is
+// synthetic (under a temporary name, renamed into place), found otherwise.
+std::string EntryDataset(const GateEntry& entry, const GateSuite& suite, const GateRunOptions& o) {
+  const GateEntry& e = DatasetOwner(entry, suite);
   const fs::path suite_dir = fs::path(suite.file).parent_path();
   if (e.dataset_dir) return (suite_dir / *e.dataset_dir).lexically_normal().string();
   const fs::path made = fs::path(o.out_dir) / "datasets" /
                         (e.name + "-" + Hex(Fnv1a(EntryDatasetSpecJson(e).dump())).substr(0, 8));
+  const std::lock_guard<std::mutex> folder_lock(DatasetFolderLock(made.string()));
   if (fs::exists(made / "manifest.json")) return made.string();
   const fs::path staging = made.string() + ".partial-" + std::to_string(::getpid());
   fs::remove_all(staging);
@@ -454,8 +497,9 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
       dataset = std::move(loaded.dataset);
     }
     const std::pair<int, int> pair = DefaultFramePair(*dataset);
+    if (e.fault) datasets::ApplyFault(*e.fault, pair.first, pair.second, kGateFaultSeed, &*dataset);
     CompareOptions compare;
-    compare.methods = suite.methods;
+    compare.methods = EntryMethods(e, suite);
     compare.hda = e.hda;
     compare.hda.Set("fault_match_noise_px", o.fault_match_noise_px, "gate");
     compare.hda.Set("processor_scale", o.processor_scale, "gate");
@@ -490,6 +534,40 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
 
 // ---------------------------------------------------------------------------
 
+namespace {
+
+// A "methods" list of a suite or an entry (`where` names it).
+std::vector<std::string> ReadMethods(const Json& list, const std::string& where) {
+  if (!list.is_array()) throw InputError(where + ": field 'methods' must be a list of method names");
+  std::string text;
+  for (const auto& m : list) {
+    if (!m.is_string()) throw InputError(where + ": field 'methods' must hold strings");
+    text += (text.empty() ? "" : ",") + m.get<std::string>();
+  }
+  try {
+    return ParseMethodList(text);
+  } catch (const InputError& e) {
+    throw InputError(where + ": methods: " + e.what());
+  }
+}
+
+// One fault, "NAME" (a fault without a magnitude) or "NAME=M".
+datasets::Fault ReadOneFault(const std::string& text, const std::string& where) {
+  std::vector<datasets::Fault> faults;
+  try {
+    faults = datasets::ParseFaults(text);
+  } catch (const InputError& e) {
+    throw InputError(where + ": " + e.what());
+  }
+  if (faults.size() != 1) {
+    throw InputError(where + ": '" + text + "' is a sweep of " + std::to_string(faults.size()) +
+                     " magnitudes: give one, NAME=M");
+  }
+  return faults.front();
+}
+
+}  // namespace
+
 GateSuite ReadGateSuite(const std::string& path) {
   const Json j = ReadJsonFile(path);
   CheckFormat(j, kGateSuiteFormatName, path);
@@ -497,19 +575,8 @@ GateSuite ReadGateSuite(const std::string& path) {
   GateSuite suite;
   suite.file = path;
   if (j.contains("description")) suite.description = StringField(j, "description", path);
-  if (!j.contains("methods") || !j["methods"].is_array()) {
-    throw InputError(path + ": field 'methods' must be a list of method names");
-  }
-  std::string list;
-  for (const auto& m : j["methods"]) {
-    if (!m.is_string()) throw InputError(path + ": field 'methods' must hold strings");
-    list += (list.empty() ? "" : ",") + m.get<std::string>();
-  }
-  try {
-    suite.methods = ParseMethodList(list);
-  } catch (const InputError& e) {
-    throw InputError(path + ": methods: " + e.what());
-  }
+  if (!j.contains("methods")) throw InputError(path + ": field 'methods' must be a list of method names");
+  suite.methods = ReadMethods(j["methods"], path);
   if (j.contains("colmap")) {
     const Json& c = j["colmap"];
     const std::string where = path + ": colmap";
@@ -524,7 +591,8 @@ GateSuite ReadGateSuite(const std::string& path) {
     const Json& ej = j["entries"][i];
     const std::string where = path + ": entries[" + std::to_string(i) + "]";
     if (!ej.is_object()) throw InputError(where + ": expected an object");
-    OnlyKeys(ej, {"name", "synth", "dataset", "stereolunar", "observability", "site_size_m", "hda"}, where);
+    OnlyKeys(ej, {"name", "synth", "dataset", "stereolunar", "observability", "site_size_m", "hda", "fault", "methods"},
+             where);
     GateEntry e;
     e.name = StringField(ej, "name", where);
     if (!ValidName(e.name)) {
@@ -598,6 +666,14 @@ GateSuite ReadGateSuite(const std::string& path) {
       }
     }
     e.hda.Validate(where);
+    if (ej.contains("fault")) {
+      if (e.observability) throw InputError(where + ": 'fault' applies to a dataset, not to an observability study");
+      e.fault = ReadOneFault(StringField(ej, "fault", where), where + ": fault");
+    }
+    if (ej.contains("methods")) {
+      if (e.observability) throw InputError(where + ": 'methods' applies to a dataset, not to an observability study");
+      e.methods = ReadMethods(ej["methods"], where);
+    }
     suite.entries.push_back(e);
   }
   return suite;
@@ -619,7 +695,7 @@ GateThresholds ReadGateThresholds(const std::string& path) {
     const Json& t = j["thresholds"][i];
     const std::string where = path + ": thresholds[" + std::to_string(i) + "]";
     if (!t.is_object()) throw InputError(where + ": expected an object");
-    OnlyKeys(t, {"method", "metric", "max", "min", "tolerance", "why"}, where);
+    OnlyKeys(t, {"method", "metric", "fault", "max", "min", "tolerance", "why"}, where);
     GateThreshold th;
     th.method = StringField(t, "method", where);
     th.metric = StringField(t, "metric", where);
@@ -639,8 +715,11 @@ GateThresholds ReadGateThresholds(const std::string& path) {
       if (th.tolerance < 0) throw InputError(where + ": field 'tolerance' must be >= 0");
     }
     if (t.contains("why")) th.why = StringField(t, "why", where);
-    if (!seen.insert(th.method + " " + th.metric).second) {
-      throw InputError(where + ": " + th.method + " " + th.metric + " is given twice");
+    if (t.contains("fault")) {
+      th.fault = datasets::FaultLabel(ReadOneFault(StringField(t, "fault", where), where + ": fault"));
+    }
+    if (!seen.insert(MethodLabel(th.method, th.fault) + " " + th.metric).second) {
+      throw InputError(where + ": " + MethodLabel(th.method, th.fault) + " " + th.metric + " is given twice");
     }
     result.thresholds.push_back(th);
   }
@@ -658,8 +737,10 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
     double flight_seconds = -1.0;
     bool present = false;
   };
-  std::map<std::string, Pool> pools;
-  std::vector<std::string> order;
+  // Per method and fault (empty: the entries without one), in the order first met.
+  using PoolKey = std::pair<std::string, std::string>;
+  std::map<PoolKey, Pool> pools;
+  std::vector<PoolKey> order;
   // Observability entries: the worst setting of any.
   struct StudyPool {
     bool present = false;
@@ -683,23 +764,31 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
                                         s.rms_sigma_deg / s.sd_error_deg});
         }
       }
-      if (study.present && pools.count(kMethodFlight) == 0) order.push_back(kMethodFlight);
-      pools[kMethodFlight];
+      const PoolKey flight{kMethodFlight, ""};
+      if (study.present && pools.count(flight) == 0) order.push_back(flight);
+      pools[flight];
       continue;
+    }
+    // The entry's fault, from its record (absent for a folder without one).
+    std::string fault;
+    const fs::path record = fs::path(dir) / kEntryRecord;
+    if (fs::exists(record)) {
+      const Json r = ReadJsonFile(record.string());
+      if (r.contains("entry") && r["entry"].contains("fault")) fault = StringField(r["entry"], "fault", record.string());
     }
     const std::string path = (fs::path(dir) / "compare.json").string();
     const Json j = ReadJsonFile(path);
     for (const Json& m : j.at("methods")) {
-      const std::string name = m.at("name").get<std::string>();
-      if (pools.count(name) == 0) order.push_back(name);
-      Pool& pool = pools[name];
+      const PoolKey key{m.at("name").get<std::string>(), fault};
+      if (pools.count(key) == 0) order.push_back(key);
+      Pool& pool = pools[key];
       pool.present = true;
       if (!m.at("ok").get<bool>()) ++pool.failed;
     }
     for (const Json& roi : j.at("rois")) {
       const Json& truth = roi.at("truth");
       for (const auto& item : roi.at("methods").items()) {
-        Pool& pool = pools[item.key()];
+        Pool& pool = pools[{item.key(), fault}];
         const Json& r = item.value();
         ++pool.rois;
         const std::string status = r.at("status").get<std::string>();
@@ -732,15 +821,16 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
     const Json t = ReadJsonFile(timings_path);
     for (const Json& m : t.at("methods")) {
       if (m.at("name") != kMethodFlight || m.at("seconds").is_null()) continue;
-      Pool& pool = pools[kMethodFlight];
+      Pool& pool = pools[{kMethodFlight, fault}];
       pool.flight_seconds = std::max(pool.flight_seconds, m.at("seconds").get<double>() / processor_scale);
     }
   }
   std::vector<GateMetric> metrics;
-  for (const std::string& method : order) {
-    const Pool& pool = pools[method];
+  for (const PoolKey& key : order) {
+    const std::string& method = key.first;
+    const Pool& pool = pools[key];
     const auto add = [&](const std::string& metric, double value) {
-      metrics.push_back({method, metric, value});
+      metrics.push_back({method, metric, value, key.second});
     };
     if (!pool.slope_errors.empty()) {
       std::vector<double> sorted = pool.slope_errors;
@@ -772,7 +862,7 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
     }
     add("failed_entries", pool.failed);
     add("slope_error_rois", static_cast<double>(pool.slope_errors.size()));
-    if (method == kMethodFlight && study.present) {
+    if (method == kMethodFlight && key.second.empty() && study.present) {
       add("observability_p95_deg", study.p95);
       add("observability_median_deg", study.median);
       add("observability_sigma_ratio", study.sigma_ratio);
@@ -782,7 +872,7 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
 }
 
 std::string GateCheck::Summary() const {
-  const std::string name = threshold.method + " " + threshold.metric;
+  const std::string name = MethodLabel(threshold.method, threshold.fault) + " " + threshold.metric;
   if (!has_value) return name + ": no value in this run (no data for the metric)";
   std::string text = name + " = " + FormatValue(value);
   if (!passed) {
@@ -799,10 +889,9 @@ std::string GateCheck::Summary() const {
 std::vector<GateCheck> CheckGate(const std::vector<GateMetric>& metrics,
                                  const GateThresholds& thresholds,
                                  const std::vector<GateMetric>* baseline) {
-  const auto find = [](const std::vector<GateMetric>& list, const std::string& method,
-                       const std::string& metric) -> const GateMetric* {
+  const auto find = [](const std::vector<GateMetric>& list, const GateThreshold& t) -> const GateMetric* {
     for (const GateMetric& m : list) {
-      if (m.method == method && m.metric == metric) return &m;
+      if (m.method == t.method && m.metric == t.metric && m.fault == t.fault) return &m;
     }
     return nullptr;
   };
@@ -810,7 +899,7 @@ std::vector<GateCheck> CheckGate(const std::vector<GateMetric>& metrics,
   for (const GateThreshold& t : thresholds.thresholds) {
     GateCheck check;
     check.threshold = t;
-    const GateMetric* m = find(metrics, t.method, t.metric);
+    const GateMetric* m = find(metrics, t);
     if (m != nullptr) {
       check.has_value = true;
       check.value = m->value;
@@ -818,7 +907,7 @@ std::vector<GateCheck> CheckGate(const std::vector<GateMetric>& metrics,
       check.passed = check.margin >= 0.0;
     }
     if (baseline != nullptr && m != nullptr) {
-      if (const GateMetric* b = find(*baseline, t.method, t.metric)) {
+      if (const GateMetric* b = find(*baseline, t)) {
         check.has_baseline = true;
         check.baseline = b->value;
         const double worse = HigherIsBetter(t.metric) ? b->value - m->value : m->value - b->value;
@@ -835,7 +924,11 @@ std::string GateMetricsJson(const std::vector<GateMetric>& metrics) {
   j["format"] = kGateMetricsFormatName;
   j["format_version"] = kGateFormatVersion;
   Json list = Json::array();
-  for (const GateMetric& m : metrics) list.push_back({{"method", m.method}, {"metric", m.metric}, {"value", m.value}});
+  for (const GateMetric& m : metrics) {
+    Json item = {{"method", m.method}, {"metric", m.metric}, {"value", m.value}};
+    if (!m.fault.empty()) item["fault"] = m.fault;  // only then: the baselines without faults keep their bytes
+    list.push_back(item);
+  }
   j["metrics"] = list;
   return j.dump(1) + "\n";
 }
@@ -852,7 +945,8 @@ std::vector<GateMetric> ReadGateMetrics(const std::string& path) {
     const std::string where = path + ": metrics[" + std::to_string(i) + "]";
     if (!m.is_object()) throw InputError(where + ": expected an object");
     metrics.push_back({StringField(m, "method", where), StringField(m, "metric", where),
-                       NumberField(m, "value", where)});
+                       NumberField(m, "value", where),
+                       m.contains("fault") ? StringField(m, "fault", where) : std::string()});
   }
   return metrics;
 }
@@ -866,7 +960,7 @@ std::string GateTable(const std::vector<GateCheck>& checks) {
     const std::string threshold = t.max ? "<= " + FormatValue(*t.max) : ">= " + FormatValue(*t.min);
     std::string verdict = !c.has_value ? "FAIL (no data)" : c.passed ? "pass" : "FAIL";
     if (c.regressed) verdict += c.passed ? " but REGRESSED" : ", REGRESSED";
-    out << "| " << t.method << " | " << t.metric << " | " << (c.has_value ? FormatValue(c.value) : "-")
+    out << "| " << MethodLabel(t.method, t.fault) << " | " << t.metric << " | " << (c.has_value ? FormatValue(c.value) : "-")
         << " | " << threshold << " | " << (c.has_value ? FormatValue(c.margin) : "-") << " | "
         << (c.has_baseline ? FormatValue(c.baseline) : "-") << " | " << verdict << " |\n";
   }
@@ -895,7 +989,7 @@ std::string GateHtml(const std::string& suite_file, const std::vector<GateCheck>
     std::string verdict = !c.has_value ? "FAIL (no data)" : c.passed ? "pass" : "FAIL";
     if (c.regressed) verdict += c.passed ? " but REGRESSED" : ", REGRESSED";
     out << "<tr" << (ok ? "" : " class=\"fail\"") << " title=\"" << util::HtmlEscape(t.why) << "\"><td>"
-        << util::HtmlEscape(t.method) << "</td><td>" << util::HtmlEscape(t.metric) << "</td><td>"
+        << util::HtmlEscape(MethodLabel(t.method, t.fault)) << "</td><td>" << util::HtmlEscape(t.metric) << "</td><td>"
         << (c.has_value ? FormatValue(c.value) : "-") << "</td><td>"
         << (t.max ? "&lt;= " + FormatValue(*t.max) : "&gt;= " + FormatValue(*t.min)) << "</td><td>"
         << (c.has_value ? FormatValue(c.margin) : "-") << "</td><td>"

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "datasets/faults.h"
 #include "reference/flight/hda_params.h"
 #include "reference/observability/observability.h"
 #include "tools/util/parallel_for.h"
@@ -57,6 +58,14 @@ struct GateEntry {
   // "hda" object (HdaSettings::SetAll); the keys not given follow the
   // geometry, as in compare.
   HdaSettings hda;
+  // A sensor fault ("fault": "NAME[=M]", datasets/faults.h) applied in memory
+  // to the dataset for its frame pair before the comparison. The entry uses
+  // the dataset of the first entry with the same source (made once), and its
+  // metrics are pooled apart from the entries without a fault, per fault
+  // (GateMetric::fault).
+  std::optional<datasets::Fault> fault;
+  // The methods compared on this entry ("methods"); empty: the suite's.
+  std::vector<std::string> methods;
 };
 
 // COLMAP's options for every entry of a suite ("colmap": {...}, docs/gate.md),
@@ -93,6 +102,9 @@ struct GateThreshold {
   std::optional<double> min;
   double tolerance = 0.0;
   std::string why;  // where the number comes from (measured value and margin)
+  // The pool it checks: empty, the entries without a fault; else the entries
+  // under this fault (datasets::FaultLabel, "lrf-scale=0.05").
+  std::string fault;
 };
 
 struct GateThresholds {
@@ -122,16 +134,19 @@ GateThresholds ReadGateThresholds(const std::string& path);
 //   observability_sigma_ratio   flight: the largest ratio between the Monte
 //                               Carlo standard deviation and the RMS predicted
 //                               sigma, either way up (>= 1; 1 is agreement)
-// A metric without data (no ROI with truth, say) is absent.
+// A metric without data (no ROI with truth, say) is absent. The entries with
+// a fault are pooled per method and fault (GateEntry::fault), apart from the
+// others.
 struct GateMetric {
   std::string method;
   std::string metric;
   double value = 0.0;
+  std::string fault;  // the pool: empty, the entries without a fault; else the fault's label
 };
 std::vector<std::string> GateMetricNames();
 
 // One entry's results on disk (its compare.json and compare_timings.json, or
-// an observability entry's settings.csv).
+// an observability entry's settings.csv; its fault from gate_entry.json).
 std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
                                            double processor_scale);
 
@@ -145,7 +160,8 @@ struct GateCheck {
   bool has_baseline = false;
   double baseline = 0.0;
   bool regressed = false;       // worse than the baseline by more than the tolerance
-  std::string Summary() const;  // one line: "flight slope_error_p90_deg = 5.2 > 4.0 (threshold)"
+  std::string Summary() const;  // one line: "flight slope_error_p90_deg = 5.2 > 4.0 (threshold)",
+                                // "flight under lrf-absent slope_error_p90_deg = ..." for a fault's pool
 };
 std::vector<GateCheck> CheckGate(const std::vector<GateMetric>& metrics,
                                  const GateThresholds& thresholds,

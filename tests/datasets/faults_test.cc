@@ -60,6 +60,7 @@ TEST(ApplyFault, EveryFaultLeavesTheTruthAsItWas) {
   const Dataset clean = Example();
   for (const FaultInfo& info : FaultCatalogue()) {
     SCOPED_TRACE(info.name);
+    if (info.kind == FaultKind::kFrameDropped) continue;  // its truth follows the frames (its own test)
     // The example's LRF log starts 0.1 s before image 1.
     const double magnitude = info.kind == FaultKind::kLrfStuck ? 0.05 : info.sweep.front();
     ExpectTruthUntouched(Faulted(info.kind, magnitude), clean);
@@ -157,6 +158,48 @@ TEST(ApplyFault, ImageFaultsChangeThePairsImagesOnly) {
   EXPECT_TRUE(SameMat(repeated.frames[kFrame2].image, image1));
 }
 
+TEST(ApplyFault, ADroppedImageTwoIsTakenByTheNextFrameWithItsTimeAndTruth) {
+  const Dataset clean = Example();
+  constexpr int kDropped = 3;  // image 2 of this pair; the example's last frame has none after it
+  Dataset dropped = Example();
+  ApplyFault({FaultKind::kFrameDropped, 1}, kFrame1, kDropped, 1, &dropped);
+  ASSERT_EQ(dropped.frames.size(), clean.frames.size() - 1);
+  for (size_t i = 0; i < dropped.frames.size(); ++i) {
+    const size_t from = i < static_cast<size_t>(kDropped) ? i : i + 1;
+    EXPECT_EQ(dropped.frames[i].index, static_cast<int>(i));
+    EXPECT_EQ(dropped.frames[i].time_s, clean.frames[from].time_s);
+    EXPECT_EQ(dropped.frames[i].image_path, clean.frames[from].image_path);
+    EXPECT_TRUE(SameMat(dropped.frames[i].image, clean.frames[from].image));
+  }
+  // Each frame keeps its own truth points, under its new number; the dropped frame's are gone.
+  size_t clean_count_without_dropped = 0;
+  for (const TruthPoints& p : clean.truth.points) {
+    if (p.frame == kDropped) continue;
+    ++clean_count_without_dropped;
+    const int now = p.frame < kDropped ? p.frame : p.frame - 1;
+    bool found = false;
+    for (const TruthPoints& q : dropped.truth.points) {
+      if (q.frame != now) continue;
+      found = true;
+      EXPECT_EQ(q.file, p.file);
+      EXPECT_TRUE(SameMat(q.points_in_local_m, p.points_in_local_m));
+    }
+    EXPECT_TRUE(found) << "frame " << p.frame;
+  }
+  EXPECT_EQ(dropped.truth.points.size(), clean_count_without_dropped);
+  EXPECT_EQ(dropped.nav.size(), clean.nav.size());
+  EXPECT_EQ(dropped.lrf.size(), clean.lrf.size());
+  // Refused with no frame after image 2, or image 2 not after image 1; the dataset is left as it was.
+  Dataset dataset = Example();
+  const int last = static_cast<int>(dataset.frames.size()) - 1;
+  EXPECT_EQ(InputErrorOf([&] { ApplyFault({FaultKind::kFrameDropped, 1}, kFrame1, last, 1, &dataset); }),
+            "fault frame-dropped: frame " + std::to_string(last) +
+                " is the last: no frame after it takes its place");
+  EXPECT_EQ(InputErrorOf([&] { ApplyFault({FaultKind::kFrameDropped, 1}, kDropped, kFrame1, 1, &dataset); }),
+            "fault frame-dropped: image 2 (frame 0) must come after image 1");
+  EXPECT_EQ(dataset.frames.size(), clean.frames.size());
+}
+
 TEST(ApplyFault, MagnitudesOutsideTheirDomainAreNamed) {
   Dataset dataset = Example();
   EXPECT_NE(InputErrorOf([&] { ApplyFault({FaultKind::kLrfScale, -1.0}, kFrame1, kFrame2, 1, &dataset); })
@@ -193,6 +236,23 @@ TEST(FaultCatalogue, NamesParseBackAndUnknownOnesListTheKnown) {
   EXPECT_NE(message.find("unknown fault 'lrf-gone': expected one of lrf-absent, lrf-stuck"), std::string::npos);
   EXPECT_EQ(FaultLabel({FaultKind::kLrfAbsent, 1}), "lrf-absent");
   EXPECT_EQ(FaultLabel({FaultKind::kLrfScale, 0.05}), "lrf-scale=0.05");
+}
+
+TEST(ParseFaults, ANameGivesItsSweepAndMagnitudesGiveTheirCases) {
+  const std::vector<Fault> sweep = ParseFaults("lrf-scale");
+  ASSERT_EQ(sweep.size(), InfoOf(FaultKind::kLrfScale).sweep.size());
+  for (size_t i = 0; i < sweep.size(); ++i) EXPECT_EQ(sweep[i].magnitude, InfoOf(FaultKind::kLrfScale).sweep[i]);
+  const std::vector<Fault> given = ParseFaults("attitude-bias=0.1,-0.25");
+  ASSERT_EQ(given.size(), 2u);
+  EXPECT_EQ(given[0].kind, FaultKind::kAttitudeBias);
+  EXPECT_EQ(given[0].magnitude, 0.1);
+  EXPECT_EQ(given[1].magnitude, -0.25);
+  ASSERT_EQ(ParseFaults("frame-dropped").size(), 1u);
+  EXPECT_EQ(FaultLabel(ParseFaults("clock-offset=0.050").front()), "clock-offset=0.05");
+  EXPECT_EQ(InputErrorOf([] { ParseFaults("lrf-absent=1"); }), "'lrf-absent=1': lrf-absent takes no magnitude");
+  EXPECT_EQ(InputErrorOf([] { ParseFaults("lrf-scale=0.1,"); }), "'lrf-scale=0.1,': '' is not a finite number (fraction)");
+  EXPECT_EQ(InputErrorOf([] { ParseFaults("lrf-scale=nan"); }), "'lrf-scale=nan': 'nan' is not a finite number (fraction)");
+  EXPECT_NE(InputErrorOf([] { ParseFaults("lrf"); }).find("unknown fault 'lrf'"), std::string::npos);
 }
 
 }  // namespace

@@ -160,6 +160,33 @@ TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
                   R"("hda": {"min_points": 12}}])")
                 .find("give the site size once"),
             std::string::npos);
+  // A fault (one magnitude, or none for a fault without one) and the entry's own methods.
+  EXPECT_EQ(suite(R"("methods": ["flight", "plane-nav"], "entries": [{"name": "a", "dataset": "x", )"
+                  R"("fault": "lrf-scale=0.050", "methods": ["flight"]}, {"name": "b", "dataset": "x", )"
+                  R"("fault": "lrf-absent"}])"),
+            "no error");
+  const GateSuite faulted = ReadGateSuite((dir / "suite.json").string());
+  ASSERT_TRUE(faulted.entries[0].fault.has_value());
+  EXPECT_EQ(datasets::FaultLabel(*faulted.entries[0].fault), "lrf-scale=0.05");
+  EXPECT_EQ(faulted.entries[0].methods, (std::vector<std::string>{"flight"}));
+  EXPECT_EQ(datasets::FaultLabel(*faulted.entries[1].fault), "lrf-absent");
+  EXPECT_TRUE(faulted.entries[1].methods.empty());
+  EXPECT_EQ(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "fault": "lrf-scale"}])"),
+            (dir / "suite.json").string() +
+                ": entries[0]: fault: 'lrf-scale' is a sweep of 8 magnitudes: give one, NAME=M");
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "fault": "lrf-gone=1"}])")
+                .find("entries[0]: fault: unknown fault 'lrf-gone'"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "fault": "lrf-absent=2"}])")
+                .find("entries[0]: fault: 'lrf-absent=2': lrf-absent takes no magnitude"),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "methods": ["sift"]}])")
+                .find("entries[0]: methods: "),
+            std::string::npos);
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "o", "fault": "lrf-absent", "observability": )"
+                  R"({"baselines_m": [10]}}])")
+                .find("entries[0]: 'fault' applies to a dataset, not to an observability study"),
+            std::string::npos);
 }
 
 TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {
@@ -180,6 +207,18 @@ TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {
                           {"method": "flight", "metric": "slope_error_p90_deg", "max": 6})")
                 .find("given twice"),
             std::string::npos);
+  // A fault's pool has its own thresholds; its label is the fault's, whatever the spelling.
+  EXPECT_EQ(thresholds(R"({"method": "flight", "metric": "slope_error_p90_deg", "max": 5},
+                          {"method": "flight", "metric": "slope_error_p90_deg", "max": 6, "fault": "clock-offset=0.050"})"),
+            "no error");
+  EXPECT_EQ(ReadGateThresholds((dir / "t.json").string()).thresholds[1].fault, "clock-offset=0.05");
+  EXPECT_NE(thresholds(R"({"method": "flight", "metric": "slope_error_p90_deg", "max": 5, "fault": "clock-offset=0.05"},
+                          {"method": "flight", "metric": "slope_error_p90_deg", "max": 6, "fault": "clock-offset=5e-2"})")
+                .find("flight under clock-offset=0.05 slope_error_p90_deg is given twice"),
+            std::string::npos);
+  EXPECT_NE(thresholds(R"({"method": "flight", "metric": "slope_error_p90_deg", "max": 5, "fault": "clock-offset"})")
+                .find("thresholds[0]: fault: 'clock-offset' is a sweep of"),
+            std::string::npos);
 }
 
 // The suites and thresholds checked in under gate/ read without error, and
@@ -196,6 +235,14 @@ TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
       EXPECT_NE(std::find(suite.methods.begin(), suite.methods.end(), threshold.method), suite.methods.end())
           << threshold.method << " " << threshold.metric;
       EXPECT_FALSE(threshold.why.empty()) << threshold.method << " " << threshold.metric;
+      if (threshold.fault.empty()) continue;
+      // A fault's threshold: an entry of the suite runs the method under that fault.
+      const bool under_fault = std::any_of(suite.entries.begin(), suite.entries.end(), [&](const GateEntry& e) {
+        const std::vector<std::string>& methods = e.methods.empty() ? suite.methods : e.methods;
+        return e.fault && datasets::FaultLabel(*e.fault) == threshold.fault &&
+               std::find(methods.begin(), methods.end(), threshold.method) != methods.end();
+      });
+      EXPECT_TRUE(under_fault) << threshold.method << " under " << threshold.fault << " " << threshold.metric;
     }
   }
 }
@@ -254,17 +301,59 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
   EXPECT_DOUBLE_EQ(value("flight_seconds_per_pair"), 4.0);     // 0.4 s / 0.1
   EXPECT_DOUBLE_EQ(value("failed_entries"), 0.0);
   EXPECT_DOUBLE_EQ(value("slope_error_rois"), 5.0);
+
+  // An entry whose record names a fault is pooled apart, per fault: the pool
+  // without a fault is the same as before, and the fault's pool has its own.
+  const std::string faulted = entry("c", {7.0, -9.0}, 0.9);
+  WriteText(fs::path(faulted) / "gate_entry.json",
+            nlohmann::json({{"entry", {{"name", "c"}, {"fault", "lrf-scale=0.05"}}}}).dump());
+  const std::vector<GateMetric> with_fault = ComputeGateMetrics(
+      {(dir / "a").string(), faulted, (dir / "b").string()}, 0.1);
+  const auto pooled = [&](const std::string& fault, const std::string& metric) {
+    for (const GateMetric& m : with_fault) {
+      if (m.method == "flight" && m.metric == metric && m.fault == fault) return m.value;
+    }
+    ADD_FAILURE() << "no " << metric << " under '" << fault << "'";
+    return -1.0;
+  };
+  for (const GateMetric& m : metrics) {
+    EXPECT_DOUBLE_EQ(pooled("", m.metric), m.value) << m.metric;
+  }
+  EXPECT_DOUBLE_EQ(pooled("lrf-scale=0.05", "slope_error_median_deg"), 8.0);
+  EXPECT_DOUBLE_EQ(pooled("lrf-scale=0.05", "slope_error_max_deg"), 9.0);
+  EXPECT_DOUBLE_EQ(pooled("lrf-scale=0.05", "slope_error_rois"), 2.0);
+  EXPECT_DOUBLE_EQ(pooled("lrf-scale=0.05", "flight_seconds_per_pair"), 9.0);
+  EXPECT_DOUBLE_EQ(pooled("lrf-scale=0.05", "rois_with_slope_share"), 2.0 / 4.0);
+  // The metrics file keeps the fault, and only where there is one.
+  const std::string json = GateMetricsJson(with_fault);
+  EXPECT_EQ(json.find("\"fault\": \"\""), std::string::npos);
+  WriteText(dir / "metrics.json", json);
+  const std::vector<GateMetric> read = ReadGateMetrics((dir / "metrics.json").string());
+  ASSERT_EQ(read.size(), with_fault.size());
+  for (size_t i = 0; i < read.size(); ++i) {
+    EXPECT_EQ(read[i].fault, with_fault[i].fault);
+    EXPECT_EQ(read[i].metric, with_fault[i].metric);
+  }
+  // A threshold on the fault's pool checks that pool, and says so by name.
+  GateThresholds thresholds;
+  thresholds.thresholds = {{"flight", "slope_error_max_deg", 8.0, std::nullopt, 0.0, "", "lrf-scale=0.05"},
+                           {"flight", "slope_error_max_deg", 8.0, std::nullopt, 0.0, "", ""}};
+  const std::vector<GateCheck> checks = CheckGate(with_fault, thresholds, nullptr);
+  ASSERT_EQ(checks.size(), 2u);
+  EXPECT_EQ(checks[0].Summary(), "flight under lrf-scale=0.05 slope_error_max_deg = 9.000 > 8.000 (threshold)");
+  EXPECT_TRUE(checks[1].passed);
+  EXPECT_NE(GateTable(checks).find("| flight under lrf-scale=0.05 | slope_error_max_deg | 9.000 |"), std::string::npos);
 }
 
 TEST(CheckGate, ThresholdsMarginsAndRegressions) {
   GateThresholds thresholds;
-  thresholds.thresholds = {{"flight", "slope_error_p90_deg", 5.0, std::nullopt, 0.5, ""},
-                           {"flight", "within_two_sigma_share", std::nullopt, 0.8, 0.05, ""},
-                           {"flight", "slope_error_max_deg", 20.0, std::nullopt, 1.0, ""}};
-  const std::vector<GateMetric> metrics = {{"flight", "slope_error_p90_deg", 4.0},
-                                           {"flight", "within_two_sigma_share", 0.7}};
-  const std::vector<GateMetric> baseline = {{"flight", "slope_error_p90_deg", 3.4},
-                                            {"flight", "within_two_sigma_share", 0.72}};
+  thresholds.thresholds = {{"flight", "slope_error_p90_deg", 5.0, std::nullopt, 0.5, "", ""},
+                           {"flight", "within_two_sigma_share", std::nullopt, 0.8, 0.05, "", ""},
+                           {"flight", "slope_error_max_deg", 20.0, std::nullopt, 1.0, "", ""}};
+  const std::vector<GateMetric> metrics = {{"flight", "slope_error_p90_deg", 4.0, ""},
+                                           {"flight", "within_two_sigma_share", 0.7, ""}};
+  const std::vector<GateMetric> baseline = {{"flight", "slope_error_p90_deg", 3.4, ""},
+                                            {"flight", "within_two_sigma_share", 0.72, ""}};
   const std::vector<GateCheck> checks = CheckGate(metrics, thresholds, &baseline);
   ASSERT_EQ(checks.size(), 3u);
   EXPECT_TRUE(checks[0].passed);
@@ -320,34 +409,12 @@ class GateCommand : public ::testing::Test {
     ADD_FAILURE() << "no flight " << metric << " in " << metrics_file;
     return 0.0;
   }
-  // Starts `hdabench gate ARGS` (stdout to /dev/null, stderr to err_file or
-  // /dev/null), sends it `signal_number` once `file` exists (at most 300 s),
-  // and returns its wait status.
+  // `hdabench gate ARGS`, sent `signal_number` once `file` exists (RunHdabenchUntil).
   static int RunGateUntil(const std::vector<std::string>& gate_args, const fs::path& file, int signal_number,
                           const fs::path& err_file) {
-    std::vector<std::string> args = {HDABENCH_EXE, "gate"};
+    std::vector<std::string> args = {"gate"};
     args.insert(args.end(), gate_args.begin(), gate_args.end());
-    const pid_t child = fork();
-    if (child < 0) return -1;
-    if (child == 0) {
-      std::vector<char*> argv;
-      for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-      argv.push_back(nullptr);
-      const int null = ::open("/dev/null", O_WRONLY);
-      const int err = err_file.empty() ? null : ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-      if (null >= 0) ::dup2(null, 1);
-      if (err >= 0) ::dup2(err, 2);
-      ::execv(argv[0], argv.data());
-      ::_exit(127);
-    }
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
-    while (!fs::exists(file) && std::chrono::steady_clock::now() < deadline) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-    ::kill(child, signal_number);
-    int status = 0;
-    ::waitpid(child, &status, 0);
-    return status;
+    return testing_support::RunHdabenchUntil(args, file, signal_number, err_file);
   }
   static fs::path* scene_;
 };
@@ -634,6 +701,103 @@ TEST_F(GateCommand, ShardsMergedGiveTheWholeSuitesTableAndVerdict) {
       dir);
   EXPECT_EQ(flag.exit_code, 2);
   EXPECT_NE(flag.err.find("--shard: shard '3/2': expected K/N with 1 <= K <= N"), std::string::npos) << flag.err;
+}
+
+// An entry under a sensor fault: pooled apart from the clean entries, with
+// thresholds of its own that fail by the fault's name; the clean pool is the
+// same as without it. LRF ranges 20 % long put the sites' triangulated
+// points far off the plane the range implies: the method keeps no slope.
+TEST_F(GateCommand, AFaultEntryIsPooledApartAndItsThresholdsFailByName) {
+  const fs::path dir = FreshTestDir();
+  const auto write_suite = [&](const std::string& name, bool with_fault) {
+    nlohmann::json entries = {{{"name", "clean"}, {"dataset", scene_->string()}}};
+    if (with_fault) {
+      entries.push_back({{"name", "lrf-long"}, {"dataset", scene_->string()}, {"fault", "lrf-scale=0.2"}});
+    }
+    WriteText(dir / name, nlohmann::json({{"format", "hdabench-gate-suite"},
+                                          {"format_version", 1},
+                                          {"methods", {"flight"}},
+                                          {"entries", entries}})
+                              .dump(1));
+    return dir / name;
+  };
+  const fs::path thresholds = WriteThresholds(
+      dir, "t.json",
+      {{{"method", "flight"}, {"metric", "rois_with_slope_share"}, {"min", 0.3}},
+       {{"method", "flight"}, {"metric", "rois_with_slope_share"}, {"min", 0.3}, {"fault", "lrf-scale=0.2"}}});
+  const CommandResult faulted = RunHdabench({"gate", "--suite", write_suite("faulted.json", true).string(),
+                                             "--thresholds", thresholds.string(), "--out",
+                                             (dir / "faulted").string(), "--write-baseline",
+                                             (dir / "faulted.metrics.json").string()},
+                                            dir);
+  EXPECT_EQ(faulted.exit_code, 1) << faulted.err;
+  EXPECT_NE(faulted.err.find("FAILED flight under lrf-scale=0.2 rois_with_slope_share = 0.000 < 0.300"),
+            std::string::npos)
+      << faulted.err;
+  EXPECT_EQ(faulted.err.find("FAILED flight rois_with_slope_share"), std::string::npos) << faulted.err;
+  EXPECT_NE(faulted.out.find("| flight under lrf-scale=0.2 | rois_with_slope_share | 0.000 | >= 0.300 |"),
+            std::string::npos)
+      << faulted.out;
+  // The clean pool is the clean entry's alone.
+  const CommandResult clean = RunHdabench({"gate", "--suite", write_suite("clean.json", false).string(),
+                                           "--thresholds", thresholds.string(), "--out", (dir / "clean").string(),
+                                           "--write-baseline", (dir / "clean.metrics.json").string()},
+                                          dir);
+  EXPECT_EQ(clean.exit_code, 1) << clean.err;  // the fault's threshold has no data here
+  EXPECT_NE(clean.err.find("flight under lrf-scale=0.2 rois_with_slope_share: no value"), std::string::npos)
+      << clean.err;
+  std::vector<GateMetric> clean_pool;
+  for (const GateMetric& m : ReadGateMetrics((dir / "faulted.metrics.json").string())) {
+    if (m.fault.empty()) clean_pool.push_back(m);
+  }
+  const std::vector<GateMetric> alone = ReadGateMetrics((dir / "clean.metrics.json").string());
+  ASSERT_EQ(clean_pool.size(), alone.size());
+  for (size_t i = 0; i < alone.size(); ++i) {
+    EXPECT_EQ(clean_pool[i].metric, alone[i].metric);
+    if (alone[i].metric == "flight_seconds_per_pair") continue;  // a wall time
+    EXPECT_EQ(clean_pool[i].value, alone[i].value) << alone[i].metric;
+  }
+  EXPECT_GE(Metric(dir / "clean.metrics.json", "rois_with_slope_share"), 0.3);
+}
+
+// Entries with the same synthetic source share one dataset, made once even
+// when they run at the same time; an entry's own methods are the ones it runs.
+TEST_F(GateCommand, EntriesOfOneSourceShareItsDataset) {
+  const fs::path dir = FreshTestDir();
+  const nlohmann::json synth = {{"preset", "novac-lateral"}, {"seed", 2}, {"image_size", 256}};
+  WriteText(dir / "suite.json",
+            nlohmann::json({{"format", "hdabench-gate-suite"},
+                            {"format_version", 1},
+                            {"methods", {"flight", "plane-nav"}},
+                            {"entries",
+                             {{{"name", "clean"}, {"synth", synth}},
+                              {{"name", "no-lrf"}, {"synth", synth}, {"fault", "lrf-absent"}, {"methods", {"flight"}}},
+                              {{"name", "late"}, {"synth", synth}, {"fault", "clock-offset=0.05"}}}}})
+                .dump(1));
+  const fs::path thresholds = WriteThresholds(
+      dir, "t.json", {{{"method", "flight"}, {"metric", "failed_entries"}, {"max", 0}, {"fault", "lrf-absent"}}});
+  const CommandResult run = RunHdabench({"gate", "--suite", (dir / "suite.json").string(), "--thresholds",
+                                         thresholds.string(), "--jobs", "2", "--out", (dir / "out").string()},
+                                        dir);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  int datasets = 0;
+  for (const auto& item : fs::directory_iterator(dir / "out" / "datasets")) {
+    ++datasets;
+    EXPECT_EQ(item.path().filename().string().rfind("clean-", 0), 0u) << item.path();
+  }
+  EXPECT_EQ(datasets, 1);
+  const nlohmann::json no_lrf = nlohmann::json::parse(ReadText(dir / "out" / "entries" / "no-lrf" / "compare.json"));
+  ASSERT_EQ(no_lrf.at("methods").size(), 1u);
+  EXPECT_EQ(no_lrf.at("methods")[0].at("name"), "flight");
+  const nlohmann::json late = nlohmann::json::parse(ReadText(dir / "out" / "entries" / "late" / "compare.json"));
+  EXPECT_EQ(late.at("methods").size(), 2u);
+  // Each record says what the entry ran with.
+  const nlohmann::json record =
+      nlohmann::json::parse(ReadText(dir / "out" / "entries" / "late" / "gate_entry.json"));
+  EXPECT_EQ(record.at("entry").at("fault"), "clock-offset=0.05");
+  EXPECT_FALSE(nlohmann::json::parse(ReadText(dir / "out" / "entries" / "clean" / "gate_entry.json"))
+                   .at("entry")
+                   .contains("fault"));
 }
 
 TEST_F(GateCommand, BadFilesAndFlagsHaveTheirExitCodes) {

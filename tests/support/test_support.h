@@ -2,9 +2,12 @@
 // names, file edits and running the hdabench binary.
 #pragma once
 
+#include <fcntl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <csignal>
 #include <cstdint>
 #include <cstdlib>
 #include <functional>
@@ -15,6 +18,7 @@
 #include <sstream>
 #include <string>
 #include <system_error>
+#include <thread>
 #include <vector>
 
 #include <Eigen/Core>
@@ -200,6 +204,36 @@ inline CommandResult RunHdabench(const std::vector<std::string>& args, const fs:
   fs::remove(out_file);
   fs::remove(err_file);
   return result;
+}
+
+// Starts the hdabench binary with `args` (stdout to /dev/null, stderr to
+// `err_file`, or /dev/null when it is empty), sends it `signal_number` once
+// `file` exists (waiting at most 300 s), and returns its wait status.
+inline int RunHdabenchUntil(const std::vector<std::string>& args, const fs::path& file, int signal_number,
+                            const fs::path& err_file) {
+  std::vector<std::string> argv_text = {HDABENCH_EXE};
+  argv_text.insert(argv_text.end(), args.begin(), args.end());
+  const pid_t child = ::fork();
+  if (child < 0) return -1;
+  if (child == 0) {
+    std::vector<char*> argv;
+    for (const std::string& a : argv_text) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    const int null = ::open("/dev/null", O_WRONLY);
+    const int err = err_file.empty() ? null : ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (null >= 0) ::dup2(null, 1);
+    if (err >= 0) ::dup2(err, 2);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(300);
+  while (!fs::exists(file) && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ::kill(child, signal_number);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  return status;
 }
 
 // A dataset made once and shared by every test process that asks for it in

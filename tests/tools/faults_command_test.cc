@@ -70,6 +70,31 @@ TEST(FaultsCommand, EachCaseIsMeasuredOrNamedAndTheBytesAreTheSameTwice) {
   }
 }
 
+// A dropped image 2: the command reads the frame after it too, which takes its place; with image 2
+// the last frame there is none, and the case says so.
+TEST(FaultsCommand, ADroppedImageTwoIsTakenByTheNextFrame) {
+  const fs::path dir = FreshTestDir();
+  const std::string dataset = SmallSyntheticDataset().string();
+  const CommandResult dropped = RunInOwnFolder(
+      {"faults", dataset, "--out", (dir / "a").string(), "--quiet", "--no-figures", "--fault", "frame-dropped"});
+  ASSERT_EQ(dropped.exit_code, 0) << dropped.err;
+  const nlohmann::json cases = nlohmann::json::parse(ReadText(dir / "a" / "faults.json"))["cases"];
+  ASSERT_EQ(cases.size(), 2u);
+  EXPECT_EQ(cases[1]["case"], "frame-dropped");
+  ASSERT_TRUE(cases[1]["ran"].get<bool>()) << cases[1]["error"];
+  EXPECT_GT(cases[1]["with_slope"].get<int>(), 0);
+  EXPECT_GT(cases[1]["moved_count"].get<int>(), 0);  // a longer baseline: the same sites, other points
+
+  const CommandResult last = RunInOwnFolder({"faults", dataset, "--out", (dir / "b").string(), "--quiet",
+                                             "--no-figures", "--frames", "0,12", "--fault", "frame-dropped"});
+  ASSERT_EQ(last.exit_code, 0) << last.err;
+  const nlohmann::json refused = nlohmann::json::parse(ReadText(dir / "b" / "faults.json"))["cases"][1];
+  EXPECT_FALSE(refused["applied"].get<bool>());
+  EXPECT_NE(refused["error"].get<std::string>().find("frame 12 is the last: no frame after it takes its place"),
+            std::string::npos)
+      << refused["error"];
+}
+
 TEST(FaultsCommand, BadFlagsAndFoldersAreNamed) {
   const fs::path dir = FreshTestDir();
   const std::string dataset = SmallSyntheticDataset().string();
@@ -88,7 +113,7 @@ TEST(FaultsCommand, BadFlagsAndFoldersAreNamed) {
   EXPECT_EQ(nothing.exit_code, 2);
   const CommandResult list = RunInOwnFolder({"faults", "--list"});
   EXPECT_EQ(list.exit_code, 0);
-  for (const char* name : {"lrf-absent", "lrf-scale", "attitude-bias", "clock-offset", "frame-repeated"}) {
+  for (const char* name : {"lrf-absent", "lrf-scale", "attitude-bias", "clock-offset", "frame-repeated", "frame-dropped"}) {
     EXPECT_NE(list.out.find(name), std::string::npos) << name;
   }
 }

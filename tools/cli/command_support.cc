@@ -142,7 +142,7 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
                          const std::optional<std::pair<int, int>>& frames,
                          const std::string& out_dir, const std::string& command,
                          std::ostream& err, const std::function<void(const std::string&)>& progress,
-                         bool read_dem, const std::string& own_result_file) {
+                         bool read_dem, const std::string& own_result_file, bool with_next_frame) {
   PairLoad result;
   const std::string prefix = "hdabench " + command + ": ";
   if (frames.has_value() && frames->first == frames->second) {
@@ -179,9 +179,13 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
   load.keep_images = true;
   load.keep_truth = true;
   load.read_dem = read_dem;
-  load.frames_used = [&frames](const datasets::Dataset& tables) {
+  load.frames_used = [&frames, with_next_frame](const datasets::Dataset& tables) {
     const std::pair<int, int> pair = frames.has_value() ? *frames : reference::DefaultFramePair(tables);
-    return std::vector<int>{pair.first, pair.second};
+    std::vector<int> used = {pair.first, pair.second};
+    if (with_next_frame && pair.second + 1 < static_cast<int>(tables.frames.size())) {
+      used.push_back(pair.second + 1);
+    }
+    return used;
   };
   result.dataset = LoadDatasetOrReport(dataset_dir, load, command, err);
   if (!result.dataset.has_value()) {

@@ -96,14 +96,16 @@ struct PairLoad {
 // loads the dataset and takes the given frames (checked against the dataset)
 // or reference::DefaultFramePair. Only the pair's images and truth points are
 // read whole (datasets::LoadOptions::frames_used; the other frames' files are
-// checked as files), and the DEM's heights only with `read_dem`. Prints
-// "hdabench <command>: ..." on a problem: equal or missing frames exit
-// kExitUsage, an unusable dataset or output folder kExitInput.
+// checked as files), and the DEM's heights only with `read_dem`;
+// `with_next_frame` reads the frame after image 2 whole too (the frame that
+// takes image 2's place when it is dropped). Prints "hdabench <command>: ..."
+// on a problem: equal or missing frames exit kExitUsage, an unusable dataset
+// or output folder kExitInput.
 PairLoad LoadDatasetPair(const std::string& dataset_dir,
                          const std::optional<std::pair<int, int>>& frames,
                          const std::string& out_dir, const std::string& command,
                          std::ostream& err, const std::function<void(const std::string&)>& progress,
-                         bool read_dem, const std::string& own_result_file);
+                         bool read_dem, const std::string& own_result_file, bool with_next_frame = false);
 
 // The flight method's parameters of `run` and `compare`: the --params file
 // (when not empty, its values checked), then the command's own flags that

@@ -2,6 +2,7 @@
 // under each sensor fault at a sweep of magnitudes (reference/faults/,
 // docs/faults.md); writes faults.csv, faults.json and faults.md, prints the
 // table, and draws faults.png.
+#include <algorithm>
 #include <iostream>
 #include <memory>
 #include <optional>
@@ -39,41 +40,14 @@ struct FaultsArgs {
   bool quiet = false;
 };
 
-// "NAME" or "NAME=M1,M2,...": the fault at each magnitude (its default sweep
-// when none is given). Throws CLI::ValidationError (exit 2) naming the flag.
+// --fault's text as datasets::ParseFaults reads it; a bad one is a
+// CLI::ValidationError (exit 2) naming the flag.
 std::vector<datasets::Fault> ParseFaultFlag(const std::string& text) {
-  const size_t equals = text.find('=');
-  const std::string name = text.substr(0, equals);
-  datasets::FaultKind kind;
   try {
-    kind = datasets::ParseFaultKind(name);
+    return datasets::ParseFaults(text);
   } catch (const InputError& e) {
     throw CLI::ValidationError("--fault", e.what());
   }
-  const datasets::FaultInfo& info = datasets::InfoOf(kind);
-  std::vector<datasets::Fault> faults;
-  if (equals == std::string::npos) {
-    for (const double m : info.sweep) faults.push_back({kind, m});
-    return faults;
-  }
-  if (info.unit[0] == '\0') {
-    throw CLI::ValidationError("--fault", "'" + text + "': " + name + " takes no magnitude");
-  }
-  std::string rest = text.substr(equals + 1);
-  size_t start = 0;
-  while (start <= rest.size()) {
-    const size_t comma = rest.find(',', start);
-    const std::string item = rest.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
-    double value = 0.0;
-    if (util::ParseDouble(item, &value) != util::ParseStatus::kOk) {
-      throw CLI::ValidationError("--fault", "'" + text + "': '" + item + "' is not a finite number (" +
-                                                info.unit + ")");
-    }
-    faults.push_back({kind, value});
-    if (comma == std::string::npos) break;
-    start = comma + 1;
-  }
-  return faults;
 }
 
 std::string CatalogueText() {
@@ -111,8 +85,11 @@ int RunFaults(const FaultsArgs& args, std::ostream& out, std::ostream& err) {
   const int settings_code = BuildHdaSettings(args.params_file, {}, args.hda_sets, "faults", err, &settings);
   if (settings_code != kExitOk) return settings_code;
 
+  const bool drops_a_frame = std::any_of(faults.begin(), faults.end(), [](const datasets::Fault& f) {
+    return f.kind == datasets::FaultKind::kFrameDropped;
+  });
   const PairLoad pair = LoadDatasetPair(args.dataset_dir, ParseFramesFlag(args.frames_text), args.out_dir,
-                                        "faults", err, progress, /*read_dem=*/false, "faults.json");
+                                        "faults", err, progress, /*read_dem=*/false, "faults.json", drops_a_frame);
   if (pair.exit_code != kExitOk) return pair.exit_code;
   // One core, as on the flight computer (results do not depend on it).
   cv::setNumThreads(1);

@@ -750,7 +750,13 @@ bool LoadLrfTable(LoadContext* context) {
   CsvTable table;
   const size_t before = problems.Count();
   if (!ReadTable(context, file, "lrf", kLrfSchema, &table)) return false;
-  CheckEnoughRows(&problems, file, table, 2, "frame times are interpolated between samples");
+  // A table with no row is a lander without a usable LRF: the flight method
+  // takes the range from the navigation (docs/faults.md). One row cannot be
+  // interpolated.
+  if (table.num_data_lines != 0) {
+    CheckEnoughRows(&problems, file, table, 2,
+                    "frame times are interpolated between samples; none at all: no LRF, the range from the navigation");
+  }
   std::optional<std::pair<double, int>> previous;
   for (const internal::CsvRow& row : table.rows) {
     CsvRowReader reader(file, table, row, problems.List());

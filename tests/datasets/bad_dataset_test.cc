@@ -383,11 +383,12 @@ std::vector<Defect> Catalogue() {
          return Problem{"frames.csv:7",
                         "time_s 2.5 is outside the LRF span [0, 2.4] s of lrf.csv"};
        }},
-      {"LrfEmpty",
+      {"LrfOneRow",
        [](const fs::path& dir) {
-         KeepLines(dir / "lrf.csv", 1);
-         return Problem{"lrf.csv", "has 0 rows after the header; expected at least 2 (frame times "
-                                   "are interpolated between samples)"};
+         KeepLines(dir / "lrf.csv", 2);
+         return Problem{"lrf.csv", "has 1 row after the header; expected at least 2 (frame times "
+                                   "are interpolated between samples; none at all: no LRF, the range from "
+                                   "the navigation)"};
        }},
       {"NegativeLrfRange",
        [](const fs::path& dir) {

@@ -95,6 +95,44 @@ TEST(FaultsCommand, ADroppedImageTwoIsTakenByTheNextFrame) {
       << refused["error"];
 }
 
+// The generator with faults: applied to the pair `run` takes, written with
+// the dataset (the truth the scene's), and the dataset is whole: without an
+// LRF, `run` takes the range from the navigation.
+TEST(SynthCommand, FaultsAreAppliedToThePairAndTheDatasetRunsWithThem) {
+  const fs::path dir = FreshTestDir();
+  const std::vector<std::string> scene = {"--image-size", "256", "--seed", "3", "--set", "horizontal_fov_deg=15",
+                                          "--quiet"};
+  std::vector<std::string> args = {"synth", "--out", (dir / "faulted").string(), "--fault", "lrf-absent",
+                                   "--fault", "frame-dropped"};
+  args.insert(args.end(), scene.begin(), scene.end());
+  const CommandResult made = RunInOwnFolder(args);
+  ASSERT_EQ(made.exit_code, 0) << made.err;
+  EXPECT_NE(made.out.find("applied lrf-absent, frame-dropped to frames 0,6"), std::string::npos) << made.out;
+  EXPECT_EQ(SplitLines(ReadText(dir / "faulted" / "lrf.csv")).size(), 1u);     // the header alone
+  EXPECT_EQ(SplitLines(ReadText(dir / "faulted" / "frames.csv")).size(), 13u);  // 12 frames
+  EXPECT_NE(ReadText(dir / "faulted" / "manifest.json").find("Sensor faults (docs/faults.md) on frames 0,6"),
+            std::string::npos);
+  const CommandResult check = RunInOwnFolder({"dataset", "check", (dir / "faulted").string()});
+  EXPECT_EQ(check.exit_code, 0) << check.out << check.err;
+  const CommandResult run =
+      RunInOwnFolder({"run", (dir / "faulted").string(), "--out", (dir / "run").string(), "--no-figures", "--no-report"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "run" / "result.json"));
+  EXPECT_EQ(result["inputs"]["range_source"], "navigation");
+
+  // A sweep is not one fault; a fault that cannot apply writes nothing.
+  args = {"synth", "--out", (dir / "sweep").string(), "--fault", "lrf-scale"};
+  const CommandResult sweep = RunInOwnFolder(args);
+  EXPECT_EQ(sweep.exit_code, 2);
+  EXPECT_NE(sweep.err.find("--fault 'lrf-scale' is a sweep of 8 magnitudes: give one"), std::string::npos) << sweep.err;
+  args = {"synth", "--out", (dir / "late").string(), "--fault", "clock-offset=100"};
+  args.insert(args.end(), scene.begin(), scene.end());
+  const CommandResult late = RunInOwnFolder(args);
+  EXPECT_EQ(late.exit_code, 3);
+  EXPECT_NE(late.err.find("fault clock-offset=100: frame 0 moves to"), std::string::npos) << late.err;
+  EXPECT_FALSE(fs::exists(dir / "late" / "manifest.json"));
+}
+
 TEST(FaultsCommand, BadFlagsAndFoldersAreNamed) {
   const fs::path dir = FreshTestDir();
   const std::string dataset = SmallSyntheticDataset().string();

@@ -37,6 +37,9 @@ struct SynthCommandOptions {
   int image_size_px = 0;                // 0: the preset's (1024)
   std::string camera_model_file;        // a .cameramodel instead of the default camera
   std::vector<std::string> overrides;   // "key=value", docs/synthetic-scenes.md
+  // Sensor faults "NAME[=M]" (docs/faults.md), one magnitude each, applied in
+  // order to the pair `hdabench run` takes; the truth stays the scene's.
+  std::vector<std::string> faults;
   bool quiet = false;                   // no progress lines
 };
 int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream& err);

@@ -44,8 +44,12 @@ void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int 
       << " .. " << util::FixedText(dataset.nav.back().time_s, 3) << " s"
       << (dataset.nav_has_velocity ? ", velocity" : "") << (dataset.nav_has_sigmas ? ", sigmas" : "")
       << "\n";
-  out << "  lrf:         " << dataset.lrf.size() << " samples, " << util::FixedText(dataset.lrf.front().time_s, 3)
-      << " .. " << util::FixedText(dataset.lrf.back().time_s, 3) << " s\n";
+  if (dataset.lrf.empty()) {
+    out << "  lrf:         none (the flight method takes the range from the navigation, docs/faults.md)\n";
+  } else {
+    out << "  lrf:         " << dataset.lrf.size() << " samples, " << util::FixedText(dataset.lrf.front().time_s, 3)
+        << " .. " << util::FixedText(dataset.lrf.back().time_s, 3) << " s\n";
+  }
   const datasets::FrameRecord& a = dataset.frames[static_cast<size_t>(frame1)];
   const datasets::FrameRecord& b = dataset.frames[static_cast<size_t>(frame2)];
   const Rigid3d cam2_from_cam1 = dataset.Cam2FromCam1(frame1, frame2);
@@ -53,8 +57,10 @@ void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int 
   out << "  frames " << frame1 << " -> " << frame2 << ": dt " << util::FixedText(b.time_s - a.time_s, 3)
       << " s, baseline " << util::FixedText(dataset.BaselineM(frame1, frame2), 3) << " m, rotation "
       << util::FixedText(rotation_deg, 4) << " deg\n";
-  out << "  lrf range:   " << util::FixedText(dataset.LrfRangeAt(a.time_s), 3) << " m at frame " << frame1
-      << ", " << util::FixedText(dataset.LrfRangeAt(b.time_s), 3) << " m at frame " << frame2 << "\n";
+  if (!dataset.lrf.empty()) {
+    out << "  lrf range:   " << util::FixedText(dataset.LrfRangeAt(a.time_s), 3) << " m at frame " << frame1
+        << ", " << util::FixedText(dataset.LrfRangeAt(b.time_s), 3) << " m at frame " << frame2 << "\n";
+  }
   const Eigen::Vector3d& g = dataset.gravity_in_local_mps2;
   out << "  gravity:     (" << util::FixedText(g.x(), 4) << ", " << util::FixedText(g.y(), 4) << ", " << util::FixedText(g.z(), 4)
       << ") m/s^2; ILS (" << util::FixedText(dataset.ils_in_local_m.x(), 3) << ", "

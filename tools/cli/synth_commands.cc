@@ -17,12 +17,14 @@
 
 #include "tools/util/error.h"
 #include "datasets/dataset.h"
+#include "datasets/faults.h"
 #include "datasets/synth/synth.h"
 #include "datasets/synth/truth.h"
 #include "tools/cli/command_line.h"
 #include "tools/cli/command_support.h"
 #include "tools/cli/commands.h"
 #include "tools/cli/exit_codes.h"
+#include "reference/flight/flight_run.h"
 
 namespace hdabench::tools {
 
@@ -55,6 +57,22 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
                          &terrain);
   }
   synth::ScaleTerrain(synth_options.terrain_scale, &terrain);
+  std::vector<datasets::Fault> faults;
+  for (const std::string& text : options.faults) {
+    std::vector<datasets::Fault> parsed;
+    try {
+      parsed = datasets::ParseFaults(text);
+    } catch (const InputError& e) {
+      err << "hdabench synth: --fault " << e.what() << "\n";
+      return kExitUsage;
+    }
+    if (parsed.size() != 1) {
+      err << "hdabench synth: --fault '" << text << "' is a sweep of " << parsed.size()
+          << " magnitudes: give one, NAME=M (hdabench faults --list)\n";
+      return kExitUsage;
+    }
+    faults.push_back(parsed.front());
+  }
 
   int last_percent = -1;
   std::string last_stage;
@@ -67,8 +85,20 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
     err << "hdabench synth: " << stage << " " << percent << "%\n";
   };
   synth::SynthSummary summary;
-  const datasets::Dataset dataset =
-      synth::GenerateSynthDataset(synth_options, terrain, options.seed, progress, &summary);
+  datasets::Dataset dataset = synth::GenerateSynthDataset(synth_options, terrain, options.seed, progress, &summary);
+  if (!faults.empty()) {
+    // On the pair `run` takes; a fault that cannot apply is an InputError
+    // (exit 3) before anything is written.
+    const std::pair<int, int> pair = reference::DefaultFramePair(dataset);
+    std::string labels;
+    for (const datasets::Fault& fault : faults) {
+      datasets::ApplyFault(fault, pair.first, pair.second, options.seed, &dataset);
+      labels += (labels.empty() ? "" : ", ") + datasets::FaultLabel(fault);
+    }
+    dataset.description += " Sensor faults (docs/faults.md) on frames " + std::to_string(pair.first) + "," +
+                           std::to_string(pair.second) + ": " + labels + "; the truth is the scene's.";
+    out << "applied " << labels << " to frames " << pair.first << "," << pair.second << "\n";
+  }
   datasets::WriteDataset(dataset, options.out_dir);
   synth::WriteTruthMaps(dataset, (fs::path(options.out_dir) / "maps").string());
   out << "wrote synthetic dataset '" << dataset.name << "' to " << options.out_dir << "\n  "
@@ -147,6 +177,9 @@ Command AddSynthCommand(CLI::App& app) {
   synth_app->add_option(
       "--set", options->overrides,
       "Override any parameter: key=value (e.g. render.sun_elevation_deg=15, terrain.rock_k=0.01)");
+  synth_app->add_option("--fault", options->faults,
+                        "A sensor fault NAME[=M] on the pair hdabench run takes, the truth left as the\n"
+                        "scene's (repeatable, applied in order; hdabench faults --list, docs/faults.md)");
   synth_app->add_flag("--quiet", options->quiet, "No progress lines");
   return {synth_app, [options] { return RunSynth(*options, std::cout, std::cerr); }};
 }

@@ -28,10 +28,8 @@ std::tuple<int, int, int, int> BoxKey(const hda::RoiResult& roi) {
   return {roi.box1_px.x, roi.box1_px.y, roi.box1_px.width, roi.box1_px.height};
 }
 
-// Fills the counts, statistics, movement against `clean` and the verdicts of a
-// case that ran.
-void Measure(const FlightRun& run, const FlightRun* clean, const FaultRequirements& requirements,
-             FaultCase* c) {
+// Fills the counts, statistics and movement against `clean` of a case that ran.
+void Measure(const FlightRun& run, const FlightRun* clean, FaultCase* c) {
   c->range_source = ToString(run.range_source);
   c->rois = static_cast<int>(run.result.rois.size());
   c->with_slope = static_cast<int>(std::count_if(run.result.rois.begin(), run.result.rois.end(),
@@ -56,14 +54,9 @@ void Measure(const FlightRun& run, const FlightRun* clean, const FaultRequiremen
       c->moved_max_deg = moved.back();
     }
   }
-  const bool stats = c->stats.count > 0;
-  c->meets_median = stats && c->stats.median_abs_deg <= requirements.max_median_deg;
-  c->meets_p90 = stats && c->stats.p90_abs_deg <= requirements.max_p90_deg;
-  c->meets_within = stats && c->stats.within_two_sigma_fraction >= requirements.min_within_two_sigma;
-  c->meets_evaluated = c->evaluated_share >= requirements.min_evaluated_share;
 }
 
-std::vector<FaultCrossing> Crossings(const std::vector<FaultCase>& cases) {
+std::vector<FaultCrossing> Crossings(const std::vector<FaultCase>& cases, const FaultRequirements& requirements) {
   // Per (fault, sign): the cases in order of |magnitude|.
   std::map<std::pair<std::string, int>, std::vector<const FaultCase*>> groups;
   std::vector<std::pair<std::string, int>> order;
@@ -85,10 +78,11 @@ std::vector<FaultCrossing> Crossings(const std::vector<FaultCase>& cases) {
     crossing.largest_swept = std::abs(group.back()->fault->magnitude);
     for (const FaultCase* c : group) {
       const double m = c->fault->magnitude;
-      if (!c->meets_median && !crossing.median) crossing.median = m;
-      if (!c->meets_p90 && !crossing.p90) crossing.p90 = m;
-      if (!c->meets_within && !crossing.within) crossing.within = m;
-      if (!c->meets_evaluated && !crossing.evaluated) crossing.evaluated = m;
+      const FaultVerdicts meets = VerdictsOf(*c, requirements);
+      if (!meets.median && !crossing.median) crossing.median = m;
+      if (!meets.p90 && !crossing.p90) crossing.p90 = m;
+      if (!meets.within && !crossing.within) crossing.within = m;
+      if (!meets.evaluated && !crossing.evaluated) crossing.evaluated = m;
     }
     crossings.push_back(crossing);
   }
@@ -105,6 +99,17 @@ std::string CrossingCell(const std::optional<double>& value, double largest, int
 }
 
 }  // namespace
+
+FaultVerdicts VerdictsOf(const FaultCase& c, const FaultRequirements& requirements) {
+  FaultVerdicts meets;
+  if (!c.ran) return meets;
+  const bool stats = c.stats.count > 0;
+  meets.median = stats && c.stats.median_abs_deg <= requirements.max_median_deg;
+  meets.p90 = stats && c.stats.p90_abs_deg <= requirements.max_p90_deg;
+  meets.within = stats && c.stats.within_two_sigma_fraction >= requirements.min_within_two_sigma;
+  meets.evaluated = c.evaluated_share >= requirements.min_evaluated_share;
+  return meets;
+}
 
 std::vector<datasets::Fault> DefaultFaultSweep() {
   std::vector<datasets::Fault> faults;
@@ -148,7 +153,7 @@ FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame
     throw InputError(std::string("the clean run failed, so no fault can be judged: ") + e.what());
   }
   clean_case.ran = true;
-  Measure(clean, nullptr, requirements, &clean_case);
+  Measure(clean, nullptr, &clean_case);
   say(clean_case);
   study.cases.push_back(clean_case);
 
@@ -169,7 +174,7 @@ FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame
     try {
       const FlightRun run = RunFlight(faulted, frame1, frame2, study_settings);
       c.ran = true;
-      Measure(run, &clean, requirements, &c);
+      Measure(run, &clean, &c);
     } catch (const InputError& e) {
       c.ran = false;
       c.error = e.what();
@@ -177,7 +182,7 @@ FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame
     say(c);
     study.cases.push_back(c);
   }
-  study.crossings = Crossings(study.cases);
+  study.crossings = Crossings(study.cases, requirements);
   return study;
 }
 
@@ -188,6 +193,7 @@ std::string FaultStudyCsv(const FaultStudy& study) {
          "meets_median,meets_p90,meets_within,meets_evaluated,applied,range_source,error\n";
   for (const FaultCase& c : study.cases) {
     const bool stats = c.ran && c.stats.count > 0;
+    const FaultVerdicts meets = VerdictsOf(c, study.requirements);
     const auto number = [&](bool have, double v) { return have ? util::CsvNumber(v) : std::string(); };
     out << c.label << "," << (c.fault ? datasets::InfoOf(c.fault->kind).name : "") << ","
         << (c.fault ? util::CsvNumber(c.fault->magnitude) : "") << ","
@@ -196,9 +202,9 @@ std::string FaultStudyCsv(const FaultStudy& study) {
         << number(stats, c.stats.median_abs_deg) << "," << number(stats, c.stats.p90_abs_deg) << ","
         << number(stats, c.stats.within_two_sigma_fraction) << "," << number(stats, c.stats.bias_deg) << ","
         << c.moved_count << "," << number(c.moved_count > 0, c.moved_median_deg) << ","
-        << number(c.moved_count > 0, c.moved_max_deg) << "," << (c.meets_median ? "true" : "false") << ","
-        << (c.meets_p90 ? "true" : "false") << "," << (c.meets_within ? "true" : "false") << ","
-        << (c.meets_evaluated ? "true" : "false") << "," << (c.applied ? "true" : "false") << ","
+        << number(c.moved_count > 0, c.moved_max_deg) << "," << (meets.median ? "true" : "false") << ","
+        << (meets.p90 ? "true" : "false") << "," << (meets.within ? "true" : "false") << ","
+        << (meets.evaluated ? "true" : "false") << "," << (c.applied ? "true" : "false") << ","
         << c.range_source << ",";
     // The reason in double quotes, its own quotes doubled (RFC 4180).
     if (!c.error.empty()) {
@@ -245,10 +251,11 @@ std::string FaultStudyJson(const FaultStudy& study) {
     row["moved_count"] = c.moved_count;
     row["moved_median_deg"] = c.moved_count > 0 ? Json(c.moved_median_deg) : Json(nullptr);
     row["moved_max_deg"] = c.moved_count > 0 ? Json(c.moved_max_deg) : Json(nullptr);
-    row["meets"] = {{"median", c.meets_median},
-                    {"p90", c.meets_p90},
-                    {"within_two_sigma", c.meets_within},
-                    {"evaluated_share", c.meets_evaluated}};
+    const FaultVerdicts meets = VerdictsOf(c, study.requirements);
+    row["meets"] = {{"median", meets.median},
+                    {"p90", meets.p90},
+                    {"within_two_sigma", meets.within},
+                    {"evaluated_share", meets.evaluated}};
     cases.push_back(row);
   }
   j["cases"] = cases;
@@ -282,14 +289,15 @@ std::string FaultStudyMarkdown(const FaultStudy& study) {
     }
     const bool stats = c.stats.count > 0;
     const bool moved = c.moved_count > 0;
+    const FaultVerdicts verdicts = VerdictsOf(c, study.requirements);
     std::string meets;
-    if (c.meets_median && c.meets_p90 && c.meets_within && c.meets_evaluated) {
+    if (verdicts.All()) {
       meets = "all";
     } else {
-      for (const auto& [ok, name] : {std::pair<bool, const char*>{c.meets_median, "median"},
-                                     {c.meets_p90, "p90"},
-                                     {c.meets_within, "2 sigma"},
-                                     {c.meets_evaluated, "share"}}) {
+      for (const auto& [ok, name] : {std::pair<bool, const char*>{verdicts.median, "median"},
+                                     {verdicts.p90, "p90"},
+                                     {verdicts.within, "2 sigma"},
+                                     {verdicts.evaluated, "share"}}) {
         if (!ok) meets += std::string(meets.empty() ? "misses " : ", ") + name;
       }
     }

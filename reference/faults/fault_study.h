@@ -53,13 +53,18 @@ struct FaultCase {
   int moved_count = 0;
   double moved_median_deg = 0.0;
   double moved_max_deg = 0.0;
-  // Whether the case meets each requirement (a case without a result meets none;
-  // one without slope statistics meets only what it can show).
-  bool meets_median = false;
-  bool meets_p90 = false;
-  bool meets_within = false;
-  bool meets_evaluated = false;
 };
+
+// Whether a case meets each requirement: a case without a result meets none;
+// one without slope statistics meets only what it can show (the share).
+struct FaultVerdicts {
+  bool median = false;
+  bool p90 = false;
+  bool within = false;
+  bool evaluated = false;
+  bool All() const { return median && p90 && within && evaluated; }
+};
+FaultVerdicts VerdictsOf(const FaultCase& c, const FaultRequirements& requirements);
 
 // Per fault and sign of its magnitude, the smallest |magnitude| of the sweep
 // at which a metric misses its requirement (over the cases the fault applied

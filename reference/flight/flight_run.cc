@@ -95,7 +95,7 @@ std::pair<int, int> DefaultFramePair(const datasets::Dataset& dataset) {
   return {0, best};
 }
 
-hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int frame2) {
+hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int frame2, RangeSource* range_source) {
   const int n = static_cast<int>(dataset.frames.size());
   for (const int frame : {frame1, frame2}) {
     if (frame < 0 || frame >= n) {
@@ -122,6 +122,7 @@ hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int fra
   input.ils_in_local_m = dataset.ils_in_local_m;
   const SlantRange range = RangeAtFrame(dataset, frame1);
   input.lrf_range_m = range.range_m;
+  if (range_source != nullptr) *range_source = range.source;
   if (range.source == RangeSource::kNavigation) {
     // The range along camera 1's optical axis from its centre.
     input.lrf_origin_in_cam1_m = Eigen::Vector3d::Zero();
@@ -170,9 +171,9 @@ std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int fra
 
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
                     const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px) {
-  hda::HdaInput input = MakeHdaInput(dataset, frame1, frame2);
-  input.given_rois_px = given_rois_px;
   FlightRun run;
+  hda::HdaInput input = MakeHdaInput(dataset, frame1, frame2, &run.range_source);
+  input.given_rois_px = given_rois_px;
   run.dataset_name = dataset.name;
   run.frame1 = frame1;
   run.frame2 = frame2;
@@ -181,7 +182,6 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   run.image_height_px = dataset.camera.HeightPx();
   run.baseline_m = PoseOfFrames(frame1, frame2, [&] { return dataset.BaselineM(frame1, frame2); });
   run.lrf_range_m = input.lrf_range_m;
-  run.range_source = RangeAtFrame(dataset, frame1).source;
   run.options = options;
   run.given_rois = !given_rois_px.empty();
   run.result = hda::RunHda(input, dataset.camera, options);

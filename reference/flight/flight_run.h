@@ -45,8 +45,10 @@ const char* ToString(RangeSource source);  // "lrf", "navigation"
 // the returned input shares their pixels. Throws InputError for a frame index
 // outside the dataset, equal frames, images not loaded, no range at frame 1
 // by either way, or no navigation at the frames' times (a dataset changed in
-// memory, datasets/faults.h).
-hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int frame2);
+// memory, datasets/faults.h). `range_source`, when given, receives where the
+// range came from.
+hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int frame2,
+                           RangeSource* range_source = nullptr);
 
 // Truth of one ROI (datasets/synth/truth.h definitions, in image 1).
 struct RoiTruthValue {

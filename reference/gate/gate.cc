@@ -728,146 +728,175 @@ GateThresholds ReadGateThresholds(const std::string& path) {
 
 std::vector<std::string> GateMetricNames() { return MetricNames(); }
 
+namespace {
+
+// One method's ROIs, failures and time over the entries of one pool.
+struct MetricPool {
+  std::vector<double> slope_errors, tilt_errors, roughness_errors;
+  double signed_slope_error_sum = 0.0;
+  int within_two_sigma = 0, rois = 0, rois_with_slope = 0, failed = 0;
+  double flight_seconds = -1.0;
+};
+
+// A pool: a method and a fault (empty: the entries without one).
+using PoolKey = std::pair<std::string, std::string>;
+
+struct MetricPools {
+  std::map<PoolKey, MetricPool> by_key;
+  std::vector<PoolKey> order;  // the pools with metrics, in the order first met
+
+  // The pool of a method that ran, listed among the metrics.
+  MetricPool& Listed(const PoolKey& key) {
+    if (by_key.count(key) == 0) order.push_back(key);
+    return by_key[key];
+  }
+};
+
+// The worst setting of any of the suite's observability entries.
+struct StudyWorst {
+  bool present = false;
+  double p95 = 0.0, median = 0.0, sigma_ratio = 1.0;
+};
+
+// An observability entry's settings.csv into the worst setting so far.
+void AddStudyEntry(const fs::path& dir, StudyWorst* study) {
+  const std::string path = (dir / "settings.csv").string();
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  for (const SettingStats& s : ParseSettingsCsv(text.str(), path)) {
+    study->present = true;
+    const bool judged = s.fits >= 0.95 * s.trials;
+    study->p95 = std::max(study->p95, judged ? s.p95_abs_error_deg : kObservabilityUnjudgedDeg);
+    study->median = std::max(study->median, std::isfinite(s.median_abs_error_deg) ? s.median_abs_error_deg
+                                                                                   : kObservabilityUnjudgedDeg);
+    if (s.sd_error_deg > 0.0 && s.rms_sigma_deg > 0.0) {
+      study->sigma_ratio = std::max({study->sigma_ratio, s.sd_error_deg / s.rms_sigma_deg,
+                                     s.rms_sigma_deg / s.sd_error_deg});
+    }
+  }
+}
+
+// An entry's fault, from its record (empty for a folder without one).
+std::string EntryFault(const fs::path& dir) {
+  const fs::path record = dir / kEntryRecord;
+  if (!fs::exists(record)) return "";
+  const Json r = ReadJsonFile(record.string());
+  if (!r.contains("entry") || !r["entry"].contains("fault")) return "";
+  return StringField(r["entry"], "fault", record.string());
+}
+
+// One method's result on one ROI (compare.json) into its pool.
+void AddRoi(const std::string& method, const Json& r, const Json& truth, MetricPool* pool) {
+  ++pool->rois;
+  const std::string status = r.at("status").get<std::string>();
+  const bool has_slope =
+      !r.at("slope_deg").is_null() && (method == kMethodFlight ? FlightHasSlope(status) : status == "ok");
+  if (has_slope) ++pool->rois_with_slope;
+  // Only slopes the method stands by: a degenerate ROI's plane is a
+  // diagnostic (the method says the slope is not observable).
+  if (!has_slope || truth.is_null() || r.at("slope_error_deg").is_null() ||
+      r.at("num_points").get<int>() < kMinPointsForSlopeStats) {
+    return;
+  }
+  const double signed_error = r.at("slope_error_deg").get<double>();
+  const double error = std::abs(signed_error);
+  pool->slope_errors.push_back(error);
+  pool->signed_slope_error_sum += signed_error;
+  if (r.contains("tilt_error_deg") && r.at("tilt_error_deg").is_number()) {
+    pool->tilt_errors.push_back(r.at("tilt_error_deg").get<double>());
+  }
+  if (!r.at("roughness_rms_m").is_null() && !truth.at("roughness_rms_m").is_null()) {
+    pool->roughness_errors.push_back(
+        std::abs(r.at("roughness_rms_m").get<double>() - truth.at("roughness_rms_m").get<double>()));
+  }
+  if (!r.at("slope_sigma_deg").is_null() && error <= 2.0 * r.at("slope_sigma_deg").get<double>()) {
+    ++pool->within_two_sigma;
+  }
+}
+
+// A comparison entry (compare.json and compare_timings.json) into the pools
+// of its fault.
+void AddCompareEntry(const fs::path& dir, double processor_scale, MetricPools* pools) {
+  const std::string fault = EntryFault(dir);
+  const std::string path = (dir / "compare.json").string();
+  const Json j = ReadJsonFile(path);
+  for (const Json& m : j.at("methods")) {
+    MetricPool& pool = pools->Listed({m.at("name").get<std::string>(), fault});
+    if (!m.at("ok").get<bool>()) ++pool.failed;
+  }
+  for (const Json& roi : j.at("rois")) {
+    for (const auto& item : roi.at("methods").items()) {
+      AddRoi(item.key(), item.value(), roi.at("truth"), &pools->by_key[{item.key(), fault}]);
+    }
+  }
+  const Json t = ReadJsonFile((dir / "compare_timings.json").string());
+  for (const Json& m : t.at("methods")) {
+    if (m.at("name") != kMethodFlight || m.at("seconds").is_null()) continue;
+    MetricPool& pool = pools->by_key[{kMethodFlight, fault}];
+    pool.flight_seconds = std::max(pool.flight_seconds, m.at("seconds").get<double>() / processor_scale);
+  }
+}
+
+// The metrics of one pool (docs/gate.md), those without data left out.
+void AddPoolMetrics(const PoolKey& key, const MetricPool& pool, const StudyWorst& study,
+                    std::vector<GateMetric>* metrics) {
+  const std::string& method = key.first;
+  const auto add = [&](const std::string& metric, double value) {
+    metrics->push_back({method, metric, value, key.second});
+  };
+  const auto sorted = [](std::vector<double> values) {
+    std::sort(values.begin(), values.end());
+    return values;
+  };
+  if (!pool.slope_errors.empty()) {
+    const std::vector<double> errors = sorted(pool.slope_errors);
+    add("slope_error_median_deg", util::Quantile(errors, 0.5));
+    add("slope_error_p90_deg", util::Quantile(errors, 0.9));
+    add("slope_error_max_deg", errors.back());
+    add("slope_bias_abs_deg", std::abs(pool.signed_slope_error_sum / static_cast<double>(errors.size())));
+  }
+  if (!pool.tilt_errors.empty()) {
+    const std::vector<double> errors = sorted(pool.tilt_errors);
+    add("tilt_error_median_deg", util::Quantile(errors, 0.5));
+    add("tilt_error_p90_deg", util::Quantile(errors, 0.9));
+  }
+  if (!pool.roughness_errors.empty()) {
+    add("roughness_error_median_m", util::Quantile(sorted(pool.roughness_errors), 0.5));
+  }
+  if (pool.rois > 0) add("rois_with_slope_share", static_cast<double>(pool.rois_with_slope) / pool.rois);
+  if (method == kMethodFlight && !pool.slope_errors.empty()) {
+    add("within_two_sigma_share",
+        static_cast<double>(pool.within_two_sigma) / static_cast<double>(pool.slope_errors.size()));
+  }
+  if (method == kMethodFlight && pool.flight_seconds >= 0.0) add("flight_seconds_per_pair", pool.flight_seconds);
+  add("failed_entries", pool.failed);
+  add("slope_error_rois", static_cast<double>(pool.slope_errors.size()));
+  if (method == kMethodFlight && key.second.empty() && study.present) {
+    add("observability_p95_deg", study.p95);
+    add("observability_median_deg", study.median);
+    add("observability_sigma_ratio", study.sigma_ratio);
+  }
+}
+
+}  // namespace
+
 std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
                                            double processor_scale) {
-  struct Pool {
-    std::vector<double> slope_errors, tilt_errors, roughness_errors;
-    double signed_slope_error_sum = 0.0;
-    int within_two_sigma = 0, rois = 0, rois_with_slope = 0, failed = 0;
-    double flight_seconds = -1.0;
-    bool present = false;
-  };
-  // Per method and fault (empty: the entries without one), in the order first met.
-  using PoolKey = std::pair<std::string, std::string>;
-  std::map<PoolKey, Pool> pools;
-  std::vector<PoolKey> order;
-  // Observability entries: the worst setting of any.
-  struct StudyPool {
-    bool present = false;
-    double p95 = 0.0, median = 0.0, sigma_ratio = 1.0;
-  } study;
+  MetricPools pools;
+  StudyWorst study;
   for (const std::string& dir : entry_dirs) {
     if (fs::exists(fs::path(dir) / "study.json")) {
-      const std::string path = (fs::path(dir) / "settings.csv").string();
-      std::ifstream in(path, std::ios::binary);
-      if (!in) throw InputError(path + ": cannot read the file");
-      std::stringstream text;
-      text << in.rdbuf();
-      for (const SettingStats& s : ParseSettingsCsv(text.str(), path)) {
-        study.present = true;
-        const bool judged = s.fits >= 0.95 * s.trials;
-        study.p95 = std::max(study.p95, judged ? s.p95_abs_error_deg : kObservabilityUnjudgedDeg);
-        study.median = std::max(study.median, std::isfinite(s.median_abs_error_deg) ? s.median_abs_error_deg
-                                                                                     : kObservabilityUnjudgedDeg);
-        if (s.sd_error_deg > 0.0 && s.rms_sigma_deg > 0.0) {
-          study.sigma_ratio = std::max({study.sigma_ratio, s.sd_error_deg / s.rms_sigma_deg,
-                                        s.rms_sigma_deg / s.sd_error_deg});
-        }
-      }
-      const PoolKey flight{kMethodFlight, ""};
-      if (study.present && pools.count(flight) == 0) order.push_back(flight);
-      pools[flight];
-      continue;
-    }
-    // The entry's fault, from its record (absent for a folder without one).
-    std::string fault;
-    const fs::path record = fs::path(dir) / kEntryRecord;
-    if (fs::exists(record)) {
-      const Json r = ReadJsonFile(record.string());
-      if (r.contains("entry") && r["entry"].contains("fault")) fault = StringField(r["entry"], "fault", record.string());
-    }
-    const std::string path = (fs::path(dir) / "compare.json").string();
-    const Json j = ReadJsonFile(path);
-    for (const Json& m : j.at("methods")) {
-      const PoolKey key{m.at("name").get<std::string>(), fault};
-      if (pools.count(key) == 0) order.push_back(key);
-      Pool& pool = pools[key];
-      pool.present = true;
-      if (!m.at("ok").get<bool>()) ++pool.failed;
-    }
-    for (const Json& roi : j.at("rois")) {
-      const Json& truth = roi.at("truth");
-      for (const auto& item : roi.at("methods").items()) {
-        Pool& pool = pools[{item.key(), fault}];
-        const Json& r = item.value();
-        ++pool.rois;
-        const std::string status = r.at("status").get<std::string>();
-        const bool has_slope = !r.at("slope_deg").is_null() &&
-                               (item.key() == kMethodFlight ? FlightHasSlope(status) : status == "ok");
-        if (has_slope) ++pool.rois_with_slope;
-        // Only slopes the method stands by: a degenerate ROI's plane is a
-        // diagnostic (the method says the slope is not observable).
-        if (!has_slope || truth.is_null() || r.at("slope_error_deg").is_null() ||
-            r.at("num_points").get<int>() < kMinPointsForSlopeStats) {
-          continue;
-        }
-        const double signed_error = r.at("slope_error_deg").get<double>();
-        const double error = std::abs(signed_error);
-        pool.slope_errors.push_back(error);
-        pool.signed_slope_error_sum += signed_error;
-        if (r.contains("tilt_error_deg") && r.at("tilt_error_deg").is_number()) {
-          pool.tilt_errors.push_back(r.at("tilt_error_deg").get<double>());
-        }
-        if (!r.at("roughness_rms_m").is_null() && !truth.at("roughness_rms_m").is_null()) {
-          pool.roughness_errors.push_back(std::abs(r.at("roughness_rms_m").get<double>() -
-                                                   truth.at("roughness_rms_m").get<double>()));
-        }
-        if (!r.at("slope_sigma_deg").is_null() && error <= 2.0 * r.at("slope_sigma_deg").get<double>()) {
-          ++pool.within_two_sigma;
-        }
-      }
-    }
-    const std::string timings_path = (fs::path(dir) / "compare_timings.json").string();
-    const Json t = ReadJsonFile(timings_path);
-    for (const Json& m : t.at("methods")) {
-      if (m.at("name") != kMethodFlight || m.at("seconds").is_null()) continue;
-      Pool& pool = pools[{kMethodFlight, fault}];
-      pool.flight_seconds = std::max(pool.flight_seconds, m.at("seconds").get<double>() / processor_scale);
+      AddStudyEntry(dir, &study);
+      // The study's metrics are the flight method's.
+      if (study.present) pools.Listed({kMethodFlight, ""});
+    } else {
+      AddCompareEntry(dir, processor_scale, &pools);
     }
   }
   std::vector<GateMetric> metrics;
-  for (const PoolKey& key : order) {
-    const std::string& method = key.first;
-    const Pool& pool = pools[key];
-    const auto add = [&](const std::string& metric, double value) {
-      metrics.push_back({method, metric, value, key.second});
-    };
-    if (!pool.slope_errors.empty()) {
-      std::vector<double> sorted = pool.slope_errors;
-      std::sort(sorted.begin(), sorted.end());
-      add("slope_error_median_deg", util::Quantile(sorted, 0.5));
-      add("slope_error_p90_deg", util::Quantile(sorted, 0.9));
-      add("slope_error_max_deg", sorted.back());
-      add("slope_bias_abs_deg",
-          std::abs(pool.signed_slope_error_sum / static_cast<double>(pool.slope_errors.size())));
-    }
-    if (!pool.tilt_errors.empty()) {
-      std::vector<double> sorted = pool.tilt_errors;
-      std::sort(sorted.begin(), sorted.end());
-      add("tilt_error_median_deg", util::Quantile(sorted, 0.5));
-      add("tilt_error_p90_deg", util::Quantile(sorted, 0.9));
-    }
-    if (!pool.roughness_errors.empty()) {
-      std::vector<double> sorted = pool.roughness_errors;
-      std::sort(sorted.begin(), sorted.end());
-      add("roughness_error_median_m", util::Quantile(sorted, 0.5));
-    }
-    if (pool.rois > 0) add("rois_with_slope_share", static_cast<double>(pool.rois_with_slope) / pool.rois);
-    if (method == kMethodFlight && !pool.slope_errors.empty()) {
-      add("within_two_sigma_share",
-          static_cast<double>(pool.within_two_sigma) / static_cast<double>(pool.slope_errors.size()));
-    }
-    if (method == kMethodFlight && pool.flight_seconds >= 0.0) {
-      add("flight_seconds_per_pair", pool.flight_seconds);
-    }
-    add("failed_entries", pool.failed);
-    add("slope_error_rois", static_cast<double>(pool.slope_errors.size()));
-    if (method == kMethodFlight && key.second.empty() && study.present) {
-      add("observability_p95_deg", study.p95);
-      add("observability_median_deg", study.median);
-      add("observability_sigma_ratio", study.sigma_ratio);
-    }
-  }
+  for (const PoolKey& key : pools.order) AddPoolMetrics(key, pools.by_key[key], study, &metrics);
   return metrics;
 }
 

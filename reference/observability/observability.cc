@@ -626,15 +626,9 @@ MergedStudy MergeStudyFolders(const std::vector<std::string>& dirs) {
 
 std::string WriteStudyPlots(const std::string& dir, const std::string& python) {
   const std::filesystem::path figures = std::filesystem::path(dir) / "figures";
-  if (util::FindExecutable(python).empty()) {
-    return "the Python interpreter '" + python + "' was not found; the plots need Python 3 with matplotlib";
-  }
-  std::error_code ec;
-  std::filesystem::create_directories(figures, ec);
-  if (ec) return figures.string() + ": cannot create the folder: " + ec.message();
   return util::RunPlotScript(python, "observability", "observability_plots.py", ObservabilityPlotsScript(),
                              {std::filesystem::absolute(dir).string(), std::filesystem::absolute(figures).string()},
-                             300.0);
+                             300.0, figures.string());
 }
 
 }  // namespace hdabench::reference

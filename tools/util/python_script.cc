@@ -58,10 +58,16 @@ ProcessResult PythonScript::Run(const std::vector<std::string>& arguments,
 }
 
 std::string RunPlotScript(const std::string& python, const std::string& purpose, const std::string& file_name,
-                          const std::string& text, const std::vector<std::string>& arguments, double timeout_s) {
+                          const std::string& text, const std::vector<std::string>& arguments, double timeout_s,
+                          const std::string& figures_dir) {
   const std::string interpreter = FindExecutable(python);
   if (interpreter.empty()) {
     return "the Python interpreter '" + python + "' was not found; the plots need Python 3 with matplotlib";
+  }
+  if (!figures_dir.empty()) {
+    std::error_code ec;
+    fs::create_directories(figures_dir, ec);
+    if (ec) return figures_dir + ": cannot create the folder: " + ec.message();
   }
   const PythonScript script(purpose, file_name, text);
   const fs::path log = script.folder() / "plots.log";

@@ -51,10 +51,13 @@ class PythonScript {
 // Runs a compiled-in plotting script: `text` saved as `file_name` in a
 // scratch folder (PythonScript, `purpose` names it), run with `python` (a
 // path, or a name looked up in PATH) as `python script arguments...`, NumPy
-// on one thread, at most `timeout_s` seconds. Returns "" when it ran, else
-// what went wrong in one line: the interpreter not found, or the script
-// failed with its last line of output.
+// on one thread, at most `timeout_s` seconds. `figures_dir`, when not empty,
+// is created (with its parents) once the interpreter is found, so that no
+// folder is left behind without Python. Returns "" when it ran, else what
+// went wrong in one line: the interpreter not found, the folder not made, or
+// the script failed with its last line of output.
 std::string RunPlotScript(const std::string& python, const std::string& purpose, const std::string& file_name,
-                          const std::string& text, const std::vector<std::string>& arguments, double timeout_s);
+                          const std::string& text, const std::vector<std::string>& arguments, double timeout_s,
+                          const std::string& figures_dir = "");
 
 }  // namespace hdabench::util

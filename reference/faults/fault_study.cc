@@ -36,6 +36,9 @@ void Measure(const FlightRun& run, const FlightRun* clean, FaultCase* c) {
                                                  [](const hda::RoiResult& r) { return hda::HasSlope(r.status); }));
   c->evaluated_share = c->rois > 0 ? c->with_slope / static_cast<double>(c->rois) : 0.0;
   c->stats = ComputeSlopeErrorStats(run);
+  if (clean != nullptr && !clean->result.rois.empty()) {
+    c->rois_vs_clean = c->rois / static_cast<double>(clean->result.rois.size());
+  }
   if (clean != nullptr) {
     std::map<std::tuple<int, int, int, int>, double> clean_slopes;
     for (const hda::RoiResult& roi : clean->result.rois) {
@@ -83,6 +86,7 @@ std::vector<FaultCrossing> Crossings(const std::vector<FaultCase>& cases, const 
       if (!meets.p90 && !crossing.p90) crossing.p90 = m;
       if (!meets.within && !crossing.within) crossing.within = m;
       if (!meets.evaluated && !crossing.evaluated) crossing.evaluated = m;
+      if (!meets.rois && !crossing.rois) crossing.rois = m;
     }
     crossings.push_back(crossing);
   }
@@ -108,6 +112,7 @@ FaultVerdicts VerdictsOf(const FaultCase& c, const FaultRequirements& requiremen
   meets.p90 = stats && c.stats.p90_abs_deg <= requirements.max_p90_deg;
   meets.within = stats && c.stats.within_two_sigma_fraction >= requirements.min_within_two_sigma;
   meets.evaluated = c.evaluated_share >= requirements.min_evaluated_share;
+  meets.rois = c.rois_vs_clean >= requirements.min_rois_vs_clean;
   return meets;
 }
 
@@ -188,9 +193,9 @@ FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame
 
 std::string FaultStudyCsv(const FaultStudy& study) {
   std::ostringstream out;
-  out << "case,fault,magnitude,unit,ran,rois,with_slope,evaluated_share,slope_count,slope_error_median_deg,"
-         "slope_error_p90_deg,within_two_sigma,slope_bias_deg,moved_count,moved_median_deg,moved_max_deg,"
-         "meets_median,meets_p90,meets_within,meets_evaluated,applied,range_source,error\n";
+  out << "case,fault,magnitude,unit,ran,rois,rois_vs_clean,with_slope,evaluated_share,slope_count,"
+         "slope_error_median_deg,slope_error_p90_deg,within_two_sigma,slope_bias_deg,moved_count,moved_median_deg,"
+         "moved_max_deg,meets_median,meets_p90,meets_within,meets_evaluated,meets_rois,applied,range_source,error\n";
   for (const FaultCase& c : study.cases) {
     const bool stats = c.ran && c.stats.count > 0;
     const FaultVerdicts meets = VerdictsOf(c, study.requirements);
@@ -198,13 +203,15 @@ std::string FaultStudyCsv(const FaultStudy& study) {
     out << c.label << "," << (c.fault ? datasets::InfoOf(c.fault->kind).name : "") << ","
         << (c.fault ? util::CsvNumber(c.fault->magnitude) : "") << ","
         << (c.fault ? datasets::InfoOf(c.fault->kind).unit : "") << "," << (c.ran ? "true" : "false") << ","
-        << c.rois << "," << c.with_slope << "," << util::CsvNumber(c.evaluated_share) << "," << c.stats.count << ","
+        << c.rois << "," << number(c.ran, c.rois_vs_clean) << "," << c.with_slope << ","
+        << util::CsvNumber(c.evaluated_share) << "," << c.stats.count << ","
         << number(stats, c.stats.median_abs_deg) << "," << number(stats, c.stats.p90_abs_deg) << ","
         << number(stats, c.stats.within_two_sigma_fraction) << "," << number(stats, c.stats.bias_deg) << ","
         << c.moved_count << "," << number(c.moved_count > 0, c.moved_median_deg) << ","
         << number(c.moved_count > 0, c.moved_max_deg) << "," << (meets.median ? "true" : "false") << ","
         << (meets.p90 ? "true" : "false") << "," << (meets.within ? "true" : "false") << ","
-        << (meets.evaluated ? "true" : "false") << "," << (c.applied ? "true" : "false") << ","
+        << (meets.evaluated ? "true" : "false") << "," << (meets.rois ? "true" : "false") << ","
+        << (c.applied ? "true" : "false") << ","
         << c.range_source << ",";
     // The reason in double quotes, its own quotes doubled (RFC 4180).
     if (!c.error.empty()) {
@@ -227,7 +234,8 @@ std::string FaultStudyJson(const FaultStudy& study) {
   j["requirements"] = {{"max_slope_error_median_deg", study.requirements.max_median_deg},
                        {"max_slope_error_p90_deg", study.requirements.max_p90_deg},
                        {"min_within_two_sigma", study.requirements.min_within_two_sigma},
-                       {"min_evaluated_share", study.requirements.min_evaluated_share}};
+                       {"min_evaluated_share", study.requirements.min_evaluated_share},
+                       {"min_rois_vs_clean", study.requirements.min_rois_vs_clean}};
   Json cases = Json::array();
   for (const FaultCase& c : study.cases) {
     Json row;
@@ -240,6 +248,7 @@ std::string FaultStudyJson(const FaultStudy& study) {
     row["error"] = c.ran ? Json(nullptr) : Json(c.error);
     row["range_source"] = c.ran ? Json(c.range_source) : Json(nullptr);
     row["rois"] = c.rois;
+    row["rois_vs_clean"] = c.ran ? Json(c.rois_vs_clean) : Json(nullptr);
     row["with_slope"] = c.with_slope;
     row["evaluated_share"] = c.evaluated_share;
     const bool stats = c.ran && c.stats.count > 0;
@@ -255,7 +264,8 @@ std::string FaultStudyJson(const FaultStudy& study) {
     row["meets"] = {{"median", meets.median},
                     {"p90", meets.p90},
                     {"within_two_sigma", meets.within},
-                    {"evaluated_share", meets.evaluated}};
+                    {"evaluated_share", meets.evaluated},
+                    {"rois_vs_clean", meets.rois}};
     cases.push_back(row);
   }
   j["cases"] = cases;
@@ -267,7 +277,8 @@ std::string FaultStudyJson(const FaultStudy& study) {
                          {"median", OptionalNumber(x.median)},
                          {"p90", OptionalNumber(x.p90)},
                          {"within_two_sigma", OptionalNumber(x.within)},
-                         {"evaluated_share", OptionalNumber(x.evaluated)}});
+                         {"evaluated_share", OptionalNumber(x.evaluated)},
+                         {"rois_vs_clean", OptionalNumber(x.rois)}});
   }
   j["crossings"] = crossings;
   return j.dump(1) + "\n";
@@ -278,12 +289,13 @@ std::string FaultStudyMarkdown(const FaultStudy& study) {
   out << "Faults on " << study.dataset_name << ", frames " << study.frame1 << "," << study.frame2
       << " (slope errors against the truth over the ROIs with a slope, truth and >= " << kMinPointsForSlopeStats
       << " points; moved: |slope - clean slope| on the same boxes)\n\n";
-  std::vector<std::vector<std::string>> rows = {{"case", "ROIs", "with slope", "share", "n", "median (deg)",
+  std::vector<std::vector<std::string>> rows = {{"case", "ROIs", "vs clean", "with slope", "share", "n",
+                                                 "median (deg)",
                                                  "p90 (deg)", "within 2 sigma", "bias (deg)", "moved median",
                                                  "moved max", "meets"}};
   for (const FaultCase& c : study.cases) {
     if (!c.ran) {
-      rows.push_back({c.label, "-", "-", "-", "-", "-", "-", "-", "-", "-", "-",
+      rows.push_back({c.label, "-", "-", "-", "-", "-", "-", "-", "-", "-", "-", "-",
                       (c.applied ? "no result: " : "") + c.error});
       continue;
     }
@@ -297,12 +309,14 @@ std::string FaultStudyMarkdown(const FaultStudy& study) {
       for (const auto& [ok, name] : {std::pair<bool, const char*>{verdicts.median, "median"},
                                      {verdicts.p90, "p90"},
                                      {verdicts.within, "2 sigma"},
-                                     {verdicts.evaluated, "share"}}) {
+                                     {verdicts.evaluated, "share"},
+                                     {verdicts.rois, "ROIs"}}) {
         if (!ok) meets += std::string(meets.empty() ? "misses " : ", ") + name;
       }
     }
     rows.push_back({c.range_source == "navigation" ? c.label + " (range from nav)" : c.label,
-                    std::to_string(c.rois), std::to_string(c.with_slope),
+                    std::to_string(c.rois), util::FixedCell(100.0 * c.rois_vs_clean, 0) + " %",
+                    std::to_string(c.with_slope),
                     util::FixedCell(100.0 * c.evaluated_share, 0) + " %", std::to_string(c.stats.count),
                     stats ? util::FixedCell(c.stats.median_abs_deg, 2) : "-",
                     stats ? util::FixedCell(c.stats.p90_abs_deg, 2) : "-",
@@ -312,21 +326,24 @@ std::string FaultStudyMarkdown(const FaultStudy& study) {
                     moved ? util::FixedCell(c.moved_max_deg, 2) : "-", meets});
   }
   out << util::FormatTextTable(rows, {true, false, false, false, false, false, false, false, false, false, false,
-                                      true});
+                                      false, true});
   const FaultRequirements& r = study.requirements;
   out << "\nRequirements: slope error median <= " << util::ShortestText(r.max_median_deg) << " deg, p90 <= "
       << util::ShortestText(r.max_p90_deg) << " deg, within 2 sigma >= "
       << util::ShortestText(100.0 * r.min_within_two_sigma) << " %, share with a slope >= "
-      << util::ShortestText(100.0 * r.min_evaluated_share) << " %. The smallest magnitude that misses each:\n\n";
+      << util::ShortestText(100.0 * r.min_evaluated_share) << " %, ROIs >= "
+      << util::ShortestText(100.0 * r.min_rois_vs_clean)
+      << " % of the clean run's. The smallest magnitude that misses each:\n\n";
   std::vector<std::vector<std::string>> crossing_rows = {
-      {"fault", "side", "median", "p90", "within 2 sigma", "share"}};
+      {"fault", "side", "median", "p90", "within 2 sigma", "share", "ROIs"}};
   for (const FaultCrossing& x : study.crossings) {
     crossing_rows.push_back({x.fault, x.sign < 0 ? "-" : "+", CrossingCell(x.median, x.largest_swept, x.sign),
                              CrossingCell(x.p90, x.largest_swept, x.sign),
                              CrossingCell(x.within, x.largest_swept, x.sign),
-                             CrossingCell(x.evaluated, x.largest_swept, x.sign)});
+                             CrossingCell(x.evaluated, x.largest_swept, x.sign),
+                             CrossingCell(x.rois, x.largest_swept, x.sign)});
   }
-  out << util::FormatTextTable(crossing_rows, {true, true, false, false, false, false});
+  out << util::FormatTextTable(crossing_rows, {true, true, false, false, false, false, false});
   return out.str();
 }
 

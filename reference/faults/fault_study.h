@@ -25,14 +25,16 @@
 namespace hdabench::reference {
 
 // What a case must show to meet the requirements. The slope ones are the
-// gate's bar for the flight method (gate/thresholds-lateral.json); the share
-// evaluated is the bench's: at least half the ROIs with a slope the method
-// stands by.
+// gate's bar for the flight method (gate/thresholds-lateral.json); the two
+// others are the bench's: at least half the ROIs with a slope the method
+// stands by, and at least half as many ROIs as the clean run found (a fault
+// must not shrink the search for sites unseen).
 struct FaultRequirements {
   double max_median_deg = 1.0;
   double max_p90_deg = 3.0;
   double min_within_two_sigma = 0.8;
   double min_evaluated_share = 0.5;
+  double min_rois_vs_clean = 0.5;
 };
 
 // One case: the clean run (no fault) or one fault at one magnitude.
@@ -47,6 +49,7 @@ struct FaultCase {
   int rois = 0;                          // ROIs the quadtree found
   int with_slope = 0;                    // of those, with a slope the method stands by (hda::HasSlope)
   double evaluated_share = 0.0;          // with_slope / rois (0 without ROIs)
+  double rois_vs_clean = 1.0;            // rois / the clean run's rois (1: the clean run, or one without ROIs)
   SlopeErrorStats stats;                 // against the truth (count 0: no ROI with truth)
   // Slopes against the clean run's, over the ROIs with the same box in image 1
   // and a slope in both: |faulted - clean|, degrees.
@@ -62,7 +65,8 @@ struct FaultVerdicts {
   bool p90 = false;
   bool within = false;
   bool evaluated = false;
-  bool All() const { return median && p90 && within && evaluated; }
+  bool rois = false;
+  bool All() const { return median && p90 && within && evaluated && rois; }
 };
 FaultVerdicts VerdictsOf(const FaultCase& c, const FaultRequirements& requirements);
 
@@ -74,7 +78,7 @@ struct FaultCrossing {
   int sign = 1;       // +1 or -1: which side of zero the magnitudes lie
   double largest_swept = 0.0;  // the largest |magnitude| swept on that side
   // The first failing magnitude (signed) per metric; nothing: met up to largest_swept.
-  std::optional<double> median, p90, within, evaluated;
+  std::optional<double> median, p90, within, evaluated, rois;
 };
 
 struct FaultStudy {

@@ -72,7 +72,10 @@ def main():
                     label="share with a slope")
         shares.plot(xs, [value(c, "within_two_sigma") for _, c in points], "-v", markersize=3, color="tab:orange",
                     label="within 2 sigma")
+        shares.plot(xs, [min(value(c, "rois_vs_clean"), 1.05) for _, c in points], "-d", markersize=3,
+                    color="tab:brown", label="ROIs / clean's (at most 1.05 shown)")
         shares.axhline(req["min_evaluated_share"], color="tab:green", linestyle=":", linewidth=1.0)
+        shares.axhline(req["min_rois_vs_clean"], color="tab:brown", linestyle=":", linewidth=1.0)
         shares.axhline(req["min_within_two_sigma"], color="tab:orange", linestyle=":", linewidth=1.0)
         shares.set_ylim(0.0, 1.05)
         shares.set_ylabel("share")

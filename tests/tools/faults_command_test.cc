@@ -47,6 +47,10 @@ TEST(FaultsCommand, EachCaseIsMeasuredOrNamedAndTheBytesAreTheSameTwice) {
   EXPECT_EQ(cases[1]["range_source"], "navigation");
   EXPECT_GT(cases[1]["with_slope"].get<int>(), 0);
   EXPECT_NE(first.out.find("lrf-absent (range from nav)"), std::string::npos) << first.out;
+  // The same ROIs as the clean run: the search for sites did not shrink.
+  EXPECT_EQ(json["requirements"]["min_rois_vs_clean"], 0.5);
+  EXPECT_EQ(cases[1]["rois_vs_clean"], 1.0);
+  EXPECT_TRUE(cases[1]["meets"]["rois_vs_clean"].get<bool>());
   // A 5 % LRF bias and a 2 deg attitude bias still give slopes; the attitude bias moves them.
   EXPECT_TRUE(cases[2]["ran"].get<bool>());
   ASSERT_TRUE(cases[3]["ran"].get<bool>());

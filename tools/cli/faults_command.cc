@@ -146,6 +146,9 @@ Command AddFaultsCommand(CLI::App& app) {
   faults->add_option("--min-share", args->requirements.min_evaluated_share,
                      "Requirement: share of ROIs with a slope at least this")
       ->capture_default_str();
+  faults->add_option("--min-roi-fraction", args->requirements.min_rois_vs_clean,
+                     "Requirement: ROIs found at least this fraction of the clean run's")
+      ->capture_default_str();
   faults->add_option("--params", args->params_file, kParamsHelp);
   faults->add_option("--set", args->hda_sets, kSetHelp)->allow_extra_args(false);
   faults->add_option("--python", args->python, "Python 3 with matplotlib, for faults.png")->capture_default_str();

@@ -93,6 +93,21 @@ void TurnAttitudes(double angle_deg, double from_time_s, const Eigen::Vector3d& 
 
 void ApplyFaultInPlace(const Fault& fault, int frame1, int frame2, std::uint64_t seed, Dataset* dataset);
 
+// kFrameDropped: frame2 removed from the frames and the truth, the later
+// frames numbered one lower, so that frame2 names the next frame.
+void DropFrame(const Fault& fault, int frame1, int frame2, Dataset* dataset) {
+  if (frame2 <= frame1) Refuse(fault, "image 2 (frame " + std::to_string(frame2) + ") must come after image 1");
+  if (frame2 + 1 >= static_cast<int>(dataset->frames.size())) {
+    Refuse(fault, "frame " + std::to_string(frame2) + " is the last: no frame after it takes its place");
+  }
+  dataset->frames.erase(dataset->frames.begin() + frame2);
+  for (size_t i = 0; i < dataset->frames.size(); ++i) dataset->frames[i].index = static_cast<int>(i);
+  std::vector<TruthPoints>& points = dataset->truth.points;
+  points.erase(std::remove_if(points.begin(), points.end(), [&](const TruthPoints& p) { return p.frame == frame2; }),
+               points.end());
+  for (TruthPoints& p : points) p.frame -= p.frame > frame2 ? 1 : 0;
+}
+
 cv::Mat& PairImage(Dataset* dataset, int frame, const Fault& fault) {
   cv::Mat& image = dataset->frames[static_cast<size_t>(frame)].image;
   if (image.empty()) Refuse(fault, "the image of frame " + std::to_string(frame) + " is not loaded");
@@ -184,6 +199,14 @@ std::vector<Fault> ParseFaults(const std::string& text) {
     start = comma + 1;
   }
   return faults;
+}
+
+Fault ParseOneFault(const std::string& text) {
+  const std::vector<Fault> faults = ParseFaults(text);
+  if (faults.size() != 1) {
+    throw InputError("'" + text + "' is a sweep of " + std::to_string(faults.size()) + " magnitudes: give one, NAME=M");
+  }
+  return faults.front();
 }
 
 void ApplyFault(const Fault& fault, int frame1, int frame2, std::uint64_t seed, Dataset* target) {
@@ -309,20 +332,9 @@ void ApplyFaultInPlace(const Fault& fault, int frame1, int frame2, std::uint64_t
     case FaultKind::kFrameRepeated:
       PairImage(dataset, frame2, fault) = PairImage(dataset, frame1, fault);
       return;
-    case FaultKind::kFrameDropped: {
-      if (frame2 <= frame1) Refuse(fault, "image 2 (frame " + std::to_string(frame2) + ") must come after image 1");
-      if (frame2 + 1 >= n) {
-        Refuse(fault, "frame " + std::to_string(frame2) + " is the last: no frame after it takes its place");
-      }
-      dataset->frames.erase(dataset->frames.begin() + frame2);
-      for (size_t i = 0; i < dataset->frames.size(); ++i) dataset->frames[i].index = static_cast<int>(i);
-      std::vector<TruthPoints>& points = dataset->truth.points;
-      points.erase(std::remove_if(points.begin(), points.end(),
-                                  [&](const TruthPoints& p) { return p.frame == frame2; }),
-                   points.end());
-      for (TruthPoints& p : points) p.frame -= p.frame > frame2 ? 1 : 0;
+    case FaultKind::kFrameDropped:
+      DropFrame(fault, frame1, frame2, dataset);
       return;
-    }
   }
 }
 

@@ -75,6 +75,11 @@ std::string FaultLabel(const Fault& fault);
 // none.
 std::vector<Fault> ParseFaults(const std::string& text);
 
+// One fault, "NAME=M" (or "NAME" for a fault without a magnitude), as
+// ParseFaults reads it; a sweep is an InputError too ("'lrf-scale' is a
+// sweep of 8 magnitudes: give one, NAME=M").
+Fault ParseOneFault(const std::string& text);
+
 // Applies `fault` to `dataset` for the pair (frame1, frame2): its LRF,
 // navigation, frame times or the pair's images (which must be loaded for the
 // image faults). `seed` draws the noise of kLrfNoise (the same seed, the same

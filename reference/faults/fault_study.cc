@@ -36,10 +36,8 @@ void Measure(const FlightRun& run, const FlightRun* clean, FaultCase* c) {
                                                  [](const hda::RoiResult& r) { return hda::HasSlope(r.status); }));
   c->evaluated_share = c->rois > 0 ? c->with_slope / static_cast<double>(c->rois) : 0.0;
   c->stats = ComputeSlopeErrorStats(run);
-  if (clean != nullptr && !clean->result.rois.empty()) {
-    c->rois_vs_clean = c->rois / static_cast<double>(clean->result.rois.size());
-  }
   if (clean != nullptr) {
+    if (!clean->result.rois.empty()) c->rois_vs_clean = c->rois / static_cast<double>(clean->result.rois.size());
     std::map<std::tuple<int, int, int, int>, double> clean_slopes;
     for (const hda::RoiResult& roi : clean->result.rois) {
       if (hda::HasSlope(roi.status)) clean_slopes[BoxKey(roi)] = roi.slope_deg;

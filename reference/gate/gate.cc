@@ -553,17 +553,11 @@ std::vector<std::string> ReadMethods(const Json& list, const std::string& where)
 
 // One fault, "NAME" (a fault without a magnitude) or "NAME=M".
 datasets::Fault ReadOneFault(const std::string& text, const std::string& where) {
-  std::vector<datasets::Fault> faults;
   try {
-    faults = datasets::ParseFaults(text);
+    return datasets::ParseOneFault(text);
   } catch (const InputError& e) {
     throw InputError(where + ": " + e.what());
   }
-  if (faults.size() != 1) {
-    throw InputError(where + ": '" + text + "' is a sweep of " + std::to_string(faults.size()) +
-                     " magnitudes: give one, NAME=M");
-  }
-  return faults.front();
 }
 
 }  // namespace

@@ -253,6 +253,12 @@ TEST(ParseFaults, ANameGivesItsSweepAndMagnitudesGiveTheirCases) {
   EXPECT_EQ(InputErrorOf([] { ParseFaults("lrf-scale=0.1,"); }), "'lrf-scale=0.1,': '' is not a finite number (fraction)");
   EXPECT_EQ(InputErrorOf([] { ParseFaults("lrf-scale=nan"); }), "'lrf-scale=nan': 'nan' is not a finite number (fraction)");
   EXPECT_NE(InputErrorOf([] { ParseFaults("lrf"); }).find("unknown fault 'lrf'"), std::string::npos);
+  // One fault: a magnitude, or a fault without one; a sweep is refused.
+  EXPECT_EQ(ParseOneFault("lrf-scale=0.05").magnitude, 0.05);
+  EXPECT_EQ(ParseOneFault("frame-dropped").kind, FaultKind::kFrameDropped);
+  EXPECT_EQ(InputErrorOf([] { ParseOneFault("lrf-scale"); }), "'lrf-scale' is a sweep of 8 magnitudes: give one, NAME=M");
+  EXPECT_EQ(InputErrorOf([] { ParseOneFault("lrf-scale=0.1,0.2"); }),
+            "'lrf-scale=0.1,0.2' is a sweep of 2 magnitudes: give one, NAME=M");
 }
 
 }  // namespace

@@ -59,19 +59,12 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
   synth::ScaleTerrain(synth_options.terrain_scale, &terrain);
   std::vector<datasets::Fault> faults;
   for (const std::string& text : options.faults) {
-    std::vector<datasets::Fault> parsed;
     try {
-      parsed = datasets::ParseFaults(text);
+      faults.push_back(datasets::ParseOneFault(text));
     } catch (const InputError& e) {
-      err << "hdabench synth: --fault " << e.what() << "\n";
+      err << "hdabench synth: --fault " << e.what() << " (hdabench faults --list)\n";
       return kExitUsage;
     }
-    if (parsed.size() != 1) {
-      err << "hdabench synth: --fault '" << text << "' is a sweep of " << parsed.size()
-          << " magnitudes: give one, NAME=M (hdabench faults --list)\n";
-      return kExitUsage;
-    }
-    faults.push_back(parsed.front());
   }
 
   int last_percent = -1;

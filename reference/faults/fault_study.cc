@@ -11,6 +11,7 @@
 
 #include "reference/flight/flight_run.h"
 #include "tools/util/error.h"
+#include "tools/util/options_check.h"
 #include "tools/util/python_script.h"
 #include "tools/util/statistics.h"
 #include "tools/util/text.h"
@@ -122,9 +123,23 @@ std::vector<datasets::Fault> DefaultFaultSweep() {
   return faults;
 }
 
+std::vector<std::string> FaultRequirements::Validate() const {
+  std::vector<std::string> errors;
+  RequireOption(max_median_deg > 0, "--max-median-deg", max_median_deg, "finite and > 0", &errors);
+  RequireOption(max_p90_deg > 0, "--max-p90-deg", max_p90_deg, "finite and > 0", &errors);
+  const auto share = [&](const char* flag, double value) {
+    RequireOption(value >= 0 && value <= 1, flag, value, "in [0, 1]", &errors);
+  };
+  share("--min-within-two-sigma", min_within_two_sigma);
+  share("--min-share", min_evaluated_share);
+  share("--min-roi-fraction", min_rois_vs_clean);
+  return errors;
+}
+
 FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame2, const HdaSettings& settings,
                          const std::vector<datasets::Fault>& faults, const FaultRequirements& requirements,
                          std::uint64_t seed, const std::function<void(const std::string&)>& progress) {
+  ThrowIfInvalid("RunFaultStudy: invalid requirements: ", requirements.Validate());
   HdaSettings study_settings = settings;
   if (study_settings.given.count("compute_budget_s") == 0) {
     study_settings.options.compute_budget_s = 1e9;  // unlimited: the same ROIs whatever the machine's load

@@ -35,6 +35,11 @@ struct FaultRequirements {
   double min_within_two_sigma = 0.8;
   double min_evaluated_share = 0.5;
   double min_rois_vs_clean = 0.5;
+
+  // Every violated constraint, one message each, named by the faults
+  // command's flags ("--max-median-deg = nan: expected finite and > 0"): the
+  // slope limits finite and > 0, the shares and the fraction in [0, 1].
+  std::vector<std::string> Validate() const;
 };
 
 // One case: the clean run (no fault) or one fault at one magnitude.

@@ -151,6 +151,17 @@ TEST(FaultsCommand, BadFlagsAndFoldersAreNamed) {
   EXPECT_EQ(inside.exit_code, 3);
   EXPECT_NE(inside.err.find("is the dataset folder"), std::string::npos) << inside.err;
   EXPECT_FALSE(fs::exists(fs::path(dataset) / "faults"));
+  // A requirement no case could be judged against: named, nothing written.
+  const CommandResult requirements = RunInOwnFolder({"faults", dataset, "--out", (dir / "r").string(),
+                                                     "--max-median-deg", "nan", "--min-share", "1.5",
+                                                     "--min-roi-fraction", "-0.1"});
+  EXPECT_EQ(requirements.exit_code, 2);
+  for (const char* message : {"--max-median-deg = nan: expected finite and > 0", "--min-share = 1.5: expected in [0, 1]",
+                              "--min-roi-fraction = -0.1: expected in [0, 1]"}) {
+    EXPECT_NE(requirements.err.find(message), std::string::npos) << requirements.err;
+  }
+  EXPECT_EQ(requirements.err.find("--max-p90-deg"), std::string::npos) << requirements.err;
+  EXPECT_FALSE(fs::exists(dir / "r"));
   const CommandResult nothing = RunInOwnFolder({"faults"});
   EXPECT_EQ(nothing.exit_code, 2);
   const CommandResult list = RunInOwnFolder({"faults", "--list"});

@@ -19,6 +19,7 @@
 #include "tools/cli/exit_codes.h"
 #include "tools/util/error.h"
 #include "tools/util/files.h"
+#include "tools/util/options_check.h"
 #include "tools/util/text.h"
 
 namespace hdabench::tools {
@@ -75,6 +76,11 @@ int RunFaults(const FaultsArgs& args, std::ostream& out, std::ostream& err) {
   const auto progress = [&](const std::string& line) {
     if (!args.quiet) err << "hdabench faults: " << line << "\n";
   };
+  const std::vector<std::string> bad_requirements = args.requirements.Validate();
+  if (!bad_requirements.empty()) {
+    err << "hdabench faults: " << JoinMessages(bad_requirements) << "\n";
+    return kExitUsage;
+  }
   std::vector<datasets::Fault> faults;
   for (const std::string& text : args.fault_texts) {
     const std::vector<datasets::Fault> some = ParseFaultFlag(text);

@@ -560,10 +560,11 @@ void ReadLrf(const Fields& top, const fs::path& base, const Mount& mount, FieldI
 // navigation or LRF span, or in a navigation gap longer than max_gap_s.
 std::string WhyLeftOut(const Dataset& dataset, double t, double max_gap_s) {
   const double nav_begin = dataset.nav.front().time_s, nav_end = dataset.nav.back().time_s;
-  const double lrf_begin = dataset.lrf.front().time_s, lrf_end = dataset.lrf.back().time_s;
   if (t < nav_begin || t > nav_end) {
     return "outside the navigation span [" + util::ShortestText(nav_begin) + ", " + util::ShortestText(nav_end) + "] s";
   }
+  const double lrf_begin = dataset.lrf.empty() ? t : dataset.lrf.front().time_s;
+  const double lrf_end = dataset.lrf.empty() ? t : dataset.lrf.back().time_s;
   if (t < lrf_begin || t > lrf_end) {
     return "outside the LRF span [" + util::ShortestText(lrf_begin) + ", " + util::ShortestText(lrf_end) + "] s";
   }
@@ -746,7 +747,14 @@ Dataset IngestFieldLog(const std::string& config_path, FieldIngestReport* report
   dataset.cam_from_body = Rigid3d(mount.body_from_cam, mount.cam_in_body).Inverse();
   PlaceNavigation(top, nav, report, &dataset);
   dataset.ils_in_local_m = top.Has("ils_in_local_m") ? top.Vector3("ils_in_local_m") : Eigen::Vector3d::Zero();
-  ReadLrf(top, base, mount, report, &dataset);
+  if (top.Has("lrf")) {
+    ReadLrf(top, base, mount, report, &dataset);
+  } else {
+    // A lander whose LRF gave nothing: the flight method takes the range
+    // from the navigation (docs/faults.md, "Without the LRF").
+    dataset.lrf_origin_in_body_m = mount.cam_in_body;
+    report->lines.push_back("LRF: none (no \"lrf\" in the log): the flight method takes the range from the navigation");
+  }
   AddFrames(top, base, nav.max_gap_s, model_path, report, &dataset);
   return dataset;
 }
@@ -756,8 +764,9 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
   if (fs::exists(dir, ec) && (!fs::is_directory(dir, ec) || !fs::is_empty(dir, ec))) {
     throw InputError(dir + ": exists and is not an empty folder");
   }
-  if (dataset.lrf.empty() || dataset.nav.empty()) throw InputError("the dataset has no LRF or navigation samples");
-  const Eigen::Vector3d beam = dataset.lrf.front().boresight_in_body;
+  if (dataset.nav.empty()) throw InputError("the dataset has no navigation samples");
+  // No LRF samples: a log without "lrf".
+  const Eigen::Vector3d beam = dataset.lrf.empty() ? Eigen::Vector3d::Zero() : dataset.lrf.front().boresight_in_body;
   for (const LrfSample& s : dataset.lrf) {
     if ((s.boresight_in_body - beam).norm() > 1e-12) {
       throw InputError("the dataset's LRF beam changes between samples; a field log holds one beam");
@@ -800,9 +809,11 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
            text(ypr[0]) + "," + text(ypr[1]) + "," + text(ypr[2]) + "\n";
   }
   write("nav.csv", nav);
-  std::string lrf = "time_s,range_m\n";
-  for (const LrfSample& s : dataset.lrf) lrf += text(s.time_s) + "," + text(s.range_m) + "\n";
-  write("lrf.csv", lrf);
+  if (!dataset.lrf.empty()) {
+    std::string lrf = "time_s,range_m\n";
+    for (const LrfSample& s : dataset.lrf) lrf += text(s.time_s) + "," + text(s.range_m) + "\n";
+    write("lrf.csv", lrf);
+  }
   const Rigid3d body_from_cam = dataset.cam_from_body.Inverse();
   const Eigen::Matrix3d r = body_from_cam.rotation.toRotationMatrix();
   Json log;
@@ -823,12 +834,14 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
   log["origin"] = {{"lat_deg", origin.lat_deg}, {"lon_deg", origin.lon_deg}, {"height_m", origin.height_m}};
   log["ils_in_local_m"] = {dataset.ils_in_local_m.x(), dataset.ils_in_local_m.y(), dataset.ils_in_local_m.z()};
   log["gravity_mps2"] = dataset.gravity_in_local_mps2.norm();
-  log["lrf"] = {{"csv", "lrf.csv"},
-                {"time_column", "time_s"},
-                {"range_column", "range_m"},
-                {"beam_in_body", {beam.x(), beam.y(), beam.z()}},
-                {"origin_in_body_m", {dataset.lrf_origin_in_body_m.x(), dataset.lrf_origin_in_body_m.y(),
-                                      dataset.lrf_origin_in_body_m.z()}}};
+  if (!dataset.lrf.empty()) {
+    log["lrf"] = {{"csv", "lrf.csv"},
+                  {"time_column", "time_s"},
+                  {"range_column", "range_m"},
+                  {"beam_in_body", {beam.x(), beam.y(), beam.z()}},
+                  {"origin_in_body_m", {dataset.lrf_origin_in_body_m.x(), dataset.lrf_origin_in_body_m.y(),
+                                        dataset.lrf_origin_in_body_m.z()}}};
+  }
   write("log.json", log.dump(1) + "\n");
 }
 

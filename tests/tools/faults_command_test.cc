@@ -124,6 +124,37 @@ TEST(SynthCommand, FaultsAreAppliedToThePairAndTheDatasetRunsWithThem) {
   const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "run" / "result.json"));
   EXPECT_EQ(result["inputs"]["range_source"], "navigation");
 
+  // Through a field log without "lrf" (a campaign whose LRF gave nothing):
+  // the same ROIs, statuses and slopes (the log rounds the image times to
+  // nanoseconds and the positions through WGS84: 1e-6 deg is far above that).
+  const CommandResult exported = RunInOwnFolder({"export", "field", (dir / "faulted").string(), "--out",
+                                                 (dir / "log").string(), "--origin", "32.38,-106.48,1200"});
+  ASSERT_EQ(exported.exit_code, 0) << exported.err;
+  EXPECT_FALSE(fs::exists(dir / "log" / "lrf.csv"));
+  EXPECT_EQ(ReadText(dir / "log" / "log.json").find("\"lrf\""), std::string::npos);
+  const CommandResult ingested = RunInOwnFolder(
+      {"ingest", "field", (dir / "log" / "log.json").string(), "--out", (dir / "ingested").string()});
+  ASSERT_EQ(ingested.exit_code, 0) << ingested.err;
+  EXPECT_NE((ingested.out + ingested.err).find("LRF: none"), std::string::npos) << ingested.out << ingested.err;
+  const CommandResult rerun = RunInOwnFolder(
+      {"run", (dir / "ingested").string(), "--out", (dir / "rerun").string(), "--no-figures", "--no-report"});
+  ASSERT_EQ(rerun.exit_code, 0) << rerun.err;
+  const nlohmann::json again = nlohmann::json::parse(ReadText(dir / "rerun" / "result.json"));
+  EXPECT_EQ(again["inputs"]["range_source"], "navigation");
+  EXPECT_EQ(again["frames"], result["frames"]);
+  ASSERT_EQ(again["rois"].size(), result["rois"].size());
+  int with_slope = 0;
+  for (size_t i = 0; i < result["rois"].size(); ++i) {
+    const nlohmann::json& a = result["rois"][i];
+    const nlohmann::json& b = again["rois"][i];
+    EXPECT_EQ(b["status"], a["status"]) << i;
+    if (!a.contains("fit") || !a["fit"].is_object()) continue;  // null without a fit
+    ASSERT_TRUE(b.contains("fit") && b["fit"].is_object()) << i;
+    ++with_slope;
+    EXPECT_NEAR(b["fit"]["slope_deg"].get<double>(), a["fit"]["slope_deg"].get<double>(), 1e-6) << i;
+  }
+  EXPECT_GT(with_slope, 0);
+
   // A sweep is not one fault; a fault that cannot apply writes nothing.
   args = {"synth", "--out", (dir / "sweep").string(), "--fault", "lrf-scale"};
   const CommandResult sweep = RunInOwnFolder(args);

@@ -95,8 +95,13 @@ int RunIngestField(const IngestFieldOptions& options, std::ostream& out, std::os
         << report.frames_found << " frames (" << dataset.camera.WidthPx() << " x "
         << dataset.camera.HeightPx() << " px) over " << dataset.frames[static_cast<size_t>(last)].time_s -
                                                           dataset.frames.front().time_s
-        << " s, first to last baseline " << dataset.BaselineM(0, last) << " m, LRF range at the first "
-        << dataset.LrfRangeAt(dataset.frames.front().time_s) << " m, no truth\n";
+        << " s, first to last baseline " << dataset.BaselineM(0, last) << " m, ";
+    if (dataset.lrf.empty()) {
+      out << "no LRF (the flight method takes the range from the navigation)";
+    } else {
+      out << "LRF range at the first " << dataset.LrfRangeAt(dataset.frames.front().time_s) << " m";
+    }
+    out << ", no truth\n";
   } catch (const InputError& e) {
     err << command << e.what() << "\n";
     return kExitInput;

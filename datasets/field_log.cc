@@ -563,10 +563,12 @@ std::string WhyLeftOut(const Dataset& dataset, double t, double max_gap_s) {
   if (t < nav_begin || t > nav_end) {
     return "outside the navigation span [" + util::ShortestText(nav_begin) + ", " + util::ShortestText(nav_end) + "] s";
   }
-  const double lrf_begin = dataset.lrf.empty() ? t : dataset.lrf.front().time_s;
-  const double lrf_end = dataset.lrf.empty() ? t : dataset.lrf.back().time_s;
-  if (t < lrf_begin || t > lrf_end) {
-    return "outside the LRF span [" + util::ShortestText(lrf_begin) + ", " + util::ShortestText(lrf_end) + "] s";
+  // Without LRF samples (a log without "lrf") there is no LRF span to leave.
+  if (!dataset.lrf.empty()) {
+    const double lrf_begin = dataset.lrf.front().time_s, lrf_end = dataset.lrf.back().time_s;
+    if (t < lrf_begin || t > lrf_end) {
+      return "outside the LRF span [" + util::ShortestText(lrf_begin) + ", " + util::ShortestText(lrf_end) + "] s";
+    }
   }
   const auto after = std::lower_bound(dataset.nav.begin(), dataset.nav.end(), t,
                                       [](const NavSample& s, double time) { return s.time_s < time; });

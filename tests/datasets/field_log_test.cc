@@ -19,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tools/util/error.h"
+#include "tests/support/flight_results.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::datasets {
@@ -344,17 +345,7 @@ TEST(FieldLog, SyntheticScenesThroughAFieldLogGiveTheSameFlightResults) {
     EXPECT_NEAR(a["inputs"]["baseline_m"].get<double>(), b["inputs"]["baseline_m"].get<double>(), 1e-6);
     EXPECT_NEAR(a["inputs"]["lrf_range_m"].get<double>(), b["inputs"]["lrf_range_m"].get<double>(), 1e-6);
     ASSERT_EQ(a["rois"].size(), b["rois"].size());
-    int fits = 0;
-    for (size_t i = 0; i < a["rois"].size(); ++i) {
-      const nlohmann::json& ra = a["rois"][i];
-      const nlohmann::json& rb = b["rois"][i];
-      EXPECT_EQ(ra["box1"], rb["box1"]) << i;
-      EXPECT_EQ(ra["status"], rb["status"]) << i;
-      if (ra["fit"].is_null() || rb["fit"].is_null()) continue;
-      ++fits;
-      EXPECT_NEAR(ra["fit"]["slope_deg"].get<double>(), rb["fit"]["slope_deg"].get<double>(), 1e-6) << i;
-    }
-    EXPECT_GT(fits, 5);
+    EXPECT_GT(testing_support::ExpectSameFlightRois(a, b, 1e-6), 5);
   }
 }
 

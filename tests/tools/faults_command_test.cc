@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tests/support/flight_results.h"
 #include "tests/support/test_support.h"
 #include "tests/tools/small_dataset.h"
 
@@ -16,6 +17,7 @@ namespace {
 namespace fs = std::filesystem;
 
 using hdabench::testing_support::CommandResult;
+using hdabench::testing_support::ExpectSameFlightRois;
 using hdabench::testing_support::FreshTestDir;
 using hdabench::testing_support::ReadText;
 using hdabench::testing_support::RunInOwnFolder;
@@ -143,17 +145,7 @@ TEST(SynthCommand, FaultsAreAppliedToThePairAndTheDatasetRunsWithThem) {
   EXPECT_EQ(again["inputs"]["range_source"], "navigation");
   EXPECT_EQ(again["frames"], result["frames"]);
   ASSERT_EQ(again["rois"].size(), result["rois"].size());
-  int with_slope = 0;
-  for (size_t i = 0; i < result["rois"].size(); ++i) {
-    const nlohmann::json& a = result["rois"][i];
-    const nlohmann::json& b = again["rois"][i];
-    EXPECT_EQ(b["status"], a["status"]) << i;
-    if (!a.contains("fit") || !a["fit"].is_object()) continue;  // null without a fit
-    ASSERT_TRUE(b.contains("fit") && b["fit"].is_object()) << i;
-    ++with_slope;
-    EXPECT_NEAR(b["fit"]["slope_deg"].get<double>(), a["fit"]["slope_deg"].get<double>(), 1e-6) << i;
-  }
-  EXPECT_GT(with_slope, 0);
+  EXPECT_GT(ExpectSameFlightRois(result, again, 1e-6), 0);
 
   // A sweep is not one fault; a fault that cannot apply writes nothing.
   args = {"synth", "--out", (dir / "sweep").string(), "--fault", "lrf-scale"};

@@ -1,6 +1,6 @@
 // Previews of a synthetic dataset's maps (docs/dataset-format.md, maps/):
-// each map shrunk so that its longer side is kMapPreviewSidePx, the size the
-// report shows it at. `hdabench synth` writes them beside the maps
+// each map shrunk so that its longer side is kMapPreviewSidePx, from which the
+// report makes the smaller image it shows. `hdabench synth` writes them beside the maps
 // (maps/preview/<map>.png), so that a report need not decode maps of tens of
 // megapixels each time; a report makes the same bytes itself when a preview
 // is missing.

@@ -68,19 +68,28 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run);
 // apply), and with truth a last line with the SlopeErrorStats.
 std::string FlightReport(const FlightRun& run);
 
+// The largest size at which the report (reference/report) shows a figure: its
+// page's width, and the height of its grids (the ROI pairs, the maps). The
+// figures are drawn at most this large, so the report embeds them as they are.
+constexpr int kFigureShownWidthPx = 1360;
+constexpr int kFigureGridHeightPx = 320;
+
 // Figures (8-bit BGR images). image1 / image2 are the run's images (CV_8UC1
 // or CV_16UC1), or those images already converted to 8-bit BGR (CV_8UC3).
-// Image 1 (enlarged so that a minimum block is readable) with every ROI box
-// coloured by status and labelled with its id, the rejected quadtree blocks
-// thin and dark, and a legend strip below.
+// Image 1 (enlarged so that a minimum block is readable, at most
+// kFigureShownWidthPx wide) with every ROI box coloured by status and labelled
+// with its id, the rejected quadtree blocks thin and dark, and a legend strip
+// below.
 cv::Mat QuadtreeFigure(const cv::Mat& image1, const hda::HdaResult& result);
-// One ROI: the image-1 box with some context beside the image-2 search box,
-// each scaled to 300 px high (nearest neighbour when enlarging), the
-// surviving matches as points joined by lines, a title line.
+// One ROI, kFigureGridHeightPx high: a title, then the image-1 box with some
+// context beside the image-2 search box, each scaled to the same height
+// (nearest neighbour when enlarging), the surviving matches as points joined
+// by lines.
 cv::Mat RoiPairFigure(const cv::Mat& image1, const cv::Mat& image2, const hda::RoiResult& roi);
-// Both full images side by side (shrunk to at most 2048 px wide; small ones
-// enlarged by a whole factor toward 1024) with every surviving match as a
-// translucent line and the ROI boxes that have matches, coloured per ROI.
+// Both full images side by side (shrunk to at most kFigureShownWidthPx wide;
+// small ones enlarged by a whole factor toward 1024) with every surviving
+// match as a translucent line and the ROI boxes that have matches, coloured
+// per ROI.
 cv::Mat MatchesFigure(const cv::Mat& image1, const cv::Mat& image2, const hda::HdaResult& result);
 
 // Creates the output folder `dir` (and its parents) if missing. Throws

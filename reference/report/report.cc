@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <system_error>
 #include <utility>
@@ -100,27 +101,58 @@ std::string Text(const Json& j) {
 }
 int IntOr(const Json& j, int fallback) { return j.is_number_integer() ? j.get<int>() : fallback; }
 
-// A map as the report shows it: its preview (datasets/map_preview.h) with
-// "shrunk from W x H px" in `note`; the bytes unchanged when no larger than a
-// preview or when OpenCV cannot decode them. The preview written beside the
-// map (maps/preview/) is taken when it has the preview's size for the map's;
-// otherwise it is made here, the same bytes from a decode of the map.
-std::string MapAsShown(const std::string& bytes, const fs::path& preview_path, std::string* note) {
+// The largest sizes at which the page shows an image (Css()): the page's
+// width, and in a grid (the ROI pairs, the maps) also the grid's height.
+const cv::Size kPageWide(reference::kFigureShownWidthPx, std::numeric_limits<int>::max());
+const cv::Size kInGrid(reference::kFigureShownWidthPx, reference::kFigureGridHeightPx);
+
+// A PNG fitted into `shown`: area-averaged (datasets::PreviewPng) to the
+// largest size that fits when it is larger; the bytes unchanged when it fits
+// or when OpenCV cannot decode them. The flight figures a run draws fit
+// already (reference::kFigureShownWidthPx); those of older runs, and the
+// maps, are shrunk here, so that the page embeds no pixel it does not show.
+std::string FittedPng(const std::string& bytes, const cv::Size& shown) {
   int width = 0, height = 0;
-  if (!datasets::PngSizeOf(bytes, &width, &height) || std::max(width, height) <= datasets::kMapPreviewSidePx) {
+  if (!datasets::PngSizeOf(bytes, &width, &height) || width <= 0 || height <= 0 ||
+      (width <= shown.width && height <= shown.height)) {
     return bytes;
   }
-  std::string preview, error;
-  int preview_width = 0, preview_height = 0;
-  const cv::Size expected = datasets::PreviewSize(width, height, datasets::kMapPreviewSidePx);
-  if (!(fs::is_regular_file(preview_path) && util::ReadFileBytes(preview_path, &preview, &error) &&
-        datasets::PngSizeOf(preview, &preview_width, &preview_height) && preview_width == expected.width &&
-        preview_height == expected.height)) {
-    preview = datasets::PreviewPngOfBytes(bytes, datasets::kMapPreviewSidePx);
+  const double scale = std::min(shown.width / static_cast<double>(width), shown.height / static_cast<double>(height));
+  const int side = std::max(1, static_cast<int>(std::floor(scale * std::max(width, height))));
+  const std::string fitted = datasets::PreviewPngOfBytes(bytes, side);
+  return fitted.empty() ? bytes : fitted;
+}
+
+std::string ShrunkNote(const std::string& bytes) {
+  int width = 0, height = 0;
+  datasets::PngSizeOf(bytes, &width, &height);
+  return "shrunk from " + std::to_string(width) + " x " + std::to_string(height) + " px";
+}
+
+// A map as the report shows it, fitted into a grid cell, with "shrunk from
+// W x H px" in `note` when it is; the bytes unchanged when they fit or when
+// OpenCV cannot decode them. A map larger than a preview
+// (datasets/map_preview.h) is fitted from its preview: the one written beside
+// the map (maps/preview/) when it has the preview's size for the map's,
+// otherwise the same bytes made here from a decode of the map.
+std::string MapAsShown(const std::string& bytes, const fs::path& preview_path, std::string* note) {
+  int width = 0, height = 0;
+  if (!datasets::PngSizeOf(bytes, &width, &height)) return bytes;
+  std::string smaller = bytes;
+  if (std::max(width, height) > datasets::kMapPreviewSidePx) {
+    std::string preview, error;
+    int preview_width = 0, preview_height = 0;
+    const cv::Size expected = datasets::PreviewSize(width, height, datasets::kMapPreviewSidePx);
+    if (!(fs::is_regular_file(preview_path) && util::ReadFileBytes(preview_path, &preview, &error) &&
+          datasets::PngSizeOf(preview, &preview_width, &preview_height) && preview_width == expected.width &&
+          preview_height == expected.height)) {
+      preview = datasets::PreviewPngOfBytes(bytes, datasets::kMapPreviewSidePx);
+    }
+    if (!preview.empty()) smaller = preview;
   }
-  if (preview.empty()) return bytes;
-  *note = "shrunk from " + std::to_string(width) + " x " + std::to_string(height) + " px";
-  return preview;
+  const std::string shown = FittedPng(smaller, kInGrid);
+  if (shown != bytes) *note = ShrunkNote(bytes);
+  return shown;
 }
 
 // ---------------------------------------------------------------- text
@@ -421,16 +453,19 @@ void FillComparePage(const fs::path& dir, Page* page) {
 
 // ---------------------------------------------------------------- figures
 
-// Adds `path` as a figure when it is a PNG; a note otherwise.
+// Adds `path` as a figure when it is a PNG, fitted into `shown` (FittedPng;
+// "shrunk from W x H px" added to the caption when it is); a note otherwise.
 void AddPngFile(const fs::path& path, const std::string& id, const std::string& title,
-                const std::string& caption, std::vector<Figure>* figures,
+                const std::string& caption, const cv::Size& shown, std::vector<Figure>* figures,
                 std::vector<std::string>* notes) {
   const std::string bytes = ReadFileOrThrow(path);
   if (!datasets::IsPng(bytes)) {
     notes->push_back(path.string() + " is not a PNG file: left out.");
     return;
   }
-  figures->push_back({id, title, caption, bytes});
+  std::string png = FittedPng(bytes, shown);
+  const std::string fitted = png == bytes ? "" : " (" + ShrunkNote(bytes) + ")";
+  figures->push_back({id, title, caption + fitted, std::move(png)});
 }
 
 void AddRunFigures(const fs::path& figures_dir, Page* page) {
@@ -445,13 +480,13 @@ void AddRunFigures(const fs::path& figures_dir, Page* page) {
                "Image 1 with every ROI box labelled with its id and coloured by status (green "
                "evaluated, orange unsafe slope, yellow unsafe roughness, red degenerate, greys: "
                "too few points, not in image 2, not evaluated); rejected blocks thin dark blue.",
-               &page->flight_figures, &page->notes);
+               kPageWide, &page->flight_figures, &page->notes);
   }
   const fs::path matches = figures_dir / "matches.png";
   if (fs::is_regular_file(matches)) {
     AddPngFile(matches, "fig-matches", "Matches",
-               "Both images with every surviving match, one colour per ROI.", &page->flight_figures,
-               &page->notes);
+               "Both images with every surviving match, one colour per ROI.", kPageWide,
+               &page->flight_figures, &page->notes);
   }
   const fs::path pairs_dir = figures_dir / "roi_pairs";
   if (!fs::is_directory(pairs_dir)) return;
@@ -470,7 +505,7 @@ void AddRunFigures(const fs::path& figures_dir, Page* page) {
     id.erase(0, std::min(id.find_first_not_of('0'), id.size() - 1));
     AddPngFile(path, "fig-" + stem, "ROI " + id,
                "Image-1 box (left) and image-2 search box (right) with the surviving matches.",
-               &page->roi_pairs, &page->notes);
+               kInGrid, &page->roi_pairs, &page->notes);
   }
 }
 
@@ -530,8 +565,10 @@ void AddMaps(const fs::path& dataset_dir, Page* page) {
     const fs::path path = dataset_dir / "maps" / map.file;
     if (!fs::is_regular_file(path)) continue;
     ++found;
+    // As read: fitted below from its preview, without decoding the map itself.
+    const cv::Size as_read(std::numeric_limits<int>::max(), std::numeric_limits<int>::max());
     AddPngFile(path, std::string("map-") + fs::path(map.file).stem().string(), map.title,
-               map.caption, &page->maps, &page->notes);
+               map.caption, as_read, &page->maps, &page->notes);
     if (!page->maps.empty() && page->maps.back().title == map.title) {
       std::string shrunk;
       page->maps.back().png = MapAsShown(page->maps.back().png,
@@ -599,8 +636,12 @@ void DrawPlots(const fs::path& run_dir, const ReportOptions& options, Page* page
 
 // ---------------------------------------------------------------- HTML
 
-constexpr char kCss[] = R"css(
-body { font-family: "DejaVu Sans", Arial, sans-serif; margin: 24px; color: #222; max-width: 1360px; }
+// The page's width and its grids' height are those the flight figures are
+// drawn for (reference::kFigureShownWidthPx, kFigureGridHeightPx).
+std::string Css() {
+  return R"css(
+body { font-family: "DejaVu Sans", Arial, sans-serif; margin: 24px; color: #222; max-width: )css" +
+         std::to_string(reference::kFigureShownWidthPx) + R"css(px; }
 h1 { font-size: 24px; margin-bottom: 4px; }
 h2 { font-size: 19px; border-bottom: 1px solid #ccc; padding-bottom: 3px; margin-top: 28px; }
 ul.facts { list-style: none; padding: 0; margin: 6px 0; color: #444; }
@@ -623,8 +664,10 @@ figcaption { font-size: 13px; color: #444; margin-top: 4px; }
 .scroll { overflow-x: auto; }
 .grid { display: flex; flex-wrap: wrap; gap: 12px; }
 .grid figure { margin: 0; }
-.grid figure img { max-height: 320px; }
+.grid figure img { max-height: )css" +
+         std::to_string(reference::kFigureGridHeightPx) + R"css(px; }
 )css";
+}
 
 void AppendTable(const Table& table, std::string* html) {
   *html += "<div class=\"scroll\"><table id=\"" + table.id + "\">\n<thead><tr>";
@@ -652,7 +695,7 @@ void AppendFigure(const Figure& figure, std::string* html) {
 std::string BuildHtml(const Page& page) {
   std::string html =
       "<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n<title>hdabench " +
-      page.kind + " report: " + util::HtmlEscape(page.heading) + "</title>\n<style>" + kCss +
+      page.kind + " report: " + util::HtmlEscape(page.heading) + "</title>\n<style>" + Css() +
       "</style>\n</head>\n<body>\n";
   html += "<h1>" + util::HtmlEscape(page.heading) + "</h1>\n<ul class=\"facts\">\n";
   for (const std::string& fact : page.facts) html += "<li>" + util::HtmlEscape(fact) + "</li>\n";

@@ -415,10 +415,10 @@ TEST(FlightOutputs, WritesEveryFileAndRemovesStaleRoiFiles) {
   EXPECT_GT(quadtree.rows, 64 * 3);  // plus the legend
   const cv::Mat pair = cv::imread((dir / "figures" / "roi_pairs" / "roi_001.png").string());
   ASSERT_FALSE(pair.empty());
-  EXPECT_GE(pair.rows, 300);
+  EXPECT_EQ(pair.rows, kFigureGridHeightPx);  // the report's grid height; the title not shortened
   const cv::Mat matches = cv::imread((dir / "figures" / "matches.png").string());
   ASSERT_FALSE(matches.empty());
-  EXPECT_LE(matches.cols, 2048);
+  EXPECT_LE(matches.cols, kFigureShownWidthPx);
 
   // Without figures: the same data files, no figures written.
   const fs::path plain = dir.parent_path() / "plain";
@@ -426,6 +426,29 @@ TEST(FlightOutputs, WritesEveryFileAndRemovesStaleRoiFiles) {
       WriteFlightOutputs(run, TestImage(CV_8U), TestImage(CV_8U), plain.string(), false);
   EXPECT_EQ(data_only.size(), 5u);
   EXPECT_FALSE(fs::exists(plain / "figures"));
+}
+
+// The figures are drawn at most as large as the report shows them: the
+// quadtree enlarged by a whole factor only while that fits the page's width,
+// scaled to that width otherwise; both images side by side no wider.
+TEST(FlightOutputs, FiguresAreNoWiderThanTheReportShowsThem) {
+  FlightRun run = MakeRun();
+  const cv::Mat small = TestImage(CV_8U);
+  EXPECT_EQ(QuadtreeFigure(small, run.result).cols, small.cols * 3);  // a 16 px block at 48 px
+  for (const int side : {500, 1024, 2048}) {
+    const cv::Mat image(side, side, CV_8UC1, cv::Scalar(90));
+    run.result.quadtree.min_block_px = 30;  // a factor of 2 would make a block 60 px
+    const int whole = 2 * side;
+    const cv::Mat quadtree = QuadtreeFigure(image, run.result);
+    EXPECT_EQ(quadtree.cols, std::min(whole, kFigureShownWidthPx)) << side;
+    EXPECT_GT(quadtree.rows, quadtree.cols) << side;  // the image's square and the legend below
+    EXPECT_EQ(MatchesFigure(image, image, run.result).cols, std::min(2 * side + 8, kFigureShownWidthPx)) << side;
+    for (const hda::RoiResult& roi : run.result.rois) {
+      if (roi.counts.matches > 0 && roi.box2_px.area() > 0) {
+        EXPECT_EQ(RoiPairFigure(image, image, roi).rows, kFigureGridHeightPx) << side;
+      }
+    }
+  }
 }
 
 TEST(FlightOutputs, AnOutputFolderUnderAFileIsAnInputErrorNamingIt) {

@@ -3,12 +3,14 @@
 // its per-ROI table and every embedded figure, determinism, a compare folder
 // with a failed method, a missing Python, and folders that are not run
 // folders. Skipped only when chromium is not installed.
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <iostream>
 #include <set>
 #include <string>
 #include <system_error>
+#include <utility>
 #include <vector>
 
 #include <unistd.h>
@@ -20,6 +22,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "datasets/map_preview.h"
+#include "reference/flight/flight_outputs.h"
 #include "tools/util/files.h"
 #include "tools/util/process.h"
 #include "tests/support/test_support.h"
@@ -373,6 +376,101 @@ TEST(ReportCommand, MapPreviewsGiveTheSamePageAsTheMapsThemselves) {
   again = Hdabench({"report", out.string(), "--dataset", dataset.string()});
   ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
   EXPECT_TRUE(ReadText(out / "report.html") == with_previews) << "the page without previews differs";
+}
+
+// Each <figure> of a page: its id, the size of its embedded PNG, its caption.
+struct EmbeddedFigure {
+  std::string id;
+  std::pair<std::uint32_t, std::uint32_t> size;
+  std::string caption;
+};
+
+std::vector<EmbeddedFigure> EmbeddedFigures(const std::string& html) {
+  std::vector<EmbeddedFigure> figures;
+  const std::string prefix = "src=\"data:image/png;base64,";
+  for (size_t at = html.find("<figure id=\""); at != std::string::npos; at = html.find("<figure id=\"", at + 1)) {
+    EmbeddedFigure figure;
+    figure.id = html.substr(at + 12, html.find('"', at + 12) - at - 12);
+    const size_t src = html.find(prefix, at) + prefix.size();
+    figure.size = PngSize(Base64Decode(html.substr(src, html.find('"', src) - src)));
+    const size_t caption = html.find("<figcaption>", src);
+    figure.caption = html.substr(caption, html.find("</figcaption>", caption) - caption);
+    figures.push_back(figure);
+  }
+  return figures;
+}
+
+// The figures a run draws are no larger than the page shows them (its width;
+// in the grids of the ROI pairs and the maps, also the grid's height), so the
+// report embeds them as drawn. Larger figures (an older run's) and the maps
+// are embedded shrunk to that size, saying so.
+TEST(ReportCommand, EveryFigureIsEmbeddedAtTheSizeThePageShowsIt) {
+  using hdabench::reference::kFigureGridHeightPx;
+  using hdabench::reference::kFigureShownWidthPx;
+  const fs::path dir = FreshTestDir();
+  const fs::path dataset = dir / "dataset";
+  fs::copy(Dataset(), dataset, fs::copy_options::recursive);
+  fs::remove_all(dataset / "maps" / hdabench::datasets::kMapPreviewFolder);
+  cv::Mat map(1300, 1700, CV_8UC3);
+  cv::randu(map, 0, 256);
+  ASSERT_TRUE(cv::imwrite((dataset / "maps" / "slope.png").string(), map));
+  const fs::path out = dir / "run";
+  const CommandResult run = Hdabench({"run", dataset.string(), "--out", out.string(), "--quiet"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  const auto fits = [&](const EmbeddedFigure& figure) {
+    const bool in_grid = figure.id.rfind("fig-roi_", 0) == 0 || figure.id.rfind("map-", 0) == 0;
+    EXPECT_GT(figure.size.first, 0u) << figure.id;
+    EXPECT_LE(figure.size.first, static_cast<std::uint32_t>(kFigureShownWidthPx)) << figure.id;
+    if (in_grid) {
+      EXPECT_LE(figure.size.second, static_cast<std::uint32_t>(kFigureGridHeightPx)) << figure.id;
+    }
+  };
+  const std::vector<EmbeddedFigure> as_drawn = EmbeddedFigures(ReadText(out / "report.html"));
+  int roi_pairs = 0;
+  for (const EmbeddedFigure& figure : as_drawn) {
+    fits(figure);
+    if (figure.id == "map-slope") {
+      EXPECT_NE(figure.caption.find("shrunk from 1700 x 1300 px"), std::string::npos) << figure.caption;
+      EXPECT_NEAR(figure.size.first, 1700.0 * kFigureGridHeightPx / 1300, 1.0);
+      EXPECT_NEAR(figure.size.second, kFigureGridHeightPx, 1.0);
+    } else if (figure.id.rfind("map-", 0) != 0) {
+      EXPECT_EQ(figure.caption.find("shrunk"), std::string::npos) << figure.id << ": " << figure.caption;
+    }
+    if (figure.id.rfind("fig-roi_", 0) == 0) {
+      ++roi_pairs;
+      // Its title is not shortened at this size: the figure is the grid's height.
+      EXPECT_EQ(figure.size.second, static_cast<std::uint32_t>(kFigureGridHeightPx)) << figure.id;
+    }
+  }
+  EXPECT_GT(roi_pairs, 0);
+
+  // An older run's larger figures: embedded shrunk, the figure files as they were.
+  cv::Mat wide(1020, 2048, CV_8UC3), tall(700, 600, CV_8UC3);
+  cv::randu(wide, 0, 256);
+  cv::randu(tall, 0, 256);
+  ASSERT_TRUE(cv::imwrite((out / "figures" / "matches.png").string(), wide));
+  fs::path pair;
+  for (const auto& entry : fs::directory_iterator(out / "figures" / "roi_pairs")) pair = entry.path();
+  ASSERT_TRUE(cv::imwrite(pair.string(), tall));
+  const CommandResult report = Hdabench({"report", out.string(), "--dataset", dataset.string(), "--quiet"});
+  ASSERT_EQ(report.exit_code, 0) << report.out << report.err;
+  bool saw_matches = false, saw_pair = false;
+  for (const EmbeddedFigure& figure : EmbeddedFigures(ReadText(out / "report.html"))) {
+    fits(figure);
+    if (figure.id == "fig-matches") {
+      saw_matches = true;
+      EXPECT_EQ(figure.size.first, static_cast<std::uint32_t>(kFigureShownWidthPx));
+      EXPECT_NEAR(figure.size.second, 1020.0 * kFigureShownWidthPx / 2048, 1.0);
+      EXPECT_NE(figure.caption.find("(shrunk from 2048 x 1020 px)"), std::string::npos) << figure.caption;
+    }
+    if (figure.id == "fig-" + pair.stem().string()) {
+      saw_pair = true;
+      EXPECT_NEAR(figure.size.second, kFigureGridHeightPx, 1.0);
+      EXPECT_NE(figure.caption.find("(shrunk from 600 x 700 px)"), std::string::npos) << figure.caption;
+    }
+  }
+  EXPECT_TRUE(saw_matches && saw_pair);
+  EXPECT_EQ(cv::imread((out / "figures" / "matches.png").string()).cols, 2048);
 }
 
 TEST(ReportCommand, AFolderThatIsNeitherARunNorACompareFolderIsExitCode3) {

@@ -59,6 +59,9 @@ struct RawEntry {
 // structure is checked here; values are read by libmrcal.
 class ModelScanner {
  public:
+  // The deepest nesting of brackets a value may have.
+  static constexpr int kMaxNesting = 32;
+
   ModelScanner(const std::string& text, const std::string& origin) : text_(text), origin_(origin) {}
 
   std::map<std::string, RawEntry> Scan() {
@@ -89,7 +92,7 @@ class ModelScanner {
       ++pos_;
       SkipBlank();
       entry.value_begin = pos_;
-      SkipValue();
+      SkipValue(1);
       entry.value_end = pos_;
       if (entries.count(key) != 0) Fail(entry.key_offset, "key '" + key + "' appears twice");
       entries[key] = entry;
@@ -140,7 +143,11 @@ class ModelScanner {
     if (pos_ >= text_.size()) Fail(start, "unterminated string");
     ++pos_;
   }
-  void SkipValue() {
+  // Skips one value whose brackets, if it opens one, are at nesting level
+  // `depth` (a key's value is at 1). Deeper than kMaxNesting is an error: no
+  // model nests its values more than a few levels, and the scan recurses once
+  // a level, so it stops there rather than on the stack's end.
+  void SkipValue(int depth) {
     if (pos_ >= text_.size()) Fail(pos_, "expected a value, found the end of the file");
     const char c = text_[pos_];
     if (c == '\'' || c == '"') {
@@ -150,6 +157,9 @@ class ModelScanner {
       ++pos_;
       SkipString();
     } else if (c == '[' || c == '(' || c == '{') {
+      if (depth > kMaxNesting) {
+        Fail(pos_, "values nested more than " + std::to_string(kMaxNesting) + " levels deep");
+      }
       const size_t start = pos_;
       const char close = c == '[' ? ']' : (c == '(' ? ')' : '}');
       ++pos_;
@@ -164,7 +174,7 @@ class ModelScanner {
           ++pos_;
           continue;
         }
-        SkipValue();
+        SkipValue(depth + 1);
       }
     } else {
       const size_t start = pos_;

@@ -357,6 +357,34 @@ INSTANTIATE_TEST_SUITE_P(Catalogue, BadCameraModel, testing::ValuesIn(kBadModels
                            return std::string(param_info.param.name);
                          });
 
+// Found by the cameramodel fuzz harness: brackets nested thousands deep
+// overflowed the stack of the scan, which recurses once a level. Values
+// nested more than 32 levels deep are now an error at the bracket that opens
+// the 33rd; 32 levels pass the scan (libmrcal then judges the value).
+TEST(CameraModelParse, ValuesNestedThousandsDeepAreAnErrorNotAStackOverflow) {
+  const std::string head =
+      "{\n 'lensmodel': 'LENSMODEL_PINHOLE',\n 'intrinsics': [1000, 1000, 319.5, 239.5],\n"
+      " 'extrinsics': [0, 0, 0, 0, 0, 0],\n 'imagersize': [640, 480],\n 'extra': ";
+  const auto nested = [&](int levels) {
+    return head + std::string(static_cast<size_t>(levels), '[') + "1" + std::string(static_cast<size_t>(levels), ']') +
+           ",\n}\n";
+  };
+  for (const int levels : {33, 100000}) {
+    try {
+      CameraModel::Parse(nested(levels), "deep.cameramodel");
+      ADD_FAILURE() << levels << " levels parsed";
+    } catch (const InputError& e) {
+      // Line 6, column 11 + 32: the 33rd '['.
+      EXPECT_EQ(std::string(e.what()), "deep.cameramodel:6:43: values nested more than 32 levels deep") << levels;
+    }
+  }
+  try {
+    CameraModel::Parse(nested(32), "deep.cameramodel");
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).find("nested more than"), std::string::npos) << e.what();
+  }
+}
+
 TEST(CameraModelLoad, MissingFileNamesThePath) {
   const fs::path path = FreshTestDir() / "absent.cameramodel";
   try {

@@ -443,11 +443,14 @@ TEST(FlightOutputs, FiguresAreNoWiderThanTheReportShowsThem) {
     EXPECT_EQ(quadtree.cols, std::min(whole, kFigureShownWidthPx)) << side;
     EXPECT_GT(quadtree.rows, quadtree.cols) << side;  // the image's square and the legend below
     EXPECT_EQ(MatchesFigure(image, image, run.result).cols, std::min(2 * side + 8, kFigureShownWidthPx)) << side;
+    int pairs = 0;
     for (const hda::RoiResult& roi : run.result.rois) {
       if (roi.counts.matches > 0 && roi.box2_px.area() > 0) {
         EXPECT_EQ(RoiPairFigure(image, image, roi).rows, kFigureGridHeightPx) << side;
+        ++pairs;
       }
     }
+    EXPECT_GT(pairs, 0) << side;
   }
 }
 

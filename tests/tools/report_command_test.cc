@@ -140,6 +140,35 @@ struct Dom {
   std::string text;                      // the whole DOM
 };
 
+// Each <figure> of a page: its id, the size of its embedded PNG (0 x 0 when
+// the figure has no data: image), its caption. Read within the figure's own
+// element, so a figure without an image never takes the next one's.
+struct EmbeddedFigure {
+  std::string id;
+  std::pair<std::uint32_t, std::uint32_t> size;
+  std::string caption;
+};
+
+std::vector<EmbeddedFigure> EmbeddedFigures(const std::string& html) {
+  std::vector<EmbeddedFigure> figures;
+  const std::string prefix = "src=\"data:image/png;base64,";
+  for (size_t at = html.find("<figure id=\""); at != std::string::npos; at = html.find("<figure id=\"", at + 1)) {
+    const size_t end = html.find("</figure>", at);
+    const std::string element = html.substr(at, end == std::string::npos ? std::string::npos : end - at);
+    EmbeddedFigure figure;
+    figure.id = element.substr(12, element.find('"', 12) - 12);
+    const size_t src = element.find(prefix);
+    if (src != std::string::npos) {
+      const size_t begin = src + prefix.size();
+      figure.size = PngSize(Base64Decode(element.substr(begin, element.find('"', begin) - begin)));
+    }
+    const size_t caption = element.find("<figcaption>");
+    if (caption != std::string::npos) figure.caption = element.substr(caption);
+    figures.push_back(figure);
+  }
+  return figures;
+}
+
 Dom ParseDom(const std::string& dom) {
   Dom parsed;
   parsed.text = dom;
@@ -155,11 +184,7 @@ Dom ParseDom(const std::string& dom) {
     const size_t begin = src + prefix.size();
     parsed.images.push_back(Base64Decode(tag.substr(begin, tag.find('"', begin) - begin)));
   }
-  for (size_t at = dom.find("<figure id=\""); at != std::string::npos;
-       at = dom.find("<figure id=\"", at + 1)) {
-    const size_t begin = at + 12;
-    parsed.figure_ids.insert(dom.substr(begin, dom.find('"', begin) - begin));
-  }
+  for (const EmbeddedFigure& figure : EmbeddedFigures(dom)) parsed.figure_ids.insert(figure.id);
   const size_t table = dom.find("<table id=\"roi-table\">");
   if (table != std::string::npos) {
     const size_t table_end = dom.find("</table>", table);
@@ -376,28 +401,6 @@ TEST(ReportCommand, MapPreviewsGiveTheSamePageAsTheMapsThemselves) {
   again = Hdabench({"report", out.string(), "--dataset", dataset.string()});
   ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
   EXPECT_TRUE(ReadText(out / "report.html") == with_previews) << "the page without previews differs";
-}
-
-// Each <figure> of a page: its id, the size of its embedded PNG, its caption.
-struct EmbeddedFigure {
-  std::string id;
-  std::pair<std::uint32_t, std::uint32_t> size;
-  std::string caption;
-};
-
-std::vector<EmbeddedFigure> EmbeddedFigures(const std::string& html) {
-  std::vector<EmbeddedFigure> figures;
-  const std::string prefix = "src=\"data:image/png;base64,";
-  for (size_t at = html.find("<figure id=\""); at != std::string::npos; at = html.find("<figure id=\"", at + 1)) {
-    EmbeddedFigure figure;
-    figure.id = html.substr(at + 12, html.find('"', at + 12) - at - 12);
-    const size_t src = html.find(prefix, at) + prefix.size();
-    figure.size = PngSize(Base64Decode(html.substr(src, html.find('"', src) - src)));
-    const size_t caption = html.find("<figcaption>", src);
-    figure.caption = html.substr(caption, html.find("</figcaption>", caption) - caption);
-    figures.push_back(figure);
-  }
-  return figures;
 }
 
 // The figures a run draws are no larger than the page shows them (its width;

@@ -18,6 +18,7 @@
 
 #include "tools/util/files.h"
 #include "calib/camera_model.h"
+#include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
 #include "tools/util/process.h"
@@ -90,7 +91,7 @@ CameraImages DetectCamera(const CalibrateOptions& options, int camera,
     if (!fs::is_regular_file(paths[i], ec)) {
       use.reason = fs::exists(paths[i], ec) ? "not a regular file" : "file not found";
     } else {
-      gray = cv::imread(paths[i], cv::IMREAD_GRAYSCALE);
+      gray = images::Read(paths[i], cv::IMREAD_GRAYSCALE);
       if (gray.empty()) use.reason = "unreadable: not an image format OpenCV can decode";
     }
     if (!gray.empty()) {

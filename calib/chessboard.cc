@@ -13,6 +13,7 @@
 
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
+#include "tools/util/shared_library.h"
 
 namespace hdabench::calib {
 
@@ -104,14 +105,33 @@ CornerDetection DetectWithOpenCv(const cv::Mat& gray, const ChessboardSpec& boar
   return result;
 }
 
+// mrgingham::find_chessboard_from_image_array, from libmrgingham loaded on the
+// first call (the Itanium ABI's name for the declaration of mrgingham.hh).
+using FindChessboardFn = int (*)(std::vector<mrgingham::PointDouble>&, signed char**, int, const cv::Mat&, int,
+                                 bool, mrgingham::debug_sequence_t, const char*);
+constexpr const char* kFindChessboardSymbol =
+    "_ZN9mrgingham32find_chessboard_from_image_arrayERSt6vectorINS_11PointDoubleESaIS1_EEPPaiRKN2cv3MatEibNS_"
+    "16debug_sequence_tEPKc";
+
+FindChessboardFn FindChessboardWithMrgingham() {
+  static const FindChessboardFn find = [] {
+    void* library = util::LoadSharedLibrary(HDABENCH_MRGINGHAM_SONAME, "mrgingham, the chessboard corner finder");
+    // POSIX guarantees that a function's address from dlsym converts to a
+    // function pointer.
+    return reinterpret_cast<FindChessboardFn>(util::SharedLibrarySymbol(
+        library, HDABENCH_MRGINGHAM_SONAME, kFindChessboardSymbol, "mrgingham::find_chessboard_from_image_array"));
+  }();
+  return find;
+}
+
 CornerDetection DetectWithMrgingham(const cv::Mat& gray, const ChessboardSpec& board) {
   CornerDetection result;
   result.detector = "mrgingham";
   std::vector<mrgingham::PointDouble> points;
   signed char* levels = nullptr;
   // A negative pyramid level lets mrgingham try several image scales.
-  const int level = mrgingham::find_chessboard_from_image_array(points, &levels, board.width,
-                                                                gray, -1);
+  const int level = FindChessboardWithMrgingham()(points, &levels, board.width, gray, -1, false,
+                                                  mrgingham::debug_sequence_t(), nullptr);
   const size_t expected = static_cast<size_t>(board.width) * board.height;
   if (level < 0 || points.size() != expected) {
     std::free(levels);

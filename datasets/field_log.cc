@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tools/images/codecs.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/text.h"
@@ -283,7 +284,7 @@ std::vector<ImageFile> ImagesFromCsv(const fs::path& folder, const std::string& 
 }
 
 cv::Mat ReadGreyImage(const ImageFile& image, std::vector<std::string>* notes) {
-  cv::Mat pixels = cv::imread(image.path, cv::IMREAD_UNCHANGED);
+  cv::Mat pixels = images::Read(image.path, cv::IMREAD_UNCHANGED);
   if (pixels.empty()) throw InputError(image.path + ": not an image OpenCV can read");
   if (pixels.depth() != CV_8U && pixels.depth() != CV_16U) {
     throw InputError(image.path + ": pixels are neither 8-bit nor 16-bit");
@@ -791,7 +792,7 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
     const fs::path path = fs::path(dir) / "images" / ("img_" + std::to_string(ns) + ".png");
     bool written = false;
     try {
-      written = cv::imwrite(path.string(), frame.image);
+      written = images::Write(path.string(), frame.image);
     } catch (const cv::Exception& e) {
       throw InputError(path.string() + ": cannot be written: " + e.what());
     }

@@ -8,6 +8,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tools/images/codecs.h"
+#include "tools/images/png.h"
+
 namespace hdabench::datasets {
 
 namespace {
@@ -34,15 +37,12 @@ std::string PreviewPng(const cv::Mat& image, int max_side_px) {
   if (image.empty() || std::max(image.cols, image.rows) <= max_side_px) return {};
   cv::Mat small;
   cv::resize(image, small, PreviewSize(image.cols, image.rows, max_side_px), 0, 0, cv::INTER_AREA);
-  std::vector<unsigned char> out;
-  if (!cv::imencode(".png", small, out, {cv::IMWRITE_PNG_COMPRESSION, kPreviewCompression})) return {};
-  return std::string(out.begin(), out.end());
+  return images::EncodePng(small, kPreviewCompression);
 }
 
 std::string PreviewPngOfBytes(const std::string& png_bytes, int max_side_px) {
   if (png_bytes.empty()) return {};
-  const cv::Mat encoded(1, static_cast<int>(png_bytes.size()), CV_8UC1, const_cast<char*>(png_bytes.data()));
-  return PreviewPng(cv::imdecode(encoded, cv::IMREAD_COLOR), max_side_px);
+  return PreviewPng(images::DecodeAsBgr(png_bytes), max_side_px);
 }
 
 bool IsPng(const std::string& bytes) {

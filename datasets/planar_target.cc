@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "datasets/internal/pair_frames.h"
+#include "tools/images/codecs.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/text.h"
@@ -32,7 +33,7 @@ Eigen::Vector3d BoardCorner(const calib::ChessboardSpec& board, int i) {
 cv::Mat ReadGrey(const std::string& path, const calib::CameraModel& camera) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError(path + ": no such file");
-  const cv::Mat image = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  const cv::Mat image = images::Read(path, cv::IMREAD_GRAYSCALE);
   if (image.empty()) throw InputError(path + ": not an image OpenCV can read");
   if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {
     throw InputError(path + ": " + std::to_string(image.cols) + " x " + std::to_string(image.rows) +

@@ -19,6 +19,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "tools/util/text.h"
 #include "datasets/internal/pair_frames.h"
@@ -104,7 +105,7 @@ std::vector<SourceFrame> ListFrames(const fs::path& dir) {
 cv::Mat ReadImage(const fs::path& path) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw InputError(path.string() + ": no such file");
-  const cv::Mat raw = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat raw = images::Read(path.string(), cv::IMREAD_UNCHANGED);
   if (raw.empty()) throw InputError(path.string() + ": cannot be decoded as an image");
   if (raw.depth() != CV_8U || (raw.channels() != 1 && raw.channels() != 3)) {
     throw InputError(path.string() + ": " + std::to_string(raw.channels()) +
@@ -127,7 +128,7 @@ cv::Mat ReadDepth(const fs::path& path) {
   ::setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 1);
   cv::Mat depth;
   try {
-    depth = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+    depth = images::Read(path.string(), cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
     throw InputError(path.string() + ": cannot be read as an OpenEXR depth: " + e.what());
   }

@@ -1,15 +1,11 @@
 #include "datasets/internal/png.h"
 
 #include <cstdint>
-#include <cstdio>
 #include <stdexcept>
-#include <vector>
 
-#include <opencv2/core/utils/logger.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <zlib.h>
 
-#include "tools/util/stderr_capture.h"
+#include "tools/images/png.h"
 
 namespace hdabench::datasets::internal {
 
@@ -54,15 +50,6 @@ std::string ColorTypeName(int color_type) {
     default:
       return "a PNG of invalid colour type " + std::to_string(color_type);
   }
-}
-
-
-std::string OneLine(std::string text) {
-  for (char& c : text) {
-    if (c == '\n' || c == '\r') c = ' ';
-  }
-  while (!text.empty() && text.back() == ' ') text.pop_back();
-  return text;
 }
 
 }  // namespace
@@ -160,30 +147,9 @@ bool CheckPngStructure(const std::string& bytes, PngHeader* header, std::string*
 }
 
 bool DecodePngQuietly(const std::string& bytes, cv::Mat* image, std::string* error) {
-  const cv::utils::logging::LogLevel saved_level =
-      cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
-  std::string exception_text;
-  std::string captured;
-  captured = util::CaptureStderr([&] {
-    try {
-      const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1,
-                           const_cast<char*>(bytes.data()));
-      *image = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
-    } catch (const std::exception& e) {
-      exception_text = e.what();
-      image->release();
-    }
-  });
-  cv::utils::logging::setLogLevel(saved_level);
-
-  if (!image->empty() && image->channels() == 1 &&
-      (image->depth() == CV_8U || image->depth() == CV_16U)) {
-    return true;
-  }
-  std::string detail = OneLine(captured.empty() ? exception_text : captured);
-  if (!image->empty()) detail = "decoded to an image of OpenCV type " + std::to_string(image->type());
-  *error = "cannot be decoded as a PNG" + (detail.empty() ? std::string() : " (" + detail + ")");
-  image->release();
+  std::string detail;
+  if (images::DecodeGreyPng(bytes, image, &detail)) return true;
+  *error = "cannot be decoded as a PNG (" + detail + ")";
   return false;
 }
 
@@ -192,11 +158,7 @@ std::string EncodePng(const cv::Mat& image) {
       (image.depth() != CV_8U && image.depth() != CV_16U)) {
     throw std::invalid_argument("EncodePng: expected a non-empty CV_8UC1 or CV_16UC1 image");
   }
-  std::vector<unsigned char> buffer;
-  if (!cv::imencode(".png", image, buffer)) {
-    throw std::runtime_error("EncodePng: OpenCV could not encode the image");
-  }
-  return std::string(buffer.begin(), buffer.end());
+  return images::EncodePng(image);
 }
 
 }  // namespace hdabench::datasets::internal

@@ -1,7 +1,6 @@
 // PNG checks for the frames of a dataset. A damaged PNG must be reported, not
-// half-decoded, and decoding must print nothing: libpng and OpenCV write their
-// complaints to stderr, so the chunk structure is checked first and decoding
-// runs with that output captured.
+// half-decoded, and decoding must print nothing: the chunk structure is checked
+// first, and libpng's complaints come back as text (tools/images/png.h).
 #pragma once
 
 #include <string>
@@ -24,13 +23,12 @@ struct PngHeader {
 bool CheckPngStructure(const std::string& bytes, PngHeader* header, std::string* error);
 
 // Decodes a PNG that passed CheckPngStructure into CV_8UC1 or CV_16UC1 without
-// letting libpng or OpenCV print anything; what they would have printed goes
-// into `error` on failure. Not thread-safe: it redirects file descriptor 2
-// while decoding.
+// letting libpng print anything; what it would have printed goes into `error`
+// on failure ("cannot be decoded as a PNG (libpng error: ...)").
 bool DecodePngQuietly(const std::string& bytes, cv::Mat* image, std::string* error);
 
-// Encodes a CV_8UC1 or CV_16UC1 image as PNG bytes. Throws std::invalid_argument
-// for another type.
+// Encodes a CV_8UC1 or CV_16UC1 image as PNG bytes (OpenCV's default
+// encoding). Throws std::invalid_argument for another type.
 std::string EncodePng(const cv::Mat& image);
 
 }  // namespace hdabench::datasets::internal

@@ -8,10 +8,10 @@
 #include <vector>
 
 #include <Eigen/Eigenvalues>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "datasets/map_preview.h"
+#include "tools/images/png.h"
 #include "tools/util/error.h"
 #include "tools/util/files.h"
 
@@ -26,13 +26,7 @@ Eigen::Vector3d UpInLocal(const Dataset& dataset) {
 
 // Writes a PNG to a temporary name and renames it into place.
 void WritePngAtomically(const std::filesystem::path& path, const cv::Mat& image) {
-  const std::filesystem::path tmp = path.string() + ".partial.png";
-  if (!cv::imwrite(tmp.string(), image)) {
-    throw InputError(path.string() + ": cannot write the image");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw InputError(path.string() + ": cannot move the written image into place: " + ec.message());
+  util::WriteFileAtomically(path, images::EncodePng(image));
 }
 }  // namespace
 

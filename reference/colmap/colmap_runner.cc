@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tools/images/codecs.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
@@ -122,7 +123,7 @@ CameraSetup SetupCamera(const calib::CameraModel& camera) {
 // Reads an image as 8-bit grey (16-bit divided by 257, rounded; colour to grey).
 cv::Mat ReadGrey8(const std::string& path, const calib::CameraModel& camera) {
   if (!fs::is_regular_file(path)) throw InputError(path + ": image file does not exist");
-  cv::Mat image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  cv::Mat image = images::Read(path, cv::IMREAD_UNCHANGED);
   if (image.empty()) throw InputError(path + ": cannot read the image");
   if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {
     throw InputError(path + ": image is " + std::to_string(image.cols) + " x " +
@@ -771,7 +772,7 @@ void WriteImages(const std::vector<std::string>& image_paths, const calib::Camer
       image = resampled;
     }
     const fs::path out = images_dir / ImageName(i);
-    if (!cv::imwrite(out.string(), image)) throw InputError(out.string() + ": cannot write image");
+    if (!images::Write(out.string(), image)) throw InputError(out.string() + ": cannot write image");
   }
 }
 

@@ -13,9 +13,9 @@
 #include <utility>
 
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "tools/images/png.h"
 #include "tools/util/error.h"
 #include "tools/util/files.h"
 #include "tools/util/text.h"
@@ -324,13 +324,7 @@ cv::Mat TitleStrip(int width, const std::vector<std::string>& lines, double scal
 // 8.4 MB).
 constexpr int kFigurePngCompression = 1;
 
-std::vector<uchar> EncodePng(const cv::Mat& image) {
-  std::vector<uchar> bytes;
-  if (!cv::imencode(".png", image, bytes, {cv::IMWRITE_PNG_COMPRESSION, kFigurePngCompression})) {
-    throw std::runtime_error("cv::imencode failed for a figure");
-  }
-  return bytes;
-}
+std::string EncodePng(const cv::Mat& image) { return images::EncodePng(image, kFigurePngCompression); }
 
 // ---------------------------------------------------------------------------
 // Files
@@ -343,8 +337,7 @@ void WriteText(const fs::path& dir, const std::string& relative, const std::stri
 
 void WritePng(const fs::path& dir, const std::string& relative, const cv::Mat& image,
               std::vector<std::string>* written) {
-  const std::vector<uchar> bytes = EncodePng(image);
-  WriteText(dir, relative, std::string(bytes.begin(), bytes.end()), written);
+  WriteText(dir, relative, EncodePng(image), written);
 }
 
 // Removes the per-ROI files ("roi_<digits><extension>") in `folder` that this

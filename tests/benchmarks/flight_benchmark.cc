@@ -34,6 +34,7 @@
 #include "hda/pipeline.h"
 #include "reference/flight/flight_run.h"
 #include "reference/flight/hda_params.h"
+#include "tools/images/codecs.h"
 
 namespace hdabench {
 namespace {
@@ -110,7 +111,7 @@ const Pair& GetPair(int size_px) {
   pair.frame2 = frames.second;
   for (const int frame : {frames.first, frames.second}) {
     datasets::FrameRecord& record = pair.dataset->frames[static_cast<size_t>(frame)];
-    record.image = cv::imread((fs::path(dir) / record.image_path).string(), cv::IMREAD_UNCHANGED);
+    record.image = hdabench::images::Read((fs::path(dir) / record.image_path).string(), cv::IMREAD_UNCHANGED);
   }
   pair.input = reference::MakeHdaInput(*pair.dataset, frames.first, frames.second);
   return pair;

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "calib/camera_model.h"
+#include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "tools/util/process.h"
 #include "tests/support/test_support.h"
@@ -56,7 +57,7 @@ std::vector<std::string> ImageNames(const std::string& side) {
 void WriteCorners(const std::vector<std::string>& names, const fs::path& vnl) {
   std::string text = "# filename x y level\n";
   for (const std::string& name : names) {
-    const cv::Mat image = cv::imread((kImages / name).string(), cv::IMREAD_GRAYSCALE);
+    const cv::Mat image = hdabench::images::Read((kImages / name).string(), cv::IMREAD_GRAYSCALE);
     if (image.empty())
       throw std::runtime_error((kImages / name).string() + ": cannot read the image");
     std::vector<cv::Point2f> corners;

@@ -12,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/calibrate.h"
+#include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "tests/support/test_support.h"
 
@@ -27,7 +28,7 @@ const fs::path kBoardData = fs::path(HDABENCH_SOURCE_DIR) / "tests/data/opencv-s
 cv::Mat Left(int index) {
   char name[32];
   std::snprintf(name, sizeof(name), "left%02d.jpg", index);
-  return cv::imread((kBoardData / name).string(), cv::IMREAD_GRAYSCALE);
+  return hdabench::images::Read((kBoardData / name).string(), cv::IMREAD_GRAYSCALE);
 }
 
 TEST(Chessboard, FindsAll54CornersRowMajorWithTheDarkEndFirst) {

@@ -18,6 +18,7 @@
 #include "datasets/example.h"
 #include "datasets/npy.h"
 #include "tests/support/test_support.h"
+#include "tools/images/codecs.h"
 
 namespace hdabench::datasets {
 namespace {
@@ -514,7 +515,7 @@ std::vector<Defect> Catalogue() {
        }},
       {"ImageRgb",
        [](const fs::path& dir) {
-         cv::imwrite((dir / "images/frame_000002.png").string(),
+         hdabench::images::Write((dir / "images/frame_000002.png").string(),
                      cv::Mat(kImageSizePx, kImageSizePx, CV_8UC3, cv::Scalar(10, 20, 30)));
          return Problem{"images/frame_000002.png",
                         "is a 3-channel RGB PNG; expected a single-channel greyscale PNG (colour "
@@ -522,7 +523,7 @@ std::vector<Defect> Catalogue() {
        }},
       {"ImageWrongSize",
        [](const fs::path& dir) {
-         cv::imwrite((dir / "images/frame_000002.png").string(),
+         hdabench::images::Write((dir / "images/frame_000002.png").string(),
                      cv::Mat(32, 48, CV_8UC1, cv::Scalar(100)));
          return Problem{"images/frame_000002.png",
                         "is 48 x 32 px; the camera model (camera.cameramodel) has a 64 x 64 px "

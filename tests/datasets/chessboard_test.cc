@@ -20,6 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "calib/camera_model.h"
+#include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "datasets/synth/chessboard.h"
 #include "tests/support/test_support.h"
@@ -617,7 +618,7 @@ TEST(WriteChessboardViews, WritesImagesTruthAndPoses) {
   EXPECT_EQ(names,
             (std::vector<std::string>{"cam0-01.png", "cam0-02.png", "cam0-03.png", "poses.csv", "truth.csv"}));
   for (size_t v = 0; v < views.size(); ++v) {
-    const cv::Mat image = cv::imread((dir / names[v]).string(), cv::IMREAD_UNCHANGED);
+    const cv::Mat image = hdabench::images::Read((dir / names[v]).string(), cv::IMREAD_UNCHANGED);
     EXPECT_TRUE(SameBytes(image, views[v].image)) << names[v];
   }
   const std::vector<std::string> truth = SplitLines(ReadText(dir / "truth.csv"));

@@ -18,6 +18,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "tests/support/flight_results.h"
 #include "tests/support/test_support.h"
@@ -136,7 +137,7 @@ struct FieldLog {
     cv::Mat image(160, 200, CV_8UC1);
     cv::randu(image, 30, 220);
     for (const double t : camera_times) {
-      cv::imwrite((dir / "images" / ("cam_" + std::to_string(static_cast<long>(std::lround(t * 1000))) + ".png")).string(),
+      hdabench::images::Write((dir / "images" / ("cam_" + std::to_string(static_cast<long>(std::lround(t * 1000))) + ".png")).string(),
                   image);
     }
     WriteText(dir / "log.json", R"({"format": "hdabench-field-log", "format_version": 1, "name": "constructed",

@@ -12,6 +12,7 @@
 #include "datasets/dataset.h"
 #include "datasets/synth/truth.h"
 #include "tests/support/test_support.h"
+#include "tools/images/codecs.h"
 #include "tools/util/files.h"
 
 namespace hdabench::datasets {
@@ -21,7 +22,7 @@ namespace fs = std::filesystem;
 
 std::string Encode(const cv::Mat& image) {
   std::vector<unsigned char> bytes;
-  EXPECT_TRUE(cv::imencode(".png", image, bytes));
+  EXPECT_TRUE(hdabench::images::Encode(".png", image, &bytes));
   return std::string(bytes.begin(), bytes.end());
 }
 

@@ -16,6 +16,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tests/support/test_support.h"
+#include "tools/images/codecs.h"
 #include "tools/util/angles.h"
 
 namespace hdabench::datasets {
@@ -133,7 +134,7 @@ TEST(PlanarTarget, OneCameraForBothImagesIsNotResampled) {
   const calib::CameraModel camera = Model(0);
   const PlanarTargetPair pair =
       MakePlanarTargetPair(Image("left", "02"), camera, Image("left", "03"), camera, Board());
-  const cv::Mat original = cv::imread(Image("left", "03"), cv::IMREAD_GRAYSCALE);
+  const cv::Mat original = hdabench::images::Read(Image("left", "03"), cv::IMREAD_GRAYSCALE);
   EXPECT_EQ(cv::norm(pair.dataset.frames[1].image, original, cv::NORM_INF), 0.0);
   EXPECT_FALSE(pair.has_calibrated_extrinsics);
 }
@@ -147,14 +148,14 @@ TEST(PlanarTarget, UnusableInputsAreNamed) {
             std::string::npos);
   // An image without the board.
   const fs::path blank = dir / "blank.png";
-  cv::imwrite(blank.string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)));
+  hdabench::images::Write(blank.string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(128)));
   EXPECT_NE(InputErrorOf([&] {
               MakePlanarTargetPair(Image("left", "01"), camera, blank.string(), camera, Board());
             }).find("blank.png: no 9x6 chessboard found"),
             std::string::npos);
   // An image of another size than its model.
   const fs::path small = dir / "small.png";
-  cv::imwrite(small.string(), cv::Mat(240, 320, CV_8UC1, cv::Scalar(128)));
+  hdabench::images::Write(small.string(), cv::Mat(240, 320, CV_8UC1, cv::Scalar(128)));
   EXPECT_NE(InputErrorOf([&] {
               MakePlanarTargetPair(small.string(), camera, Image("right", "01"), camera, Board());
             }).find("small.png: 320 x 240 px, but its camera model is 640 x 480 px"),

@@ -1,6 +1,8 @@
 // PNG frames from arbitrary bytes: the container check, then decoding of what
 // passes it (datasets/internal/png.h): false with a reason or an 8- or 16-bit
-// single-channel image, never a crash.
+// single-channel image, never a crash. And the decoding of the maps and
+// figures a report embeds (tools/images/png.h, DecodePlainRgbPng): false or a
+// 3-channel 8-bit image.
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -10,8 +12,10 @@
 
 #include "datasets/internal/png.h"
 #include "tests/fuzz/fuzz_support.h"
+#include "tools/images/png.h"
 
-// With HDABENCH_FUZZ_SEEDS naming a folder: seeds there, an 8-bit and a 16-bit greyscale PNG.
+// With HDABENCH_FUZZ_SEEDS naming a folder: seeds there, an 8-bit and a 16-bit
+// greyscale PNG and an 8-bit RGB one.
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   const char* seeds = std::getenv("HDABENCH_FUZZ_SEEDS");
   if (seeds == nullptr || *seeds == '\0') return 0;
@@ -26,12 +30,19 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
                                       hdabench::datasets::internal::EncodePng(gradient8));
   hdabench::util::WriteFileAtomically(std::filesystem::path(seeds) / "grey16.png",
                                       hdabench::datasets::internal::EncodePng(gradient16));
+  cv::Mat colour(6, 11, CV_8UC3);
+  for (int r = 0; r < colour.rows; ++r) {
+    for (int c = 0; c < colour.cols; ++c) colour.at<cv::Vec3b>(r, c) = cv::Vec3b(static_cast<unsigned char>(40 * r), static_cast<unsigned char>(20 * c), 99);
+  }
+  hdabench::util::WriteFileAtomically(std::filesystem::path(seeds) / "rgb8.png", hdabench::images::EncodePng(colour));
   return 0;
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace hdabench::datasets;
   const std::string bytes = hdabench::fuzz::Bytes(data, size);
+  cv::Mat colour;
+  if (hdabench::images::DecodePlainRgbPng(bytes, &colour) && colour.type() != CV_8UC3) __builtin_trap();
   std::string error;
   internal::PngHeader header;
   if (!internal::CheckPngStructure(bytes, &header, &error)) return 0;

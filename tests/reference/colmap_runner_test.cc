@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "datasets/synth/synth.h"
 #include "datasets/synth/terrain.h"
@@ -80,7 +81,7 @@ class ColmapRunner : public ::testing::Test {
     fs::create_directories(scene->dir);
     for (size_t i = 0; i < d.frames.size(); ++i) {
       const fs::path path = scene->dir / ("image" + std::to_string(i) + ".png");
-      cv::imwrite(path.string(), d.frames[i].image);
+      hdabench::images::Write(path.string(), d.frames[i].image);
       scene->image_paths.push_back(path.string());
       scene->local_from_cam.push_back(d.CamFromLocal(static_cast<int>(i)).Inverse());
     }
@@ -499,8 +500,8 @@ TEST_F(ColmapRunner, ATimeoutIsAFailureNotAHang) {
 TEST_F(ColmapRunner, ImagesWithoutTextureGiveNoPoints) {
   const fs::path dir = FreshTestDir();
   const cv::Mat grey(512, 512, CV_8UC1, cv::Scalar(128));
-  cv::imwrite((dir / "a.png").string(), grey);
-  cv::imwrite((dir / "b.png").string(), grey);
+  hdabench::images::Write((dir / "a.png").string(), grey);
+  hdabench::images::Write((dir / "b.png").string(), grey);
   ColmapInput input = PairInput(dir / "ws");
   input.image_paths = {(dir / "a.png").string(), (dir / "b.png").string()};
   ColmapOptions options;
@@ -539,7 +540,7 @@ TEST_F(ColmapRunner, InvalidInputsThrow) {
     EXPECT_NE(std::string(e.what()).find("missing.png"), std::string::npos) << e.what();
   }
   const cv::Mat small(100, 100, CV_8UC1, cv::Scalar(1));
-  cv::imwrite((dir / "small.png").string(), small);
+  hdabench::images::Write((dir / "small.png").string(), small);
   ColmapInput wrong_size = PairInput(dir / "ws");
   wrong_size.image_paths[0] = (dir / "small.png").string();
   try {

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "tools/images/codecs.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "reference/flight/flight_outputs.h"
@@ -408,15 +409,15 @@ TEST(FlightOutputs, WritesEveryFileAndRemovesStaleRoiFiles) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp"), std::string::npos) << entry.path();
   }
   // The figures are 8-bit colour PNGs of sensible sizes.
-  const cv::Mat quadtree = cv::imread((dir / "figures" / "quadtree.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat quadtree = hdabench::images::Read((dir / "figures" / "quadtree.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_FALSE(quadtree.empty());
   EXPECT_EQ(quadtree.type(), CV_8UC3);
   EXPECT_EQ(quadtree.cols, 64 * 3);  // enlarged so a 16 px block is 48 px
   EXPECT_GT(quadtree.rows, 64 * 3);  // plus the legend
-  const cv::Mat pair = cv::imread((dir / "figures" / "roi_pairs" / "roi_001.png").string());
+  const cv::Mat pair = hdabench::images::Read((dir / "figures" / "roi_pairs" / "roi_001.png").string(), cv::IMREAD_COLOR);
   ASSERT_FALSE(pair.empty());
   EXPECT_EQ(pair.rows, kFigureGridHeightPx);  // the report's grid height; the title not shortened
-  const cv::Mat matches = cv::imread((dir / "figures" / "matches.png").string());
+  const cv::Mat matches = hdabench::images::Read((dir / "figures" / "matches.png").string(), cv::IMREAD_COLOR);
   ASSERT_FALSE(matches.empty());
   EXPECT_LE(matches.cols, kFigureShownWidthPx);
 

@@ -15,6 +15,7 @@
 #include "calib/camera_model.h"
 #include "datasets/synth/chessboard.h"
 #include "tests/support/test_support.h"
+#include "tools/images/codecs.h"
 
 namespace {
 
@@ -241,7 +242,7 @@ TEST(Calibrate, ImagesWithoutABoardUnreadableOrMissingAreNamedWithTheirReason) {
   for (int r = 0; r < plain.rows; ++r) {
     for (int c = 0; c < plain.cols; ++c) plain.at<unsigned char>(r, c) = static_cast<unsigned char>((r + c) / 5);
   }
-  ASSERT_TRUE(cv::imwrite((dir / "plain.png").string(), plain));
+  ASSERT_TRUE(hdabench::images::Write((dir / "plain.png").string(), plain));
   WriteText(dir / "text.png", "this is not an image\n");
   std::vector<std::string> images = BoardImages("left");
   images.resize(4);

@@ -23,6 +23,7 @@
 
 #include "datasets/map_preview.h"
 #include "reference/flight/flight_outputs.h"
+#include "tools/images/codecs.h"
 #include "tools/util/files.h"
 #include "tools/util/process.h"
 #include "tests/support/test_support.h"
@@ -380,7 +381,7 @@ TEST(ReportCommand, MapPreviewsGiveTheSamePageAsTheMapsThemselves) {
   for (const char* name : {"elevation.png", "slope.png", "hazards.png"}) {
     cv::Mat map(1300, 1700, CV_8UC3);
     cv::randu(map, 0, 256);
-    ASSERT_TRUE(cv::imwrite((dataset / "maps" / name).string(), map));
+    ASSERT_TRUE(hdabench::images::Write((dataset / "maps" / name).string(), map));
     hdabench::util::WriteFileAtomically(dataset / "maps" / hdabench::datasets::kMapPreviewFolder / name,
                                         hdabench::datasets::PreviewPng(map, hdabench::datasets::kMapPreviewSidePx));
   }
@@ -393,7 +394,7 @@ TEST(ReportCommand, MapPreviewsGiveTheSamePageAsTheMapsThemselves) {
   // A preview of another size is not taken; no previews at all: made from the maps.
   const fs::path slope_preview = dataset / "maps" / hdabench::datasets::kMapPreviewFolder / "slope.png";
   cv::Mat other(100, 100, CV_8UC3, cv::Scalar(1, 2, 3));
-  ASSERT_TRUE(cv::imwrite(slope_preview.string(), other));
+  ASSERT_TRUE(hdabench::images::Write(slope_preview.string(), other));
   CommandResult again = Hdabench({"report", out.string(), "--dataset", dataset.string()});
   ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
   EXPECT_TRUE(ReadText(out / "report.html") == with_previews) << "a wrong-size preview changed the page";
@@ -416,7 +417,7 @@ TEST(ReportCommand, EveryFigureIsEmbeddedAtTheSizeThePageShowsIt) {
   fs::remove_all(dataset / "maps" / hdabench::datasets::kMapPreviewFolder);
   cv::Mat map(1300, 1700, CV_8UC3);
   cv::randu(map, 0, 256);
-  ASSERT_TRUE(cv::imwrite((dataset / "maps" / "slope.png").string(), map));
+  ASSERT_TRUE(hdabench::images::Write((dataset / "maps" / "slope.png").string(), map));
   const fs::path out = dir / "run";
   const CommandResult run = Hdabench({"run", dataset.string(), "--out", out.string(), "--quiet"});
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
@@ -451,10 +452,10 @@ TEST(ReportCommand, EveryFigureIsEmbeddedAtTheSizeThePageShowsIt) {
   cv::Mat wide(1020, 2048, CV_8UC3), tall(700, 600, CV_8UC3);
   cv::randu(wide, 0, 256);
   cv::randu(tall, 0, 256);
-  ASSERT_TRUE(cv::imwrite((out / "figures" / "matches.png").string(), wide));
+  ASSERT_TRUE(hdabench::images::Write((out / "figures" / "matches.png").string(), wide));
   fs::path pair;
   for (const auto& entry : fs::directory_iterator(out / "figures" / "roi_pairs")) pair = entry.path();
-  ASSERT_TRUE(cv::imwrite(pair.string(), tall));
+  ASSERT_TRUE(hdabench::images::Write(pair.string(), tall));
   const CommandResult report = Hdabench({"report", out.string(), "--dataset", dataset.string(), "--quiet"});
   ASSERT_EQ(report.exit_code, 0) << report.out << report.err;
   bool saw_matches = false, saw_pair = false;
@@ -473,7 +474,7 @@ TEST(ReportCommand, EveryFigureIsEmbeddedAtTheSizeThePageShowsIt) {
     }
   }
   EXPECT_TRUE(saw_matches && saw_pair);
-  EXPECT_EQ(cv::imread((out / "figures" / "matches.png").string()).cols, 2048);
+  EXPECT_EQ(hdabench::images::Read((out / "figures" / "matches.png").string(), cv::IMREAD_COLOR).cols, 2048);
 }
 
 TEST(ReportCommand, AFolderThatIsNeitherARunNorACompareFolderIsExitCode3) {

@@ -80,6 +80,25 @@ TEST(RunCommand, WritesEveryFileAndTheSameResultOnEveryRun) {
   }
 }
 
+// OpenCV's image codecs and libmrgingham (which needs them) bring some 140
+// shared libraries; a run on the bench's own PNGs, with its figures and
+// report, loads neither (tools/images/codecs.h). The dynamic loader lists what
+// each process loads when LD_DEBUG=files.
+TEST(RunCommand, LoadsNeitherOpenCvsImageCodecsNorMrgingham) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult run = hdabench::testing_support::RunHdabench(
+      {"run", SmallSyntheticDataset().string(), "--out", (dir / "out").string(), "--budget-s", "10000"}, dir,
+      {"LD_DEBUG=files"});
+  ASSERT_EQ(run.exit_code, 0) << run.out;
+  EXPECT_NE(run.err.find("file=libopencv_core.so"), std::string::npos) << "no LD_DEBUG output to check";
+  EXPECT_TRUE(fs::is_regular_file(dir / "out" / "report.html"));
+  EXPECT_TRUE(fs::is_regular_file(dir / "out" / "figures" / "matches.png"));
+  for (const char* library : {"file=libopencv_imgcodecs.so", "file=libmrgingham.so"}) {
+    const size_t at = run.err.find(library);
+    EXPECT_EQ(at, std::string::npos) << run.err.substr(at == std::string::npos ? 0 : at, 200);
+  }
+}
+
 TEST(RunCommand, BudgetFlagsReachTheResult) {
   const fs::path dir = FreshTestDir();
   const CommandResult run = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--quiet",

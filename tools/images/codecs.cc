@@ -1,0 +1,89 @@
+#include "tools/images/codecs.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "tools/images/png.h"
+#include "tools/util/shared_library.h"
+
+namespace hdabench::images {
+
+namespace {
+
+// The library, by its soname (from OpenCV's CMake package), and the C++
+// symbols of the four functions as the Itanium ABI names them for the
+// declarations of <opencv2/imgcodecs.hpp> (OpenCV 4, cv::String = std::string).
+constexpr const char* kLibrary = HDABENCH_IMGCODECS_SONAME;
+constexpr const char* kImread = "_ZN2cv6imreadERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEEi";
+constexpr const char* kImwrite =
+    "_ZN2cv7imwriteERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEERKNS_11_InputArrayERKSt6vectorIiSaIiEE";
+constexpr const char* kImdecode = "_ZN2cv8imdecodeERKNS_11_InputArrayEi";
+constexpr const char* kImencode =
+    "_ZN2cv8imencodeERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEERKNS_11_InputArrayERSt6vectorIhSaIhEERKSB_"
+    "IiSaIiEE";
+
+using ImreadFn = cv::Mat (*)(const std::string&, int);
+using ImwriteFn = bool (*)(const std::string&, const cv::_InputArray&, const std::vector<int>&);
+using ImdecodeFn = cv::Mat (*)(const cv::_InputArray&, int);
+using ImencodeFn = bool (*)(const std::string&, const cv::_InputArray&, std::vector<unsigned char>&,
+                            const std::vector<int>&);
+
+struct Codecs {
+  ImreadFn imread = nullptr;
+  ImwriteFn imwrite = nullptr;
+  ImdecodeFn imdecode = nullptr;
+  ImencodeFn imencode = nullptr;
+};
+
+template <typename Fn>
+Fn Function(void* library, const char* symbol, const char* what) {
+  // POSIX guarantees that a function's address from dlsym converts to a
+  // function pointer.
+  return reinterpret_cast<Fn>(util::SharedLibrarySymbol(library, kLibrary, symbol, what));
+}
+
+Codecs Load() {
+  void* library = util::LoadSharedLibrary(kLibrary, "OpenCV's image codecs");
+  Codecs codecs;
+  codecs.imread = Function<ImreadFn>(library, kImread, "cv::imread");
+  codecs.imwrite = Function<ImwriteFn>(library, kImwrite, "cv::imwrite");
+  codecs.imdecode = Function<ImdecodeFn>(library, kImdecode, "cv::imdecode");
+  codecs.imencode = Function<ImencodeFn>(library, kImencode, "cv::imencode");
+  return codecs;
+}
+
+const Codecs& TheCodecs() {
+  static const Codecs codecs = Load();  // a failure throws, and the next call tries again
+  return codecs;
+}
+
+}  // namespace
+
+void LoadCodecs() { TheCodecs(); }
+
+bool CodecsLoaded() { return util::SharedLibraryLoaded(kLibrary); }
+
+cv::Mat Read(const std::string& path, int flags) { return TheCodecs().imread(path, flags); }
+
+bool Write(const std::string& path, const cv::Mat& image, const std::vector<int>& params) {
+  return TheCodecs().imwrite(path, image, params);
+}
+
+cv::Mat Decode(const std::string& bytes, int flags) {
+  if (bytes.empty()) return cv::Mat();
+  const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data()));
+  return TheCodecs().imdecode(buffer, flags);
+}
+
+cv::Mat DecodeAsBgr(const std::string& bytes) {
+  cv::Mat image;
+  if (DecodePlainRgbPng(bytes, &image)) return image;
+  return Decode(bytes, cv::IMREAD_COLOR);
+}
+
+bool Encode(const std::string& extension, const cv::Mat& image, std::vector<unsigned char>* bytes,
+            const std::vector<int>& params) {
+  return TheCodecs().imencode(extension, image, *bytes, params);
+}
+
+}  // namespace hdabench::images

@@ -1,0 +1,44 @@
+// OpenCV's image codecs (cv::imread, cv::imwrite, cv::imdecode, cv::imencode),
+// loaded the first time one is called. Debian's libopencv_imgcodecs brings
+// some 140 shared libraries (GDAL, GDCM, libraw, ...) that cost about 75 ms at
+// the start of every process linking it, so the bench links none of it: a
+// command that reads only the bench's own PNGs (png.h) never loads it. The
+// functions behave as OpenCV's, flags and parameters included (the cv::IMREAD_*
+// and cv::IMWRITE_* constants of <opencv2/imgcodecs.hpp>), and throw what
+// OpenCV throws. Thread-safe.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+namespace hdabench::images {
+
+// cv::imread: the image at `path`, or an empty Mat when OpenCV cannot read it.
+cv::Mat Read(const std::string& path, int flags);
+
+// cv::imwrite: false when OpenCV cannot write the file.
+bool Write(const std::string& path, const cv::Mat& image, const std::vector<int>& params = {});
+
+// cv::imdecode of `bytes`: an empty Mat when OpenCV cannot decode them.
+cv::Mat Decode(const std::string& bytes, int flags);
+
+// Decode(bytes, cv::IMREAD_COLOR), without loading OpenCV's codecs when the
+// bytes are a plain 8-bit RGB PNG, as the bench's maps and figures are
+// (png.h: DecodePlainRgbPng).
+cv::Mat DecodeAsBgr(const std::string& bytes);
+
+// cv::imencode with the format of `extension` (".png", ".jpg", ...).
+bool Encode(const std::string& extension, const cv::Mat& image, std::vector<unsigned char>* bytes,
+            const std::vector<int>& params = {});
+
+// Loads OpenCV's codecs now (the functions above do it themselves); throws
+// ExternalError naming the library and dlopen's reason when they cannot be
+// loaded.
+void LoadCodecs();
+
+// Whether this process has loaded OpenCV's codecs, by any means.
+bool CodecsLoaded();
+
+}  // namespace hdabench::images

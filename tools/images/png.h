@@ -1,0 +1,35 @@
+// PNG through libpng, without OpenCV's image codecs (codecs.h says why). The
+// encoder writes the bytes cv::imencode(".png", ...) writes (OpenCV 4, the same
+// libpng and zlib), so files made before and after are identical; the decoder
+// reads the single-channel PNGs of the bench's datasets as
+// cv::imdecode(..., cv::IMREAD_UNCHANGED) does. Neither prints anything:
+// libpng's messages come back as text. Thread-safe.
+#pragma once
+
+#include <string>
+
+#include <opencv2/core/mat.hpp>
+
+namespace hdabench::images {
+
+// The PNG of a CV_8U or CV_16U image of 1, 3 (BGR) or 4 (BGRA) channels, as
+// cv::imencode(".png", image, bytes, params) writes it: with
+// `compression_level` 0-9 as {cv::IMWRITE_PNG_COMPRESSION, level}, and with -1
+// as no parameters (OpenCV's default: zlib level 1, the Sub filter, the RLE
+// strategy). Throws std::invalid_argument for another image type or level,
+// std::runtime_error when libpng fails.
+std::string EncodePng(const cv::Mat& image, int compression_level = -1);
+
+// Decodes a greyscale PNG (colour type 0) of 8 or 16 bits into CV_8UC1 or
+// CV_16UC1. On failure returns false, `image` empty, and `error` holds
+// libpng's messages as libpng would have printed them ("libpng error: ...",
+// warnings first, on one line), or what else is wrong.
+bool DecodeGreyPng(const std::string& bytes, cv::Mat* image, std::string* error);
+
+// cv::imdecode(bytes, cv::IMREAD_COLOR) of an 8-bit RGB PNG whose chunks are
+// only IHDR, IDAT, IEND, text, time and pHYs (the bench's maps and figures):
+// CV_8UC3 in BGR order. Returns false, `image` empty, for any other PNG or
+// bytes libpng cannot decode; codecs.h's DecodeAsBgr then asks OpenCV.
+bool DecodePlainRgbPng(const std::string& bytes, cv::Mat* image);
+
+}  // namespace hdabench::images

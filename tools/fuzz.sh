@@ -7,7 +7,8 @@
 #
 #   tools/fuzz.sh [--seconds N | --runs N] [--only NAME[,NAME...]]
 #
-# Default: 30 seconds each (the test command's run). Prints per harness the
+# Default: 30 seconds each (the test command's run), up to HDABENCH_JOBS
+# harnesses at once, each on one core. Prints per harness the
 # executions, the time, the corpus size and the crashes; a crash's input is
 # kept in build-fuzz/fuzz-artifacts/ and the script exits 1. The corpus each
 # run grows is kept in build-fuzz/fuzz-corpus/NAME and the next run starts
@@ -31,7 +32,7 @@ while (($#)); do
     --seconds) [[ ${2:-} =~ ^[0-9]+$ ]] || die "--seconds needs a whole number"; limit=(-max_total_time="$2"); shift 2 ;;
     --runs) [[ ${2:-} =~ ^[0-9]+$ ]] || die "--runs needs a whole number"; limit=(-runs="$2"); shift 2 ;;
     --only) IFS=, read -r -a only <<<"${2:-}"; shift 2 ;;
-    -h | --help) sed -n '2,17p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,18p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument '$1' (see tools/fuzz.sh --help)" ;;
   esac
 done
@@ -70,31 +71,48 @@ seeds() {
   esac
 }
 
-mkdir -p "$build_dir/fuzz-artifacts"
-crashed=()
-rows=()
-for name in "${only[@]}"; do
-  corpus=$build_dir/fuzz-corpus/$name
-  seed_dir=$build_dir/fuzz-seeds/$name
-  log=$build_dir/fuzz-logs/$name.log
-  mkdir -p "$corpus" "$(dirname "$log")"
+# fuzz_one NAME: one harness from its corpus and seeds; its result row goes to
+# fuzz-logs/NAME.row, and fuzz-logs/NAME.crashed exists when it crashed.
+fuzz_one() {
+  local name=$1 corpus=$build_dir/fuzz-corpus/$1 seed_dir=$build_dir/fuzz-seeds/$1
+  local log=$build_dir/fuzz-logs/$1.log start end execs files status=0 verdict="no crash"
+  mkdir -p "$corpus"
+  rm -f "$build_dir/fuzz-logs/$name.row" "$build_dir/fuzz-logs/$name.crashed"
   seeds "$name" "$seed_dir"
-  printf '== %s_fuzzer (%s)\n' "$name" "${limit[*]}"
   start=$(date +%s)
-  status=0
   # Leak checking on; a timeout of 10 s per input; inputs up to 64 KB.
   "$build_dir/tests/fuzz/${name}_fuzzer" "${limit[@]}" -timeout=10 -max_len=65536 -print_final_stats=1 \
     -artifact_prefix="$build_dir/fuzz-artifacts/$name-" "$corpus" "$seed_dir" >"$log" 2>&1 || status=$?
   end=$(date +%s)
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
   files=$(find "$corpus" -type f | wc -l)
-  seconds=$((end - start))
-  verdict="no crash"
   if ((status != 0)); then
     verdict="CRASH (exit $status): $(grep -m1 -E 'ERROR: |SUMMARY: |runtime error' "$log" || tail -1 "$log")"
-    crashed+=("$name")
+    touch "$build_dir/fuzz-logs/$name.crashed"
   fi
-  rows+=("$(printf '%-14s %12s %8s %8s  %s' "$name" "${execs:-?}" "$seconds" "$files" "$verdict")")
+  printf '%-14s %12s %8s %8s  %s\n' "$name" "${execs:-?}" "$((end - start))" "$files" "$verdict" \
+    >"$build_dir/fuzz-logs/$name.row"
+}
+
+# A harness is one process on one core, so up to $jobs run at once, each for
+# the whole time or number of runs asked for.
+mkdir -p "$build_dir/fuzz-artifacts" "$build_dir/fuzz-logs"
+running=0
+for name in "${only[@]}"; do
+  if ((running >= jobs)); then
+    wait -n || true
+    running=$((running - 1))
+  fi
+  printf '== %s_fuzzer (%s)\n' "$name" "${limit[*]}"
+  fuzz_one "$name" &
+  running=$((running + 1))
+done
+wait
+crashed=()
+rows=()
+for name in "${only[@]}"; do
+  rows+=("$(cat "$build_dir/fuzz-logs/$name.row" 2>/dev/null || printf '%-14s %12s %8s %8s  %s' "$name" '?' '?' '?' 'NO RESULT')")
+  if [[ -f $build_dir/fuzz-logs/$name.crashed || ! -f $build_dir/fuzz-logs/$name.row ]]; then crashed+=("$name"); fi
 done
 printf '\n%-14s %12s %8s %8s  %s\n' harness executions seconds corpus verdict
 printf '%s\n' "${rows[@]}"

@@ -3,6 +3,7 @@
 #include "tools/images/png.h"
 
 #include <png.h>
+#include <zlib.h>
 
 #include <cstdint>
 #include <string>
@@ -134,6 +135,28 @@ TEST(DecodeGreyPng, ReportsWhatLibpngSaysAndPrintsNothing) {
   EXPECT_EQ(error.rfind("libpng error: ", 0), 0u) << error;
   EXPECT_TRUE(decoded.empty());
   EXPECT_EQ(printed, "");
+
+  // A header asking for 30000 x 30000 px over a few hundred bytes of data is
+  // refused before the image is allocated.
+  std::string huge = good;
+  for (const size_t at : {size_t{16}, size_t{20}}) {
+    huge[at] = 0;
+    huge[at + 1] = 0;
+    huge[at + 2] = static_cast<char>(30000 >> 8);
+    huge[at + 3] = static_cast<char>(30000 & 0xff);
+  }
+  const std::uint32_t crc = static_cast<std::uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(huge.data() + 12), 17));  // IHDR's type and data
+  for (int i = 0; i < 4; ++i) huge[29 + i] = static_cast<char>((crc >> (24 - 8 * i)) & 0xff);
+  EXPECT_FALSE(DecodeGreyPng(huge, &decoded, &error));
+  EXPECT_EQ(error, "libpng error: Not enough image data for its size");
+  EXPECT_TRUE(DecodePlainRgbPng(EncodePng(TestImage(4, 4, CV_8UC3, 5)), &decoded));
+  std::string huge_rgb = EncodePng(TestImage(40, 30, CV_8UC3, 6));
+  huge_rgb.replace(16, 8, huge.substr(16, 8));
+  const std::uint32_t rgb_crc = static_cast<std::uint32_t>(
+      crc32(0L, reinterpret_cast<const Bytef*>(huge_rgb.data() + 12), 17));
+  for (int i = 0; i < 4; ++i) huge_rgb[29 + i] = static_cast<char>((rgb_crc >> (24 - 8 * i)) & 0xff);
+  EXPECT_FALSE(DecodePlainRgbPng(huge_rgb, &decoded));
 
   EXPECT_FALSE(DecodeGreyPng("", &decoded, &error));
   EXPECT_EQ(error.rfind("libpng error: ", 0), 0u) << error;

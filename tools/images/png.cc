@@ -13,6 +13,10 @@ namespace {
 // OpenCV's limits on a decoded image (CV_IO_MAX_IMAGE_WIDTH, _HEIGHT, _PIXELS).
 constexpr png_uint_32 kMaxSidePx = 1U << 20;
 constexpr unsigned long long kMaxPixels = 1ULL << 30;
+// Deflate expands its input at most 1032 times: a PNG whose rows need more
+// bytes than that of its whole file cannot hold them, and is refused before
+// its image is allocated (a header of a few bytes cannot ask for gigabytes).
+constexpr unsigned long long kMaxDeflateRatio = 1032;
 
 // What libpng reports goes into the text of the call's state, as libpng's own
 // handlers would have printed it; an error then returns to the setjmp of the
@@ -149,6 +153,11 @@ bool ReadRows(ReadState* state, Decoded decoded, cv::Mat* image) {
   if (width > kMaxSidePx || height > kMaxSidePx ||
       static_cast<unsigned long long>(width) * height > kMaxPixels) {
     png_error(png, "image too large (more than 2^20 px a side or 2^30 px in all)");
+  }
+  const unsigned long long row_bytes =
+      1 + static_cast<unsigned long long>(width) * (decoded == Decoded::kBgr8 ? 3 : 1) * (bit_depth / 8);
+  if (height * row_bytes > kMaxDeflateRatio * state->bytes->size() + 1024) {
+    png_error(png, "Not enough image data for its size");
   }
   if (bit_depth == 16) png_set_swap(png);
   png_set_strip_alpha(png);

@@ -116,10 +116,8 @@ constexpr const char* kFindChessboardSymbol =
 FindChessboardFn FindChessboardWithMrgingham() {
   static const FindChessboardFn find = [] {
     void* library = util::LoadSharedLibrary(HDABENCH_MRGINGHAM_SONAME, "mrgingham, the chessboard corner finder");
-    // POSIX guarantees that a function's address from dlsym converts to a
-    // function pointer.
-    return reinterpret_cast<FindChessboardFn>(util::SharedLibrarySymbol(
-        library, HDABENCH_MRGINGHAM_SONAME, kFindChessboardSymbol, "mrgingham::find_chessboard_from_image_array"));
+    return util::SharedLibraryFunction<FindChessboardFn>(library, HDABENCH_MRGINGHAM_SONAME, kFindChessboardSymbol,
+                                                         "mrgingham::find_chessboard_from_image_array");
   }();
   return find;
 }

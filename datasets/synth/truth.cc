@@ -24,10 +24,6 @@ Eigen::Vector3d UpInLocal(const Dataset& dataset) {
   return -dataset.gravity_in_local_mps2.normalized();
 }
 
-// Writes a PNG to a temporary name and renames it into place.
-void WritePngAtomically(const std::filesystem::path& path, const cv::Mat& image) {
-  util::WriteFileAtomically(path, images::EncodePng(image));
-}
 }  // namespace
 
 RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi) {
@@ -158,7 +154,7 @@ void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double m
   for (const auto& [name, map] : {std::pair<const char*, const cv::Mat*>{"elevation.png", &elevation_color},
                                   {"slope.png", &slope_color},
                                   {"hazards.png", &hazards}}) {
-    WritePngAtomically(dir / name, *map);
+    util::WriteFileAtomically(dir / name, images::EncodePng(*map));
     // Its preview for the report (the bytes a report would make from the
     // written PNG, which decodes to this image), when the map is larger.
     const std::string preview = PreviewPng(*map, kMapPreviewSidePx);

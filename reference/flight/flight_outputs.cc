@@ -324,8 +324,6 @@ cv::Mat TitleStrip(int width, const std::vector<std::string>& lines, double scal
 // 8.4 MB).
 constexpr int kFigurePngCompression = 1;
 
-std::string EncodePng(const cv::Mat& image) { return images::EncodePng(image, kFigurePngCompression); }
-
 // ---------------------------------------------------------------------------
 // Files
 
@@ -337,7 +335,7 @@ void WriteText(const fs::path& dir, const std::string& relative, const std::stri
 
 void WritePng(const fs::path& dir, const std::string& relative, const cv::Mat& image,
               std::vector<std::string>* written) {
-  WriteText(dir, relative, EncodePng(image), written);
+  WriteText(dir, relative, images::EncodePng(image, kFigurePngCompression), written);
 }
 
 // Removes the per-ROI files ("roi_<digits><extension>") in `folder` that this

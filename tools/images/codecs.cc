@@ -35,20 +35,13 @@ struct Codecs {
   ImencodeFn imencode = nullptr;
 };
 
-template <typename Fn>
-Fn Function(void* library, const char* symbol, const char* what) {
-  // POSIX guarantees that a function's address from dlsym converts to a
-  // function pointer.
-  return reinterpret_cast<Fn>(util::SharedLibrarySymbol(library, kLibrary, symbol, what));
-}
-
 Codecs Load() {
   void* library = util::LoadSharedLibrary(kLibrary, "OpenCV's image codecs");
   Codecs codecs;
-  codecs.imread = Function<ImreadFn>(library, kImread, "cv::imread");
-  codecs.imwrite = Function<ImwriteFn>(library, kImwrite, "cv::imwrite");
-  codecs.imdecode = Function<ImdecodeFn>(library, kImdecode, "cv::imdecode");
-  codecs.imencode = Function<ImencodeFn>(library, kImencode, "cv::imencode");
+  codecs.imread = util::SharedLibraryFunction<ImreadFn>(library, kLibrary, kImread, "cv::imread");
+  codecs.imwrite = util::SharedLibraryFunction<ImwriteFn>(library, kLibrary, kImwrite, "cv::imwrite");
+  codecs.imdecode = util::SharedLibraryFunction<ImdecodeFn>(library, kLibrary, kImdecode, "cv::imdecode");
+  codecs.imencode = util::SharedLibraryFunction<ImencodeFn>(library, kLibrary, kImencode, "cv::imencode");
   return codecs;
 }
 
@@ -58,8 +51,6 @@ const Codecs& TheCodecs() {
 }
 
 }  // namespace
-
-void LoadCodecs() { TheCodecs(); }
 
 bool CodecsLoaded() { return util::SharedLibraryLoaded(kLibrary); }
 

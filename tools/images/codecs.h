@@ -5,7 +5,8 @@
 // command that reads only the bench's own PNGs (png.h) never loads it. The
 // functions behave as OpenCV's, flags and parameters included (the cv::IMREAD_*
 // and cv::IMWRITE_* constants of <opencv2/imgcodecs.hpp>), and throw what
-// OpenCV throws. Thread-safe.
+// OpenCV throws; when the library cannot be loaded, ExternalError naming it.
+// Thread-safe.
 #pragma once
 
 #include <string>
@@ -32,11 +33,6 @@ cv::Mat DecodeAsBgr(const std::string& bytes);
 // cv::imencode with the format of `extension` (".png", ".jpg", ...).
 bool Encode(const std::string& extension, const cv::Mat& image, std::vector<unsigned char>* bytes,
             const std::vector<int>& params = {});
-
-// Loads OpenCV's codecs now (the functions above do it themselves); throws
-// ExternalError naming the library and dlopen's reason when they cannot be
-// loaded.
-void LoadCodecs();
 
 // Whether this process has loaded OpenCV's codecs, by any means.
 bool CodecsLoaded();

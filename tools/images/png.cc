@@ -234,8 +234,7 @@ bool DecodePlainRgbPng(const std::string& bytes, cv::Mat* image) {
   }
   for (size_t at = kSignatureSize; at < bytes.size();) {
     if (bytes.size() - at < 12) return false;
-    const auto byte = [&](size_t i) { return static_cast<size_t>(static_cast<unsigned char>(bytes[at + i])); };
-    const size_t length = (byte(0) << 24) | (byte(1) << 16) | (byte(2) << 8) | byte(3);
+    const size_t length = png_get_uint_32(reinterpret_cast<png_const_bytep>(bytes.data() + at));
     const std::string name = bytes.substr(at + 4, 4);
     bool plain = false;
     for (const char* known : kPlain) plain = plain || name == known;

@@ -19,6 +19,15 @@ void* LoadSharedLibrary(const std::string& soname, const std::string& purpose);
 void* SharedLibrarySymbol(void* library, const std::string& soname, const std::string& symbol,
                           const std::string& what);
 
+// SharedLibrarySymbol as a function pointer of type Fn, which must match the
+// declaration the symbol was mangled from. (POSIX guarantees that a function's
+// address from dlsym converts to a function pointer.)
+template <typename Fn>
+Fn SharedLibraryFunction(void* library, const std::string& soname, const std::string& symbol,
+                         const std::string& what) {
+  return reinterpret_cast<Fn>(SharedLibrarySymbol(library, soname, symbol, what));
+}
+
 // Whether this process has loaded `soname`, by any means.
 bool SharedLibraryLoaded(const std::string& soname);
 

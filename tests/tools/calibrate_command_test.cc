@@ -116,10 +116,11 @@ TEST(Calibrate, RealLeftImagesAllUsedFocalMatchesUpstreamAndTheModelLoadsInTheBe
   }
   EXPECT_EQ(ModelsUnder(dir / "cal").size(), 2u);  // mrcal's, and OpenCV's cross-check
 
-  // The rest of the bench uses the model.
+  // The rest of the bench uses the model: a synthetic dataset through it, of
+  // the 7 frames that hold the pair `run` takes (0 and 6).
   const CommandResult synth =
       RunHdabench({"synth", "--out", (dir / "ds").string(), "--camera-model",
-                   (dir / "cal/camera-0.cameramodel").string(), "--quiet"},
+                   (dir / "cal/camera-0.cameramodel").string(), "--set", "collection_s=2.4", "--quiet"},
                   dir);
   ASSERT_EQ(synth.exit_code, 0) << synth.err;
   const CommandResult check = RunHdabench({"dataset", "check", (dir / "ds").string()}, dir);

@@ -106,12 +106,14 @@ CornerDetection DetectWithOpenCv(const cv::Mat& gray, const ChessboardSpec& boar
 }
 
 // mrgingham::find_chessboard_from_image_array, from libmrgingham loaded on the
-// first call (the Itanium ABI's name for the declaration of mrgingham.hh).
+// first call, by the name calib/CMakeLists.txt gives and checks the library
+// defines. The cast compiles only if mrgingham.hh declares a function of this
+// type (an unevaluated operand: nothing here links the library).
 using FindChessboardFn = int (*)(std::vector<mrgingham::PointDouble>&, signed char**, int, const cv::Mat&, int,
                                  bool, mrgingham::debug_sequence_t, const char*);
-constexpr const char* kFindChessboardSymbol =
-    "_ZN9mrgingham32find_chessboard_from_image_arrayERSt6vectorINS_11PointDoubleESaIS1_EEPPaiRKN2cv3MatEibNS_"
-    "16debug_sequence_tEPKc";
+static_assert(sizeof(static_cast<FindChessboardFn>(&mrgingham::find_chessboard_from_image_array)) > 0,
+              "mrgingham::find_chessboard_from_image_array's declaration changed");
+constexpr const char* kFindChessboardSymbol = HDABENCH_MRGINGHAM_FIND_CHESSBOARD_SYMBOL;
 
 FindChessboardFn FindChessboardWithMrgingham() {
   static const FindChessboardFn find = [] {

@@ -11,22 +11,27 @@ namespace hdabench::images {
 namespace {
 
 // The library, by its soname (from OpenCV's CMake package), and the C++
-// symbols of the four functions as the Itanium ABI names them for the
-// declarations of <opencv2/imgcodecs.hpp> (OpenCV 4, cv::String = std::string).
+// symbols of the four functions, whose names CMakeLists.txt gives and checks the
+// library defines.
 constexpr const char* kLibrary = HDABENCH_IMGCODECS_SONAME;
-constexpr const char* kImread = "_ZN2cv6imreadERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEEi";
-constexpr const char* kImwrite =
-    "_ZN2cv7imwriteERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEERKNS_11_InputArrayERKSt6vectorIiSaIiEE";
-constexpr const char* kImdecode = "_ZN2cv8imdecodeERKNS_11_InputArrayEi";
-constexpr const char* kImencode =
-    "_ZN2cv8imencodeERKNSt7__cxx1112basic_stringIcSt11char_traitsIcESaIcEEERKNS_11_InputArrayERSt6vectorIhSaIhEERKSB_"
-    "IiSaIiEE";
+constexpr const char* kImread = HDABENCH_IMREAD_SYMBOL;
+constexpr const char* kImwrite = HDABENCH_IMWRITE_SYMBOL;
+constexpr const char* kImdecode = HDABENCH_IMDECODE_SYMBOL;
+constexpr const char* kImencode = HDABENCH_IMENCODE_SYMBOL;
 
 using ImreadFn = cv::Mat (*)(const std::string&, int);
 using ImwriteFn = bool (*)(const std::string&, const cv::_InputArray&, const std::vector<int>&);
 using ImdecodeFn = cv::Mat (*)(const cv::_InputArray&, int);
 using ImencodeFn = bool (*)(const std::string&, const cv::_InputArray&, std::vector<unsigned char>&,
                             const std::vector<int>&);
+
+// The names are those of functions of these types: the casts compile only if
+// <opencv2/imgcodecs.hpp> declares a function of exactly that type (an
+// unevaluated operand, so nothing here links the library).
+static_assert(sizeof(static_cast<ImreadFn>(&cv::imread)) > 0, "cv::imread's declaration changed");
+static_assert(sizeof(static_cast<ImwriteFn>(&cv::imwrite)) > 0, "cv::imwrite's declaration changed");
+static_assert(sizeof(static_cast<ImdecodeFn>(&cv::imdecode)) > 0, "cv::imdecode's declaration changed");
+static_assert(sizeof(static_cast<ImencodeFn>(&cv::imencode)) > 0, "cv::imencode's declaration changed");
 
 struct Codecs {
   ImreadFn imread = nullptr;

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <climits>
 #include <cmath>
+#include <initializer_list>
 #include <sstream>
 
 #include "tools/util/error.h"
@@ -73,6 +74,13 @@ class Checker {
     return ok;
   }
   void Fail(const std::string& message) { errors_->push_back(message); }
+  // True when every check passed. The checks are the elements of a braced
+  // list, which C++ evaluates in order and in full, so each failing one adds
+  // its error, in the order written (the operands of `a & b` would all run
+  // too, but in an order each compiler chooses).
+  static bool All(std::initializer_list<bool> passed) {
+    return std::all_of(passed.begin(), passed.end(), [](bool ok) { return ok; });
+  }
 
  private:
   std::vector<std::string>* errors_;
@@ -222,11 +230,11 @@ struct ExtentChecks {
 
 // Extent and grid: finite, ordered bounds, a positive spacing, at most max_nodes nodes.
 ExtentChecks ValidateExtent(const TerrainOptions& o, Checker& check) {
-  bool extent_ok = check.Finite("min_x_m", o.min_x_m) & check.Finite("max_x_m", o.max_x_m) &
-                   check.Finite("min_y_m", o.min_y_m) & check.Finite("max_y_m", o.max_y_m);
+  bool extent_ok = Checker::All({check.Finite("min_x_m", o.min_x_m), check.Finite("max_x_m", o.max_x_m),
+                                  check.Finite("min_y_m", o.min_y_m), check.Finite("max_y_m", o.max_y_m)});
   if (extent_ok) {
-    extent_ok = check.Less("min_x_m", o.min_x_m, "max_x_m", o.max_x_m) &
-                check.Less("min_y_m", o.min_y_m, "max_y_m", o.max_y_m);
+    extent_ok = Checker::All({check.Less("min_x_m", o.min_x_m, "max_x_m", o.max_x_m),
+                              check.Less("min_y_m", o.min_y_m, "max_y_m", o.max_y_m)});
   }
   const bool spacing_ok = check.Positive("spacing_m", o.spacing_m);
   const bool max_nodes_ok = check.Check(o.max_nodes > 0, "max_nodes", static_cast<double>(o.max_nodes),
@@ -259,15 +267,15 @@ void ValidateRelief(const TerrainOptions& o, bool spacing_ok, Checker& check) {
 
 // Craters: the law, the shape ratios, the count cap over the placement area.
 void ValidateCraterLaw(const TerrainOptions& o, bool extent_ok, Checker& check) {
-  bool crater_law_ok = check.NonNegative("crater_k", o.crater_k) &
-                       check.Negative("crater_exponent", o.crater_exponent);
+  bool crater_law_ok = Checker::All({check.NonNegative("crater_k", o.crater_k),
+                                     check.Negative("crater_exponent", o.crater_exponent)});
   const bool crater_d_ok =
-      check.Positive("crater_d_min_m", o.crater_d_min_m) &
-      check.Positive("crater_d_max_m", o.crater_d_max_m);
+      Checker::All({check.Positive("crater_d_min_m", o.crater_d_min_m),
+                    check.Positive("crater_d_max_m", o.crater_d_max_m)});
   crater_law_ok = crater_law_ok && crater_d_ok &&
                   check.Less("crater_d_min_m", o.crater_d_min_m, "crater_d_max_m", o.crater_d_max_m);
-  if (check.Positive("crater_depth_to_diameter", o.crater_depth_to_diameter) &
-      check.NonNegative("crater_depth_to_diameter_spread", o.crater_depth_to_diameter_spread)) {
+  if (Checker::All({check.Positive("crater_depth_to_diameter", o.crater_depth_to_diameter),
+                    check.NonNegative("crater_depth_to_diameter_spread", o.crater_depth_to_diameter_spread)})) {
     if (o.crater_depth_to_diameter_spread >= o.crater_depth_to_diameter ||
         o.crater_depth_to_diameter + o.crater_depth_to_diameter_spread > 0.5) {
       check.Fail("crater_depth_to_diameter = " + util::ShortestText(o.crater_depth_to_diameter) +
@@ -313,25 +321,26 @@ void ValidateExtraCraters(const TerrainOptions& o, Checker& check) {
 void ValidateRockLaw(const TerrainOptions& o, bool extent_ok, Checker& check) {
   bool rock_law_ok = true;
   if (o.rock_law_kind == TerrainOptions::RockLawKind::kPower) {
-    rock_law_ok = check.NonNegative("rock_k", o.rock_k) & check.Negative("rock_exponent", o.rock_exponent);
+    rock_law_ok =
+        Checker::All({check.NonNegative("rock_k", o.rock_k), check.Negative("rock_exponent", o.rock_exponent)});
   } else {
-    rock_law_ok = check.InHalfOpen("rock_area_fraction", o.rock_area_fraction, 0.0, 1.0) &
-                  check.Positive("rock_q_per_m", o.rock_q_per_m);
+    rock_law_ok = Checker::All({check.InHalfOpen("rock_area_fraction", o.rock_area_fraction, 0.0, 1.0),
+                                check.Positive("rock_q_per_m", o.rock_q_per_m)});
   }
   const bool rock_d_ok =
-      check.Positive("rock_d_min_m", o.rock_d_min_m) & check.Positive("rock_d_max_m", o.rock_d_max_m);
+      Checker::All({check.Positive("rock_d_min_m", o.rock_d_min_m), check.Positive("rock_d_max_m", o.rock_d_max_m)});
   rock_law_ok = rock_law_ok && rock_d_ok &&
                 check.Less("rock_d_min_m", o.rock_d_min_m, "rock_d_max_m", o.rock_d_max_m);
-  if (check.InHalfOpen("rock_protrusion_min", o.rock_protrusion_min, 0.0, 1.0) &
-      check.InHalfOpen("rock_protrusion_max", o.rock_protrusion_max, 0.0, 1.0)) {
+  if (Checker::All({check.InHalfOpen("rock_protrusion_min", o.rock_protrusion_min, 0.0, 1.0),
+                    check.InHalfOpen("rock_protrusion_max", o.rock_protrusion_max, 0.0, 1.0)})) {
     if (o.rock_protrusion_min > o.rock_protrusion_max) {
       check.Fail("rock_protrusion_min = " + util::ShortestText(o.rock_protrusion_min) +
                  " and rock_protrusion_max = " + util::ShortestText(o.rock_protrusion_max) +
                  ": expected rock_protrusion_min <= rock_protrusion_max");
     }
   }
-  if (check.InHalfOpen("rock_albedo", o.rock_albedo, 0.0, 1.0) &
-      check.NonNegative("rock_albedo_spread", o.rock_albedo_spread)) {
+  if (Checker::All({check.InHalfOpen("rock_albedo", o.rock_albedo, 0.0, 1.0),
+                    check.NonNegative("rock_albedo_spread", o.rock_albedo_spread)})) {
     if (o.rock_albedo - o.rock_albedo_spread <= 0.0 || o.rock_albedo + o.rock_albedo_spread > 1.0) {
       check.Fail("rock_albedo = " + util::ShortestText(o.rock_albedo) + " and rock_albedo_spread = " +
                  util::ShortestText(o.rock_albedo_spread) +
@@ -364,8 +373,7 @@ void ValidateExtraRocks(const TerrainOptions& o, bool extent_ok, Checker& check)
     const std::string name = "extra_rocks[" + std::to_string(i) + "].";
     const double x = rock.center_in_local_m.x();
     const double y = rock.center_in_local_m.y();
-    if (check.Finite(name + "center_in_local_m.x", x) &
-        check.Finite(name + "center_in_local_m.y", y)) {
+    if (Checker::All({check.Finite(name + "center_in_local_m.x", x), check.Finite(name + "center_in_local_m.y", y)})) {
       if (extent_ok && (x < o.min_x_m || x > o.max_x_m || y < o.min_y_m || y > o.max_y_m)) {
         check.Fail(name + "center_in_local_m = (" + util::ShortestText(x) + ", " + util::ShortestText(y) +
                    "): expected inside the extent [" + util::ShortestText(o.min_x_m) + ", " + util::ShortestText(o.max_x_m) +
@@ -386,8 +394,8 @@ void ValidateAlbedo(const TerrainOptions& o, Checker& check) {
   check.Check(std::isfinite(o.albedo_relative_variation) && o.albedo_relative_variation >= 0.0 &&
                   o.albedo_relative_variation < 1.0,
               "albedo_relative_variation", o.albedo_relative_variation, "a finite value in [0, 1)");
-  if (check.Positive("albedo_finest_wavelength_m", o.albedo_finest_wavelength_m) &
-      check.Positive("albedo_coarsest_wavelength_m", o.albedo_coarsest_wavelength_m)) {
+  if (Checker::All({check.Positive("albedo_finest_wavelength_m", o.albedo_finest_wavelength_m),
+                    check.Positive("albedo_coarsest_wavelength_m", o.albedo_coarsest_wavelength_m)})) {
     if (o.albedo_finest_wavelength_m > o.albedo_coarsest_wavelength_m) {
       check.Fail("albedo_finest_wavelength_m = " + util::ShortestText(o.albedo_finest_wavelength_m) +
                  " and albedo_coarsest_wavelength_m = " + util::ShortestText(o.albedo_coarsest_wavelength_m) +

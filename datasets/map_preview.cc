@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
@@ -14,17 +13,9 @@
 namespace hdabench::datasets {
 
 namespace {
-constexpr char kPngSignature[] = "\x89PNG\r\n\x1a\n";
-constexpr size_t kPngSignatureSize = 8;
 // Signature, IHDR's length and type, then its width and height (big-endian).
 constexpr size_t kPngWidthOffset = 16;
 constexpr int kPreviewCompression = 6;
-
-std::uint32_t BigEndian32(const std::string& bytes, size_t at) {
-  std::uint32_t value = 0;
-  for (size_t i = 0; i < 4; ++i) value = (value << 8) | static_cast<unsigned char>(bytes[at + i]);
-  return value;
-}
 }  // namespace
 
 cv::Size PreviewSize(int width_px, int height_px, int max_side_px) {
@@ -46,16 +37,15 @@ std::string PreviewPngOfBytes(const std::string& png_bytes, int max_side_px) {
 }
 
 bool IsPng(const std::string& bytes) {
-  return bytes.size() > kPngSignatureSize &&
-         bytes.compare(0, kPngSignatureSize, kPngSignature, kPngSignatureSize) == 0;
+  return bytes.size() > 8 && images::HasPngSignature(bytes);
 }
 
 bool PngSizeOf(const std::string& png_bytes, int* width_px, int* height_px) {
   if (png_bytes.size() < kPngWidthOffset + 8 || !IsPng(png_bytes) || png_bytes.compare(12, 4, "IHDR") != 0) {
     return false;
   }
-  *width_px = static_cast<int>(BigEndian32(png_bytes, kPngWidthOffset));
-  *height_px = static_cast<int>(BigEndian32(png_bytes, kPngWidthOffset + 4));
+  *width_px = static_cast<int>(images::PngUint32(png_bytes, kPngWidthOffset));
+  *height_px = static_cast<int>(images::PngUint32(png_bytes, kPngWidthOffset + 4));
   return true;
 }
 

@@ -11,16 +11,6 @@ namespace hdabench::datasets::internal {
 
 namespace {
 
-constexpr unsigned char kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-
-std::uint32_t ReadBigEndian32(const std::string& bytes, size_t offset) {
-  std::uint32_t value = 0;
-  for (size_t i = 0; i < 4; ++i) {
-    value = (value << 8) | static_cast<unsigned char>(bytes[offset + i]);
-  }
-  return value;
-}
-
 // CRC-32 as the PNG specification defines it (ISO 3309, polynomial
 // 0xedb88320): zlib's, as the .npz reader's (npz.cc). `length` is at most
 // 2^31 + 3 (CheckPngStructure refuses longer chunks), so it fits zlib's uInt.
@@ -60,7 +50,7 @@ bool CheckPngStructure(const std::string& bytes, PngHeader* header, std::string*
     *error = "is empty (0 bytes); expected a PNG image";
     return false;
   }
-  if (size < 8 || bytes.compare(0, 8, reinterpret_cast<const char*>(kPngSignature), 8) != 0) {
+  if (!images::HasPngSignature(bytes)) {
     *error = "is not a PNG file (no PNG signature); expected an 8-bit or 16-bit greyscale PNG";
     return false;
   }
@@ -78,7 +68,7 @@ bool CheckPngStructure(const std::string& bytes, PngHeader* header, std::string*
                std::to_string(offset) + " (file size " + std::to_string(size) + " bytes)";
       return false;
     }
-    const std::uint32_t length = ReadBigEndian32(bytes, offset);
+    const std::uint32_t length = images::PngUint32(bytes, offset);
     const std::string name = ChunkName(bytes, offset + 4);
     if (length > 0x7fffffffU) {
       *error = "is corrupt: chunk '" + name + "' at byte " + std::to_string(offset) +
@@ -91,7 +81,7 @@ bool CheckPngStructure(const std::string& bytes, PngHeader* header, std::string*
                std::to_string(size - offset) + " (file size " + std::to_string(size) + " bytes)";
       return false;
     }
-    const std::uint32_t stored_crc = ReadBigEndian32(bytes, offset + 8 + length);
+    const std::uint32_t stored_crc = images::PngUint32(bytes, offset + 8 + length);
     if (Crc32(bytes, offset + 4, length + 4U) != stored_crc) {
       *error = "is corrupt: CRC mismatch in chunk '" + name + "' at byte " + std::to_string(offset);
       return false;
@@ -103,8 +93,8 @@ bool CheckPngStructure(const std::string& bytes, PngHeader* header, std::string*
         return false;
       }
       seen_ihdr = true;
-      const std::uint32_t width = ReadBigEndian32(bytes, offset + 8);
-      const std::uint32_t height = ReadBigEndian32(bytes, offset + 12);
+      const std::uint32_t width = images::PngUint32(bytes, offset + 8);
+      const std::uint32_t height = images::PngUint32(bytes, offset + 12);
       if (width == 0 || height == 0 || width > 0x7fffffffU || height > 0x7fffffffU) {
         *error = "is corrupt: IHDR gives an invalid size " + std::to_string(width) + " x " +
                  std::to_string(height) + " px";

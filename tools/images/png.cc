@@ -228,13 +228,13 @@ bool DecodePlainRgbPng(const std::string& bytes, cv::Mat* image) {
   // bytes to OpenCV.
   static const char* const kPlain[] = {"IHDR", "IDAT", "IEND", "tEXt", "zTXt", "iTXt", "tIME", "pHYs"};
   constexpr size_t kSignatureSize = 8;
-  if (bytes.size() < kSignatureSize + 12 + 13 || png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()), 0, 8) != 0 ||
-      bytes.compare(12, 4, "IHDR") != 0 || bytes[24] != 8 || bytes[25] != PNG_COLOR_TYPE_RGB) {
+  if (bytes.size() < kSignatureSize + 12 + 13 || !HasPngSignature(bytes) || bytes.compare(12, 4, "IHDR") != 0 ||
+      bytes[24] != 8 || bytes[25] != PNG_COLOR_TYPE_RGB) {
     return false;
   }
   for (size_t at = kSignatureSize; at < bytes.size();) {
     if (bytes.size() - at < 12) return false;
-    const size_t length = png_get_uint_32(reinterpret_cast<png_const_bytep>(bytes.data() + at));
+    const size_t length = PngUint32(bytes, at);
     const std::string name = bytes.substr(at + 4, 4);
     bool plain = false;
     for (const char* known : kPlain) plain = plain || name == known;
@@ -247,6 +247,14 @@ bool DecodePlainRgbPng(const std::string& bytes, cv::Mat* image) {
   if (ReadRows(&state, Decoded::kBgr8, image)) return true;
   image->release();
   return false;
+}
+
+bool HasPngSignature(const std::string& bytes) {
+  return bytes.size() >= 8 && png_sig_cmp(reinterpret_cast<png_const_bytep>(bytes.data()), 0, 8) == 0;
+}
+
+std::uint32_t PngUint32(const std::string& bytes, std::size_t offset) {
+  return png_get_uint_32(reinterpret_cast<png_const_bytep>(bytes.data() + offset));
 }
 
 }  // namespace hdabench::images

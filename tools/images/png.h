@@ -6,6 +6,8 @@
 // libpng's messages come back as text. Thread-safe.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
 
 #include <opencv2/core/mat.hpp>
@@ -31,5 +33,13 @@ bool DecodeGreyPng(const std::string& bytes, cv::Mat* image, std::string* error)
 // CV_8UC3 in BGR order. Returns false, `image` empty, for any other PNG or
 // bytes libpng cannot decode; codecs.h's DecodeAsBgr then asks OpenCV.
 bool DecodePlainRgbPng(const std::string& bytes, cv::Mat* image);
+
+// True when `bytes` begin with the 8 bytes of the PNG signature.
+bool HasPngSignature(const std::string& bytes);
+
+// The 4-byte big-endian number of a PNG at `offset` (a chunk's length or CRC,
+// IHDR's width or height), as libpng reads it; the caller checks that the 4
+// bytes are there.
+std::uint32_t PngUint32(const std::string& bytes, std::size_t offset);
 
 }  // namespace hdabench::images

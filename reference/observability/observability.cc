@@ -22,6 +22,7 @@
 #include "tools/util/options_check.h"
 #include "tools/util/parallel_for.h"
 #include "tools/util/python_script.h"
+#include "tools/util/random_vectors.h"
 #include "tools/util/text.h"
 
 namespace hdabench::reference {
@@ -57,28 +58,10 @@ std::uint64_t TrialSeed(std::uint64_t seed, const StudySetting& s, int trial) {
   return h;
 }
 
-// The draws of a vector's components from `normal`, last component first: the
-// order is written out because the arguments of one call are evaluated in an
-// order each compiler chooses (so a seed would give other numbers under
-// another compiler), and it is the order the study's results were first drawn
-// in.
-Eigen::Vector2d NormalVector2(std::normal_distribution<double>& normal, std::mt19937_64& rng) {
-  const double y = normal(rng);
-  const double x = normal(rng);
-  return Eigen::Vector2d(x, y);
-}
-
-Eigen::Vector3d NormalVector3(std::normal_distribution<double>& normal, std::mt19937_64& rng) {
-  const double z = normal(rng);
-  const double y = normal(rng);
-  const double x = normal(rng);
-  return Eigen::Vector3d(x, y, z);
-}
-
 // A small rotation with each axis' angle drawn from N(0, sigma_rad).
 Eigen::Quaterniond RandomSmallRotation(double sigma_rad, std::mt19937_64* rng) {
   std::normal_distribution<double> normal(0.0, 1.0);
-  const Eigen::Vector3d w = sigma_rad * NormalVector3(normal, *rng);
+  const Eigen::Vector3d w = sigma_rad * util::DrawVector3(normal, *rng);
   const double angle = w.norm();
   if (angle == 0.0) return Eigen::Quaterniond::Identity();
   return Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle));
@@ -255,8 +238,8 @@ TrialResult RunTrial(const StudyOptions& options, const calib::CameraModel& came
   const double w = camera.WidthPx() - 0.5, h = camera.HeightPx() - 0.5;
   std::vector<cv::Point2d> matched1, matched2;
   for (size_t i = 0; i < points.size(); ++i) {
-    const Eigen::Vector2d q1 = pixels1[i] + setting.pixel_noise_px * NormalVector2(normal, rng);
-    const Eigen::Vector2d q2 = pixels2[i] + setting.pixel_noise_px * NormalVector2(normal, rng);
+    const Eigen::Vector2d q1 = pixels1[i] + setting.pixel_noise_px * util::DrawVector2(normal, rng);
+    const Eigen::Vector2d q2 = pixels2[i] + setting.pixel_noise_px * util::DrawVector2(normal, rng);
     const auto inside = [&](const Eigen::Vector2d& q) { return q.x() > -0.5 && q.y() > -0.5 && q.x() < w && q.y() < h; };
     if (!valid1[i] || !valid2[i] || !inside(q1) || !inside(q2)) continue;
     matched1.emplace_back(q1.x(), q1.y());
@@ -292,7 +275,7 @@ TrialResult RunTrial(const StudyOptions& options, const calib::CameraModel& came
   const double position_sigma = options.nav_position_sigma_m;
   const double attitude_sigma = options.nav_attitude_sigma_deg * kDegToRad;
   hda::HdaInput input;
-  const Eigen::Vector3d position_error = position_sigma * NormalVector3(normal, rng);  // drawn first
+  const Eigen::Vector3d position_error = position_sigma * util::DrawVector3(normal, rng);  // drawn first
   input.cam2_from_cam1 =
       Rigid3d((RandomSmallRotation(attitude_sigma, &rng) * true_cam2_from_cam1.rotation).normalized(),
               true_cam2_from_cam1.translation + position_error);

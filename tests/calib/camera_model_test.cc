@@ -12,6 +12,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/random_vectors.h"
 #include "tests/support/test_support.h"
 
 namespace hdabench::calib {
@@ -189,7 +190,8 @@ TEST(CameraModelToOpenCv, MatchesMrcalProjection) {
     std::vector<cv::Point3d> cv_points;
     for (int i = 0; i < 500; ++i) {
       const double z = depth(rng);
-      points.emplace_back(lateral(rng) * z, lateral(rng) * z, z);
+      const Eigen::Vector2d xy = util::DrawVector2(lateral, rng);
+      points.emplace_back(xy.x() * z, xy.y() * z, z);
       cv_points.emplace_back(points.back().x(), points.back().y(), points.back().z());
     }
     std::vector<Eigen::Vector2d> pixels;

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "tools/util/error.h"
+#include "tools/util/random_vectors.h"
 #include "datasets/dataset.h"
 #include "datasets/example.h"
 #include "datasets/navigation.h"
@@ -148,8 +149,8 @@ Dataset ExampleWithTruthNavigationAndRocks(std::uint64_t seed) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (int i = 0; i < 7; ++i) {
     TruthRock rock;
-    rock.center_in_local_m =
-        Eigen::Vector3d(400.0 * unit(rng) - 200.0, 400.0 * unit(rng) + 100.0, unit(rng));
+    const Eigen::Vector3d u = util::DrawVector3(unit, rng);
+    rock.center_in_local_m = Eigen::Vector3d(400.0 * u.x() - 200.0, 400.0 * u.y() + 100.0, u.z());
     rock.diameter_m = 0.2 + 3.0 * unit(rng);
     rock.height_above_ground_m = rock.diameter_m * (0.1 + 0.9 * unit(rng));
     dataset.truth.rocks.push_back(rock);
@@ -275,7 +276,8 @@ TEST(TrueCam2FromCam1, MatchesConstructedTruth) {
     dataset.truth.navigation = pair.Navigation();
     // The measured navigation: other, random poses.
     const auto random_pose = [&] {
-      return Rigid3d(testing_support::RandomRotation(&rng), testing_support::RandomVector(&rng, 600.0));
+      const Eigen::Vector3d translation = testing_support::RandomVector(&rng, 600.0);  // drawn first
+      return Rigid3d(testing_support::RandomRotation(&rng), translation);
     };
     dataset.nav = {PoseSample(0.0, random_pose()), PoseSample(4.0, random_pose())};
 

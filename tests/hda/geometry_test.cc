@@ -12,6 +12,7 @@
 
 #include "tests/support/test_support.h"
 #include "tools/util/angles.h"
+#include "tools/util/random_vectors.h"
 
 namespace hdabench::hda {
 namespace {
@@ -435,10 +436,8 @@ std::vector<double> SimulateSlopesDeg(const SlopeScene& scene, double sigma_angl
   std::vector<double> slopes_deg;
   for (int trial = 0; trial < trials; ++trial) {
     Rigid3d nav_cam2_from_cam1 = cam2_from_cam1;
-    nav_cam2_from_cam1.translation +=
-        Eigen::Vector3d(baseline_noise(*rng), baseline_noise(*rng), baseline_noise(*rng));
-    const Eigen::Vector3d attitude_error(attitude_noise(*rng), attitude_noise(*rng),
-                                         attitude_noise(*rng));
+    nav_cam2_from_cam1.translation += util::DrawVector3(baseline_noise, *rng);
+    const Eigen::Vector3d attitude_error = util::DrawVector3(attitude_noise, *rng);
     const Eigen::Quaterniond attitude_rotation =
         attitude_error.norm() > 0.0
             ? Eigen::Quaterniond(Eigen::AngleAxisd(attitude_error.norm(), attitude_error.normalized()))

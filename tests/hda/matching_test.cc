@@ -528,7 +528,12 @@ TEST(DetectOrbInBox, GivesExactlyWhatOrbGivesOnThePaddedBox) {
     options.orb_scale_factor = c.scale;
     for (const cv::Mat& image : images) {
       for (int trial = 0; trial < 12; ++trial) {
-        const cv::Rect box(place(rng), place(rng), side(rng), side(rng));
+        // One draw per statement, last field first (see tools/util/random_vectors.h).
+        const int height = side(rng);
+        const int width = side(rng);
+        const int y = place(rng);
+        const int x = place(rng);
+        const cv::Rect box(x, y, width, height);
         const OrbFeatures expected = OrbOnPaddedBox(image, box, options);
         const OrbFeatures got = DetectOrbInBox(image, box, options);
         const std::string where = "box " + std::to_string(box.x) + "," + std::to_string(box.y) + " " +

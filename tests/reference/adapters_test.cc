@@ -6,6 +6,7 @@
 
 #include "reference/colmap/colmap_adapter.h"
 #include "reference/opengv/opengv_adapter.h"
+#include "tools/util/random_vectors.h"
 
 namespace hdabench::reference {
 namespace {
@@ -29,7 +30,7 @@ TEST(OpenGvAdapter, OpenGvTriangulationWithConvertedPoseRecoversThePoints) {
   opengv::bearingVectors_t bearings2;
   std::vector<Eigen::Vector3d> points_in_cam1;
   for (int i = 0; i < 20; ++i) {
-    const Eigen::Vector3d p1(lateral(rng), lateral(rng), depth(rng));
+    const Eigen::Vector3d p1 = util::DrawVector3(lateral, lateral, depth, rng);
     points_in_cam1.push_back(p1);
     bearings1.push_back(p1.normalized());
     bearings2.push_back((cam2_from_cam1 * p1).normalized());

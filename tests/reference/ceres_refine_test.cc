@@ -16,6 +16,7 @@
 #include "hda/geometry.h"
 #include "tests/support/test_support.h"
 #include "tools/util/angles.h"
+#include "tools/util/random_vectors.h"
 
 namespace hdabench::reference {
 namespace {
@@ -116,8 +117,8 @@ Scene MakeScene(const SceneSpec& spec, std::uint64_t seed) {
 
   // Nav pose: the truth with errors drawn from the stated sigmas.
   Rigid3d nav = scene.true_cam2_from_cam1;
-  const Eigen::Vector3d attitude_error(normal(rng), normal(rng), normal(rng));
-  const Eigen::Vector3d position_error(normal(rng), normal(rng), normal(rng));
+  const Eigen::Vector3d attitude_error = util::DrawVector3(normal, rng);
+  const Eigen::Vector3d position_error = util::DrawVector3(normal, rng);
   nav.rotation =
       SmallRotation(attitude_error * spec.nav_attitude_error_sigma_deg * kDegToRad) * nav.rotation;
   nav.translation += position_error * spec.nav_position_error_sigma_m;
@@ -141,10 +142,9 @@ Scene MakeScene(const SceneSpec& spec, std::uint64_t seed) {
   const std::vector<Eigen::Vector3d> truths = std::move(scene.true_points_in_cam1);
   scene.true_points_in_cam1.clear();
   for (const Eigen::Vector3d& truth : truths) {
-    const Eigen::Vector2d p1 =
-        Project(truth) + spec.pixel_sigma_px * Eigen::Vector2d(normal(rng), normal(rng));
-    const Eigen::Vector2d p2 = Project(scene.true_cam2_from_cam1 * truth) +
-                               spec.pixel_sigma_px * Eigen::Vector2d(normal(rng), normal(rng));
+    const Eigen::Vector2d p1 = Project(truth) + spec.pixel_sigma_px * util::DrawVector2(normal, rng);
+    const Eigen::Vector2d p2 =
+        Project(scene.true_cam2_from_cam1 * truth) + spec.pixel_sigma_px * util::DrawVector2(normal, rng);
     add_match(Unproject(p1), Unproject(p2), truth);
   }
   // Gross mismatches: a ground point seen in image 1, matched 15-40 px away in

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/random_vectors.h"
 #include "hda/geometry.h"
 #include "reference/compare/compare_outputs.h"
 #include "tests/support/synth_scene.h"
@@ -147,7 +148,8 @@ TEST(FitRoiPoints, RecoversTheSlopeOfANoisyTwoViewCloud) {
   const double sigma_rad = 0.3 / 1900.0;
   std::vector<Eigen::Vector3d> points;
   for (int i = 0; i < 400; ++i) {
-    const Eigen::Vector3d p(uniform(rng), uniform(rng), 0.0);
+    const Eigen::Vector2d xy = util::DrawVector2(uniform, rng);
+    const Eigen::Vector3d p(xy.x(), xy.y(), 0.0);
     Eigen::Vector3d truth = p;
     truth.z() = tan_slope * p.y();
     // Depth noise along the line of sight from camera 1, as two-view
@@ -155,8 +157,9 @@ TEST(FitRoiPoints, RecoversTheSlopeOfANoisyTwoViewCloud) {
     const Eigen::Vector3d los = (truth - c1).normalized();
     const double range = (truth - c1).norm();
     const Eigen::Vector3d across = los.cross(Eigen::Vector3d::UnitX()).normalized();
-    points.push_back(truth + los * noise(rng) * range * range * sigma_rad / 31.0 +
-                     across * noise(rng) * range * sigma_rad + los.cross(across) * noise(rng) * range * sigma_rad);
+    const Eigen::Vector3d n = util::DrawVector3(noise, rng);  // along los, across, the third axis
+    points.push_back(truth + los * n.x() * range * range * sigma_rad / 31.0 + across * n.y() * range * sigma_rad +
+                     los.cross(across) * n.z() * range * sigma_rad);
   }
   const RoiFit fit = FitRoiPoints(points, c1, c2, Eigen::Vector3d(0, 0, -1.62), 10);
   ASSERT_EQ(fit.status, MethodRoiStatus::kOk);
@@ -192,8 +195,9 @@ TEST(RoisOfReconstruction, AnRoiWithoutPointsAndAFailedMethodGetClearStatuses) {
   std::uniform_real_distribution<double> pixel(0.0, 49.0), ground(-5.0, 5.0);
   for (int i = 0; i < 30; ++i) {
     ReconstructedPoint p;
-    p.pixel1 = Eigen::Vector2d(pixel(rng), pixel(rng));
-    p.point_in_local_m = Eigen::Vector3d(ground(rng), ground(rng), 0.0);
+    p.pixel1 = util::DrawVector2(pixel, rng);
+    const Eigen::Vector2d ground_xy = util::DrawVector2(ground, rng);
+    p.point_in_local_m = Eigen::Vector3d(ground_xy.x(), ground_xy.y(), 0.0);
     recon.points.push_back(p);
   }
   const Rigid3d local_from_cam1(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, -400, 400));

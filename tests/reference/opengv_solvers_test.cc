@@ -15,6 +15,7 @@
 #include "tools/util/error.h"
 #include "tests/support/test_support.h"
 #include "tools/util/angles.h"
+#include "tools/util/random_vectors.h"
 
 namespace hdabench::reference {
 namespace {
@@ -92,7 +93,7 @@ TwoViews GeneralScene(std::uint64_t seed) {
   std::uniform_real_distribution<double> lateral(-20.0, 20.0);
   std::uniform_real_distribution<double> depth(40.0, 80.0);
   while (scene.points_in_cam1.size() < 200) {
-    const Eigen::Vector3d p(lateral(rng), lateral(rng), depth(rng));
+    const Eigen::Vector3d p = util::DrawVector3(lateral, lateral, depth, rng);
     if ((scene.truth * p).z() < 10.0) continue;
     scene.points_in_cam1.push_back(p);
   }
@@ -122,8 +123,8 @@ TwoViews PlanarHdaScene(std::uint64_t seed, double noise_px) {
   const Eigen::Vector3d in_plane_y = normal.cross(in_plane_x);
   std::uniform_real_distribution<double> half_patch(-5.0, 5.0);
   for (int i = 0; i < 150; ++i) {
-    scene.points_in_cam1.push_back(Eigen::Vector3d(0.0, 0.0, range_m) +
-                                   half_patch(rng) * in_plane_x + half_patch(rng) * in_plane_y);
+    const Eigen::Vector2d ab = util::DrawVector2(half_patch, rng);
+    scene.points_in_cam1.push_back(Eigen::Vector3d(0.0, 0.0, range_m) + ab.x() * in_plane_x + ab.y() * in_plane_y);
   }
   Observe(&scene, noise_px, 10, 15.0, &rng);
   return scene;

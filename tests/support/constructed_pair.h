@@ -43,7 +43,10 @@ struct ConstructedPair {
 };
 
 inline ConstructedPair DrawConstructedPair(std::mt19937_64* rng) {
-  const auto pose = [&](double scale) { return Rigid3d(RandomRotation(rng), RandomVector(rng, scale)); };
+  const auto pose = [&](double scale) {
+    const Eigen::Vector3d translation = RandomVector(rng, scale);  // drawn first (tools/util/random_vectors.h)
+    return Rigid3d(RandomRotation(rng), translation);
+  };
   ConstructedPair pair;
   pair.cam_from_body = pose(1.0);
   pair.cam1_from_local = pose(600.0);

@@ -10,6 +10,7 @@
 #include <set>
 #include <sstream>
 #include <system_error>
+#include <thread>
 #include <utility>
 
 #include <nlohmann/json.hpp>
@@ -18,6 +19,7 @@
 #include "tools/images/png.h"
 #include "tools/util/error.h"
 #include "tools/util/files.h"
+#include "tools/util/parallel_for.h"
 #include "tools/util/text.h"
 #include "tools/util/statistics.h"
 
@@ -331,11 +333,6 @@ void WriteText(const fs::path& dir, const std::string& relative, const std::stri
                std::vector<std::string>* written) {
   util::WriteFileAtomically(dir / relative, bytes);
   written->push_back(relative);
-}
-
-void WritePng(const fs::path& dir, const std::string& relative, const cv::Mat& image,
-              std::vector<std::string>* written) {
-  WriteText(dir, relative, images::EncodePng(image, kFigurePngCompression), written);
 }
 
 // Removes the per-ROI files ("roi_<digits><extension>") in `folder` that this
@@ -711,12 +708,34 @@ std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat&
   if (figures) {
     // Each image converted once for every figure, not once per figure.
     const cv::Mat bgr1 = ToBgr(image1), bgr2 = ToBgr(image2);
-    WritePng(root, "figures/quadtree.png", QuadtreeFigure(bgr1, run.result), &written);
-    WritePng(root, "figures/matches.png", MatchesFigure(bgr1, bgr2, run.result), &written);
+    std::vector<const hda::RoiResult*> pairs;
     for (const hda::RoiResult& roi : run.result.rois) {
-      if (roi.counts.matches == 0 || !HasBox2(roi)) continue;
-      WritePng(root, "figures/roi_pairs/" + RoiFileStem(roi.id) + ".png",
-               RoiPairFigure(bgr1, bgr2, roi), &written);
+      if (roi.counts.matches > 0 && HasBox2(roi)) pairs.push_back(&roi);
+    }
+    // Drawn and encoded on every core (each figure depends on its index
+    // only), then written in order, so the files and what a failed write
+    // leaves behind are those of one thread.
+    const int count = 2 + static_cast<int>(pairs.size());
+    std::vector<std::string> names(static_cast<size_t>(count)), pngs(static_cast<size_t>(count));
+    util::ParallelFor("flight figures", count, static_cast<int>(std::thread::hardware_concurrency()), [&](int i) {
+      const size_t k = static_cast<size_t>(i);
+      cv::Mat figure;
+      if (i == 0) {
+        names[k] = "figures/quadtree.png";
+        figure = QuadtreeFigure(bgr1, run.result);
+      } else if (i == 1) {
+        names[k] = "figures/matches.png";
+        figure = MatchesFigure(bgr1, bgr2, run.result);
+      } else {
+        const hda::RoiResult& roi = *pairs[k - 2];
+        names[k] = "figures/roi_pairs/" + RoiFileStem(roi.id) + ".png";
+        figure = RoiPairFigure(bgr1, bgr2, roi);
+      }
+      pngs[k] = images::EncodePng(figure, kFigurePngCompression);
+    });
+    for (size_t k = 0; k < names.size(); ++k) {
+      WriteText(root, names[k], pngs[k], &written);
+      std::string().swap(pngs[k]);
     }
     RemoveStaleRoiFiles(root, "figures/roi_pairs", ".png", written);
   }

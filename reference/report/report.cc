@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <future>
 #include <limits>
 #include <map>
 #include <system_error>
@@ -582,14 +583,21 @@ void AddMaps(const fs::path& dataset_dir, Page* page) {
   }
 }
 
-// Runs report_plots.py on the folder; fills page->plots, or page->plots_error.
-void DrawPlots(const fs::path& run_dir, const ReportOptions& options, Page* page) {
+// The plots of a report: the figures, or why there are none.
+struct Plots {
+  std::vector<Figure> figures;
+  std::string error;  // empty when the figures are there
+};
+
+// Runs report_plots.py on the folder of `kind` ("run" or "compare").
+Plots DrawPlots(const fs::path& run_dir, const std::string& kind, const ReportOptions& options) {
+  Plots plots;
   const std::string python = util::FindExecutable(options.python);
   if (python.empty()) {
-    page->plots_error = "the Python interpreter '" + options.python +
-                        "' was not found; the plots need Python 3 with matplotlib (Debian: "
-                        "python3-matplotlib)";
-    return;
+    plots.error = "the Python interpreter '" + options.python +
+                  "' was not found; the plots need Python 3 with matplotlib (Debian: "
+                  "python3-matplotlib)";
+    return plots;
   }
   const util::PythonScript script("report", "report_plots.py", ReportPlotsScript());
   const fs::path out = script.folder() / "plots";
@@ -601,37 +609,37 @@ void DrawPlots(const fs::path& run_dir, const ReportOptions& options, Page* page
   run.log_file = log.string();
   run.working_dir = script.folder().string();
   run.timeout_s = options.plot_timeout_s;
-  const util::ProcessResult result =
-      script.Run({page->kind, fs::absolute(run_dir).string(), out.string()}, run);
+  const util::ProcessResult result = script.Run({kind, fs::absolute(run_dir).string(), out.string()}, run);
   if (!result.Ok()) {
     const std::string last_line = util::LastLineOfLog(log.string());
     if (result.started && !result.timed_out && result.exit_code == kPlotsExitNoMatplotlib) {
-      page->plots_error = last_line;
+      plots.error = last_line;
     } else {
-      page->plots_error = "the plotting script (report_plots.py under " + python + ") failed: " +
-                          result.error + (last_line.empty() ? "" : ": " + last_line);
+      plots.error = "the plotting script (report_plots.py under " + python + ") failed: " + result.error +
+                    (last_line.empty() ? "" : ": " + last_line);
     }
-    return;
+    return plots;
   }
   const fs::path listing = out / "plots.json";
-  Json plots;
+  Json list;
   try {
-    plots = ParseJsonFile(listing);
+    list = ParseJsonFile(listing);
   } catch (const InputError& e) {
-    page->plots_error = std::string("the plotting script wrote no usable list of plots: ") + e.what();
-    return;
+    plots.error = std::string("the plotting script wrote no usable list of plots: ") + e.what();
+    return plots;
   }
-  for (const Json& plot : plots) {
+  for (const Json& plot : list) {
     const std::string file = Text(Member(plot, "file"));
     std::string bytes, error;
     if (!util::ReadFileBytes(out / file, &bytes, &error) || !datasets::IsPng(bytes)) {
-      page->plots_error = "the plotting script did not write a PNG " + file;
-      page->plots.clear();
-      return;
+      plots.error = "the plotting script did not write a PNG " + file;
+      plots.figures.clear();
+      return plots;
     }
-    page->plots.push_back({"plot-" + fs::path(file).stem().string(), Text(Member(plot, "title")),
-                           Text(Member(plot, "caption")), bytes});
+    plots.figures.push_back({"plot-" + fs::path(file).stem().string(), Text(Member(plot, "title")),
+                             Text(Member(plot, "caption")), bytes});
   }
+  return plots;
 }
 
 // ---------------------------------------------------------------- HTML
@@ -849,26 +857,37 @@ ReportResult WriteReport(const std::string& run_dir, const ReportOptions& option
   Page page;
   if (fs::exists(dir / "compare.json", ec)) {
     page.kind = "compare";
-    FillComparePage(dir, &page);
-    const std::string timing = TimingLine(dir / "flight" / "timings.json", &page.notes);
-    if (!timing.empty()) page.summary_lines.push_back(timing);
-    AddRunFigures(dir / "flight" / "figures", &page);
   } else if (fs::exists(dir / "result.json", ec)) {
     page.kind = "run";
-    FillRunPage(dir, &page);
-    const std::string timing = TimingLine(dir / "timings.json", &page.notes);
-    if (!timing.empty()) page.summary_lines.push_back(timing);
-    AddRunFigures(dir / "figures", &page);
   } else {
     throw InputError(run_dir +
                      ": neither a run folder (result.json, from hdabench run) nor a compare "
                      "folder (compare.json, from hdabench compare)");
   }
+  // The plots are drawn by a Python process while the rest of the page is
+  // read here: about half of the report's time, on the other core. What the
+  // page holds does not depend on which finishes first. (When reading the
+  // folder throws, the future's destructor waits for the plots, then the
+  // error goes on.)
+  std::future<Plots> plots = std::async(std::launch::async, DrawPlots, dir, page.kind, options);
+  if (page.kind == "compare") {
+    FillComparePage(dir, &page);
+    const std::string timing = TimingLine(dir / "flight" / "timings.json", &page.notes);
+    if (!timing.empty()) page.summary_lines.push_back(timing);
+    AddRunFigures(dir / "flight" / "figures", &page);
+  } else {
+    FillRunPage(dir, &page);
+    const std::string timing = TimingLine(dir / "timings.json", &page.notes);
+    if (!timing.empty()) page.summary_lines.push_back(timing);
+    AddRunFigures(dir / "figures", &page);
+  }
 
   const fs::path dataset_dir = FindDataset(dir, page.dataset_name, options.dataset_dir, &page.notes);
   if (!dataset_dir.empty()) AddMaps(dataset_dir, &page);
 
-  DrawPlots(dir, options, &page);
+  Plots drawn = plots.get();
+  page.plots = std::move(drawn.figures);
+  page.plots_error = std::move(drawn.error);
 
   ReportResult result;
   result.kind = page.kind;

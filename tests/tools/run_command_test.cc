@@ -258,6 +258,24 @@ TEST(RunCommand, ADiskThatFillsUpHalfwayIsNamedAndTheRerunGivesTheSameResults) {
   }
 }
 
+// The figures are drawn on every core (util::ParallelFor, "flight figures"):
+// a worker that throws is the internal-error exit, not a crash, and the run
+// folder holds no result.json, so nothing takes it for a whole run.
+TEST(RunCommand, AWorkerThatThrowsWhileDrawingTheFiguresIsAnErrorNotACrash) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult r = hdabench::testing_support::RunHdabench(
+      {"run", SmallSyntheticDataset().string(), "--out", (dir / "out").string(), "--quiet", "--budget-s", "10000"},
+      dir, {"HDABENCH_FAULT_IN_WORKER=flight figures"});
+  EXPECT_EQ(r.exit_code, 70) << r.err;
+  EXPECT_NE(r.err.find("hdabench: internal error: a fault injected into a worker of flight figures "
+                       "(HDABENCH_FAULT_IN_WORKER)\n"),
+            std::string::npos)
+      << r.err;
+  EXPECT_TRUE(fs::is_regular_file(dir / "out" / "rois.csv"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "result.json"));
+  EXPECT_FALSE(fs::exists(dir / "out" / "report.html"));
+}
+
 // An output folder that is the dataset or lies inside it (however it is
 // spelled) is refused before anything is written, by run and compare alike
 // (both prepare their folders in LoadDatasetPair): the dataset's files stay

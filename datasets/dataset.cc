@@ -993,11 +993,11 @@ class TruthPointsReader {
   bool LoadPointsFile(TruthPoints* truth) {
     const std::string& file = truth->file;
     const bool read_values = ReadTruthValues(context_->options) && context_->Uses(truth->frame);
+    const std::string note = "truth points of frame " + std::to_string(truth->frame);
+    // The header first; the values (12 MB at 1024 x 1024) then go straight
+    // from the file into the matrix that keeps them, with no copy between.
     NpyFloat32 array;
-    if (!ReadNpy(context_, file, "truth points of frame " + std::to_string(truth->frame), read_values,
-                 &array)) {
-      return false;
-    }
+    if (!ReadNpy(context_, file, note, false, &array)) return false;
     const std::optional<calib::CameraModel>& camera = context_->camera;
     if (!camera.has_value()) return false;  // the camera's problem is already reported
     const std::vector<std::int64_t> expected = {camera->HeightPx(), camera->WidthPx(), 3};
@@ -1008,22 +1008,25 @@ class TruthPointsReader {
       return false;
     }
     if (!read_values) return true;
-    if (!CheckPointValues(file, array)) return false;
-    if (context_->options.keep_truth) {
-      truth->points_in_local_m.create(camera->HeightPx(), camera->WidthPx(), CV_32FC3);
-      std::memcpy(truth->points_in_local_m.data, array.values.data(),
-                  array.values.size() * sizeof(float));
+    cv::Mat points(camera->HeightPx(), camera->WidthPx(), CV_32FC3);
+    std::string error;
+    if (!util::ReadFileTail(context_->root / file, points.total() * points.elemSize(), points.ptr<char>(), &error)) {
+      context_->problems.Add(file, error + " (" + note + ")");
+      return false;
     }
+    if (!CheckPointValues(file, points.ptr<float>(), points.total())) return false;
+    if (context_->options.keep_truth) truth->points_in_local_m = points;
     return true;
   }
 
   // Finite points, or all three NaN where the pixel's ray hits nothing; else a
-  // problem with the count and the first bad point.
-  bool CheckPointValues(const std::string& file, const NpyFloat32& array) {
+  // problem with the count and the first bad point. `values` holds `count`
+  // points of three coordinates.
+  bool CheckPointValues(const std::string& file, const float* values, size_t count) {
     size_t bad = 0;
     size_t first_bad = 0;
-    for (size_t p = 0; p < array.values.size() / 3; ++p) {
-      const float* v = &array.values[3 * p];
+    for (size_t p = 0; p < count; ++p) {
+      const float* v = &values[3 * p];
       const bool all_finite = std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
       const bool all_nan = std::isnan(v[0]) && std::isnan(v[1]) && std::isnan(v[2]);
       if (!all_finite && !all_nan) {
@@ -1033,7 +1036,7 @@ class TruthPointsReader {
     }
     if (bad == 0) return true;
     const size_t width = static_cast<size_t>(context_->camera->WidthPx());
-    const float* v = &array.values[3 * first_bad];
+    const float* v = &values[3 * first_bad];
     problems_->Add(file, "has " + Plural(bad, "point", "points") +
                              " with an infinite or partly NaN coordinate, the first at row " +
                              std::to_string(first_bad / width) + ", column " +

@@ -1,4 +1,4 @@
-// Reading files whole or by their start.
+// Reading files whole, by their start or by their end.
 #include "tools/util/files.h"
 
 #include <sys/resource.h>
@@ -23,12 +23,18 @@ namespace {
 
 namespace fs = std::filesystem;
 
-TEST(ReadFilePrefix, ReadsTheStartAndTheSizeAndReadFileBytesTheWhole) {
-  const TempFolder folder("files-test");
-  const fs::path file = folder.path() / "data.bin";
+// Writes 100000 bytes of every value to `file` and returns them.
+std::string WriteTestBytes(const fs::path& file) {
   std::string text;
   for (int i = 0; i < 100000; ++i) text += static_cast<char>(i * 7 + i / 256);
   std::ofstream(file, std::ios::binary) << text;
+  return text;
+}
+
+TEST(ReadFilePrefix, ReadsTheStartAndTheSizeAndReadFileBytesTheWhole) {
+  const TempFolder folder("files-test");
+  const fs::path file = folder.path() / "data.bin";
+  const std::string text = WriteTestBytes(file);
 
   std::string bytes, error;
   std::uint64_t size = 0;
@@ -46,6 +52,29 @@ TEST(ReadFilePrefix, ReadsTheStartAndTheSizeAndReadFileBytesTheWhole) {
   EXPECT_FALSE(ReadFileBytes(folder.path() / "missing.bin", &bytes, &error));
   EXPECT_EQ(error, "file not found");
   EXPECT_FALSE(ReadFilePrefix(folder.path(), 10, &bytes, &size, &error));
+  EXPECT_EQ(error, "is a directory; expected a file");
+}
+
+TEST(ReadFileTail, ReadsTheLastBytesIntoTheBufferAndNamesAShortFile) {
+  const TempFolder folder("files-test");
+  const fs::path file = folder.path() / "data.bin";
+  const std::string text = WriteTestBytes(file);
+
+  std::string error;
+  std::vector<char> tail(1000, '\0');
+  ASSERT_TRUE(ReadFileTail(file, tail.size(), tail.data(), &error)) << error;
+  EXPECT_EQ(std::string(tail.begin(), tail.end()), text.substr(text.size() - 1000));
+  std::vector<char> whole(text.size(), '\0');
+  ASSERT_TRUE(ReadFileTail(file, whole.size(), whole.data(), &error)) << error;
+  EXPECT_EQ(std::string(whole.begin(), whole.end()), text);
+  EXPECT_TRUE(ReadFileTail(file, 0, nullptr, &error)) << error;
+
+  std::vector<char> more(text.size() + 1, '\0');
+  EXPECT_FALSE(ReadFileTail(file, more.size(), more.data(), &error));
+  EXPECT_EQ(error, "holds 100000 bytes; expected at least 100001");
+  EXPECT_FALSE(ReadFileTail(folder.path() / "missing.bin", 1, tail.data(), &error));
+  EXPECT_EQ(error, "file not found");
+  EXPECT_FALSE(ReadFileTail(folder.path(), 1, tail.data(), &error));
   EXPECT_EQ(error, "is a directory; expected a file");
 }
 

@@ -19,13 +19,10 @@ namespace hdabench::util {
 
 namespace fs = std::filesystem;
 
-bool ReadFileBytes(const fs::path& path, std::string* bytes, std::string* error) {
-  return ReadFilePrefix(path, std::numeric_limits<std::uint64_t>::max(), bytes, nullptr, error);
-}
+namespace {
 
-bool ReadFilePrefix(const fs::path& path, std::uint64_t max_bytes, std::string* bytes, std::uint64_t* file_size,
-                    std::string* error) {
-  bytes->clear();
+// False with the reason when `path` is missing or a folder.
+bool IsReadableFile(const fs::path& path, std::string* error) {
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
   if (ec || !fs::exists(status)) {
@@ -36,6 +33,19 @@ bool ReadFilePrefix(const fs::path& path, std::uint64_t max_bytes, std::string* 
     *error = "is a directory; expected a file";
     return false;
   }
+  return true;
+}
+
+}  // namespace
+
+bool ReadFileBytes(const fs::path& path, std::string* bytes, std::string* error) {
+  return ReadFilePrefix(path, std::numeric_limits<std::uint64_t>::max(), bytes, nullptr, error);
+}
+
+bool ReadFilePrefix(const fs::path& path, std::uint64_t max_bytes, std::string* bytes, std::uint64_t* file_size,
+                    std::string* error) {
+  bytes->clear();
+  if (!IsReadableFile(path, error)) return false;
   std::ifstream in(path, std::ios::binary);
   if (!in) {
     *error = std::string("cannot be opened (") + std::strerror(errno) + ")";
@@ -60,6 +70,38 @@ bool ReadFilePrefix(const fs::path& path, std::uint64_t max_bytes, std::string* 
     return false;
   }
   if (file_size != nullptr) *file_size = std::max<std::uint64_t>(size, bytes->size());
+  return true;
+}
+
+bool ReadFileTail(const fs::path& path, std::uint64_t size, char* dest, std::string* error) {
+  if (!IsReadableFile(path, error)) return false;
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) {
+    *error = std::string("cannot be opened (") + std::strerror(errno) + ")";
+    return false;
+  }
+  const off_t end = ::lseek(fd, 0, SEEK_END);
+  if (end < 0 || static_cast<std::uint64_t>(end) < size) {
+    *error = end < 0 ? std::string("cannot be read (") + std::strerror(errno) + ")"
+                     : "holds " + std::to_string(end) + " bytes; expected at least " + std::to_string(size);
+    ::close(fd);
+    return false;
+  }
+  std::uint64_t done = 0;
+  while (done < size) {
+    const size_t chunk = static_cast<size_t>(std::min<std::uint64_t>(size - done, std::uint64_t{1} << 30));
+    const ssize_t got = ::pread(fd, dest + done, chunk, static_cast<off_t>(static_cast<std::uint64_t>(end) - size + done));
+    if (got < 0 && errno == EINTR) continue;
+    if (got <= 0) {
+      *error = got < 0 ? std::string("cannot be read (") + std::strerror(errno) + ")"
+                       : "ended after " + std::to_string(static_cast<std::uint64_t>(end) - size + done) +
+                             " bytes while being read";
+      ::close(fd);
+      return false;
+    }
+    done += static_cast<std::uint64_t>(got);
+  }
+  ::close(fd);
   return true;
 }
 

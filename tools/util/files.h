@@ -1,4 +1,4 @@
-// Files: reading one whole, writing one so that no reader ever sees it
+// Files: reading one whole (or its start or end), writing one so that no reader ever sees it
 // half-written, and a temporary folder that cleans up after itself.
 #pragma once
 
@@ -17,6 +17,12 @@ bool ReadFileBytes(const std::filesystem::path& path, std::string* bytes, std::s
 // `file_size` (may be null). Failures as ReadFileBytes.
 bool ReadFilePrefix(const std::filesystem::path& path, std::uint64_t max_bytes, std::string* bytes,
                     std::uint64_t* file_size, std::string* error);
+
+// Reads the last `size` bytes of a regular file into `dest`, with no copy in
+// between (a large array whose header was read with ReadFilePrefix goes
+// straight into its own buffer). Failures as ReadFileBytes, and "holds N
+// bytes; expected at least M" when the file is shorter.
+bool ReadFileTail(const std::filesystem::path& path, std::uint64_t size, char* dest, std::string* error);
 
 // Writes `bytes` to a temporary name next to `path` (TemporaryPathFor),
 // flushes it to the disk (fsync), renames it into place and flushes the

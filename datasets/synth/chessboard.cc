@@ -6,7 +6,6 @@
 #include <filesystem>
 #include <limits>
 #include <stdexcept>
-#include <thread>
 
 #include <Eigen/Geometry>
 
@@ -475,7 +474,7 @@ std::vector<std::string> ChessboardViewsOptions::Validate() const {
   RequireOption(min_border_squares >= 1.0, "min_border_squares", min_border_squares,
                 ">= 1 (the outer squares must be in view)", &errors);
   RequireOption(max_attempts >= 1, "max_attempts", max_attempts, ">= 1", &errors);
-  RequireOption(threads >= 0, "threads", threads, ">= 0 (0: all hardware threads)", &errors);
+  RequireOption(threads >= 0, "threads", threads, ">= 0 (0: every core this process may use)", &errors);
   return errors;
 }
 
@@ -605,9 +604,9 @@ ViewShading ShadingFor(const Rigid3d& pose, const ChessboardViewsOptions& option
   return shade;
 }
 
-// Render workers: options.threads, or every hardware thread when it is 0.
+// Render workers: options.threads, or every core this process may use when it is 0.
 int RenderThreads(const ChessboardViewsOptions& options) {
-  return options.threads > 0 ? options.threads : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+  return options.threads > 0 ? options.threads : util::AvailableCores();
 }
 
 // The imager, the sampling and the board's squares, as the noise-free render reads them.

@@ -86,7 +86,7 @@ struct ChessboardViewsOptions {
   // Random poses drawn per view before giving up with InputError.
   int max_attempts = 1000;  // >= 1
 
-  int threads = 0;  // render workers; 0 = all hardware threads. Output does not depend on it.
+  int threads = 0;  // render workers; 0 = every core this process may use (util::AvailableCores). Output does not depend on it.
 
   // One message per problem ("field = value: expected ..."); empty when usable.
   std::vector<std::string> Validate() const;

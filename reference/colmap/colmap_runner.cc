@@ -13,7 +13,6 @@
 #include <limits>
 #include <map>
 #include <sstream>
-#include <thread>
 
 #include <Eigen/SVD>
 #include <opencv2/core.hpp>
@@ -25,6 +24,7 @@
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
 #include "tools/util/process.h"
+#include "tools/util/parallel_for.h"
 #include "reference/colmap/colmap_adapter.h"
 #include "reference/colmap/colmap_model.h"
 #include "reference/colmap/sift_matching.h"
@@ -494,10 +494,10 @@ std::vector<std::string> VerificationArgs(const ColmapOptions& o) {
           "--SiftMatching.max_error",   util::ShortestText(o.sift_max_error_px)};
 }
 
-// ColmapOptions::matcher_threads, 0 resolved to the number of cores.
+// ColmapOptions::matcher_threads, 0 resolved to the cores this process may use.
 int MatcherThreads(const ColmapOptions& o) {
   if (o.matcher_threads > 0) return o.matcher_threads;
-  return static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  return util::AvailableCores();
 }
 
 // The exact matcher's options: COLMAP's defaults (max_distance 0.7,

@@ -1,5 +1,7 @@
 #include "tools/util/parallel_for.h"
 
+#include <sched.h>
+
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
@@ -72,6 +74,24 @@ TEST(ParallelFor, ACallbackThatThrowsReachesTheCaller) {
                              if (done == 10) throw std::runtime_error("progress failed");
                            }),
                std::runtime_error);
+}
+
+// "All cores" means those the process may run on: one after taskset -c N
+// (or a batch scheduler's allocation of one CPU), not every core of the host.
+TEST(AvailableCores, FollowsTheCpuAffinity) {
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  ASSERT_EQ(sched_getaffinity(0, sizeof(allowed), &allowed), 0);
+  EXPECT_EQ(AvailableCores(), CPU_COUNT(&allowed));
+  int first = 0;
+  while (!CPU_ISSET(first, &allowed)) ++first;
+  cpu_set_t one;
+  CPU_ZERO(&one);
+  CPU_SET(first, &one);
+  ASSERT_EQ(sched_setaffinity(0, sizeof(one), &one), 0);
+  EXPECT_EQ(AvailableCores(), 1);
+  ASSERT_EQ(sched_setaffinity(0, sizeof(allowed), &allowed), 0);
+  EXPECT_EQ(AvailableCores(), CPU_COUNT(&allowed));
 }
 
 TEST(ParallelFor, TheFaultPointThrowsInANamedLoopOnly) {

@@ -33,7 +33,7 @@ struct SynthCommandOptions {
   std::string preset = "novac-lateral"; // novac-lateral, novac-boresight, truck, aircraft
   std::string terrain;                  // mare, cratered, rocky; empty: the preset's
   std::uint64_t seed = 1;               // same seed, same bytes
-  int threads = 0;                      // 0: all cores; the output does not depend on it
+  int threads = 0;                      // 0: every core this process may use; the output does not depend on it
   int image_size_px = 0;                // 0: the preset's (1024)
   std::string camera_model_file;        // a .cameramodel instead of the default camera
   std::vector<std::string> overrides;   // "key=value", docs/synthetic-scenes.md
@@ -163,7 +163,7 @@ struct DemoOptions {
   std::string out_dir = "hdabench-demo";  // replaced on each run; the dataset goes in out_dir/dataset
   std::uint64_t seed = 1;                 // same seed, same bytes
   int image_size_px = 0;                  // 0: the default camera's 1024
-  int threads = 0;                        // 0: all cores
+  int threads = 0;                        // 0: every core this process may use
 };
 // The main job on the built-in default: generate the default synthetic
 // dataset (hdabench synth, preset novac-lateral) into out_dir/dataset, then

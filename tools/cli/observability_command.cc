@@ -6,7 +6,6 @@
 #include <memory>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -19,6 +18,7 @@
 #include "tools/cli/command_support.h"
 #include "tools/cli/exit_codes.h"
 #include "tools/util/error.h"
+#include "tools/util/parallel_for.h"
 #include "tools/util/text.h"
 
 namespace hdabench::tools {
@@ -130,7 +130,7 @@ int RunObservability(ObservabilityArgs& args) {
       code != kExitOk) {
     return code;
   }
-  const int threads = args.threads > 0 ? args.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  const int threads = args.threads > 0 ? args.threads : util::AvailableCores();
   return WithExitCodes(command, err, [&] {
     const calib::CameraModel camera = args.camera_file.empty()
                                           ? datasets::synth::DefaultSynthCamera(1024, 30.0)
@@ -143,7 +143,7 @@ int RunObservability(ObservabilityArgs& args) {
     const size_t total = reference::StudySettings(study).size();
     if (!args.quiet) {
       err << command << total << " settings x " << study.trials << " trials"
-          << (shard.Whole() ? "" : ", shard " + args.shard) << ", " << threads << " threads\n";
+          << (shard.Whole() ? "" : ", shard " + args.shard) << ", " << threads << (threads == 1 ? " thread\n" : " threads\n");
     }
     const auto progress = [&](const reference::SettingStats& s, int done, int count) {
       if (args.quiet) return;
@@ -219,7 +219,7 @@ std::vector<Command> AddObservabilityCommands(CLI::App& app) {
   study->add_option("--set", args->hda_sets, kSetHelp)->allow_extra_args(false);
   study->add_option("--shard", args->shard, "Run slice K of N (K/N); merge the slices with `observability merge`")
       ->capture_default_str();
-  study->add_option("--threads", args->threads, "Worker threads (0: all cores; the numbers do not depend on it)")
+  study->add_option("--threads", args->threads, "Worker threads (0: every core this process may use; the numbers do not depend on it)")
       ->capture_default_str();
   study->add_option("--out", args->out_dir, "Output folder (created; files replaced); required");
   study->add_option("--python", args->python, "Python 3 with matplotlib, for the figures")->capture_default_str();

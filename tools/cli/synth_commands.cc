@@ -9,13 +9,13 @@
 #include <optional>
 #include <sstream>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/parallel_for.h"
 #include "datasets/dataset.h"
 #include "datasets/faults.h"
 #include "datasets/synth/synth.h"
@@ -43,9 +43,7 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
   if (!options.terrain.empty()) synth_options.terrain = options.terrain;
   if (options.image_size_px > 0) synth_options.image_size_px = options.image_size_px;
   synth_options.camera_model_file = options.camera_model_file;
-  synth_options.threads = options.threads > 0
-                              ? options.threads
-                              : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  synth_options.threads = options.threads > 0 ? options.threads : util::AvailableCores();
   synth::TerrainOptions terrain = synth::TerrainPreset(synth_options.terrain);
   for (const std::string& override_text : options.overrides) {
     const size_t eq = override_text.find('=');
@@ -161,7 +159,7 @@ Command AddSynthCommand(CLI::App& app) {
   synth_app->add_option("--seed", options->seed, "Random seed: same seed, same bytes")
       ->capture_default_str();
   synth_app->add_option("--threads", options->threads,
-                        "Worker threads (0: all cores); output does not depend on it")
+                        "Worker threads (0: every core this process may use); output does not depend on it")
       ->capture_default_str();
   synth_app->add_option("--image-size", options->image_size_px,
                         "Square imager side in pixels (default 1024; 2048 variant)");

@@ -1,5 +1,7 @@
 #include "tools/util/parallel_for.h"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
@@ -24,6 +26,13 @@ bool FaultInjected(const std::string& name) {
 }
 
 }  // namespace
+
+int AvailableCores() {
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  if (::sched_getaffinity(0, sizeof(set), &set) == 0) return std::max(1, CPU_COUNT(&set));
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
 
 void ParallelFor(const std::string& name, int count, int threads,
                  const std::function<void(int index)>& body,

@@ -25,6 +25,12 @@ void ParallelFor(const std::string& name, int count, int threads,
                  const std::function<void(int index)>& body,
                  const std::function<void(int items_done)>& done = {});
 
+// The cores this process may run on (its CPU affinity: what taskset, a
+// batch scheduler's allocation or a container's cpuset leaves it), at least
+// 1: the thread count of a loop whose options say "all cores". Falls back
+// to std::thread::hardware_concurrency when the affinity cannot be read.
+int AvailableCores();
+
 // One slice of a piece of work split over processes or machines (the
 // observability study's and the gate's --shard K/N): slice k of n holds the
 // items whose 0-based index is congruent to k - 1 modulo n, so the slices

@@ -111,7 +111,7 @@ case $command in
     # Every parser of outside input under libFuzzer for 30 s (docs/fuzzing.md).
     if [[ ${HDABENCH_SKIP_FUZZ:-0} != 1 ]]; then
       say "Fuzzing (tools/fuzz.sh --seconds 30)"
-      HDABENCH_FUZZ_BUILD_DIR=${build_dir}-fuzz "$root/tools/fuzz.sh" --seconds 30 || die "a fuzz harness crashed"
+      HDABENCH_FUZZ_BUILD_DIR=${build_dir}-fuzz "$root/tools/fuzz.sh" --seconds 30 || die "a fuzz harness failed (tools/fuzz.sh names it and why)"
     fi
     run_gate
     ;;

@@ -13,9 +13,10 @@
 # kept in build-fuzz/fuzz-artifacts/ and the script exits 1. The corpus each
 # run grows is kept in build-fuzz/fuzz-corpus/NAME and the next run starts
 # from it. Environment: HDABENCH_FUZZ_BUILD_DIR (default build-fuzz),
-# HDABENCH_JOBS (default: number of cores). Exit codes: 0 no crash, 1 a
-# harness crashed (or leaked, or a sanitizer reported), 2 bad usage, 3 no
-# clang or libFuzzer.
+# HDABENCH_JOBS (default: number of cores). Each harness's scratch files go to
+# build-fuzz/fuzz-tmp/NAME (its TMPDIR), which it must leave empty. Exit codes:
+# 0 no crash, 1 a harness crashed (or leaked memory or scratch files, or a
+# sanitizer reported), 2 bad usage, 3 no clang or libFuzzer.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -32,7 +33,7 @@ while (($#)); do
     --seconds) [[ ${2:-} =~ ^[0-9]+$ ]] || die "--seconds needs a whole number"; limit=(-max_total_time="$2"); shift 2 ;;
     --runs) [[ ${2:-} =~ ^[0-9]+$ ]] || die "--runs needs a whole number"; limit=(-runs="$2"); shift 2 ;;
     --only) IFS=, read -r -a only <<<"${2:-}"; shift 2 ;;
-    -h | --help) sed -n '2,18p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,19p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument '$1' (see tools/fuzz.sh --help)" ;;
   esac
 done
@@ -59,7 +60,8 @@ seeds() {
   rm -rf "$dir"
   mkdir -p "$dir"
   # The valid files the harness is built around.
-  HDABENCH_FUZZ_SEEDS=$dir "$build_dir/tests/fuzz/${name}_fuzzer" -runs=0 "$dir" >/dev/null 2>&1 || true
+  HDABENCH_FUZZ_SEEDS=$dir TMPDIR=$build_dir/fuzz-tmp/$name "$build_dir/tests/fuzz/${name}_fuzzer" -runs=0 "$dir" \
+    >/dev/null 2>&1 || true
   case $name in
     npy) git -C "$root" ls-files '*.npy' '*.npz' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
     cameramodel) git -C "$root" ls-files '*.cameramodel' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
@@ -76,18 +78,27 @@ seeds() {
 fuzz_one() {
   local name=$1 corpus=$build_dir/fuzz-corpus/$1 seed_dir=$build_dir/fuzz-seeds/$1
   local log=$build_dir/fuzz-logs/$1.log start end execs files status=0 verdict="no crash"
-  mkdir -p "$corpus"
+  # The harness's scratch files go to a folder of its own (TMPDIR), which a
+  # run that ends without a crash must leave empty.
+  local scratch=$build_dir/fuzz-tmp/$1 left
+  rm -rf "$scratch"
+  mkdir -p "$corpus" "$scratch"
   rm -f "$build_dir/fuzz-logs/$name.row" "$build_dir/fuzz-logs/$name.crashed"
   seeds "$name" "$seed_dir"
   start=$(date +%s)
   # Leak checking on; a timeout of 10 s per input; inputs up to 64 KB.
-  "$build_dir/tests/fuzz/${name}_fuzzer" "${limit[@]}" -timeout=10 -max_len=65536 -print_final_stats=1 \
-    -artifact_prefix="$build_dir/fuzz-artifacts/$name-" "$corpus" "$seed_dir" >"$log" 2>&1 || status=$?
+  TMPDIR=$scratch "$build_dir/tests/fuzz/${name}_fuzzer" "${limit[@]}" -timeout=10 -max_len=65536 \
+    -print_final_stats=1 -artifact_prefix="$build_dir/fuzz-artifacts/$name-" "$corpus" "$seed_dir" \
+    >"$log" 2>&1 || status=$?
   end=$(date +%s)
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
   files=$(find "$corpus" -type f | wc -l)
+  left=$(find "$scratch" -mindepth 1 -maxdepth 1 | wc -l)
   if ((status != 0)); then
     verdict="CRASH (exit $status): $(grep -m1 -E 'ERROR: |SUMMARY: |runtime error' "$log" || tail -1 "$log")"
+    touch "$build_dir/fuzz-logs/$name.crashed"
+  elif ((left != 0)); then
+    verdict="LEFT $left scratch entries in $scratch"
     touch "$build_dir/fuzz-logs/$name.crashed"
   fi
   printf '%-14s %12s %8s %8s  %s\n' "$name" "${execs:-?}" "$((end - start))" "$files" "$verdict" \
@@ -117,7 +128,7 @@ done
 printf '\n%-14s %12s %8s %8s  %s\n' harness executions seconds corpus verdict
 printf '%s\n' "${rows[@]}"
 if ((${#crashed[@]})); then
-  printf '\ntools/fuzz.sh: %s crashed; inputs in %s, logs in %s\n' "${crashed[*]}" \
+  printf '\ntools/fuzz.sh: %s failed (verdicts above); inputs that crashed in %s, logs in %s\n' "${crashed[*]}" \
     "$build_dir/fuzz-artifacts" "$build_dir/fuzz-logs" >&2
   exit 1
 fi

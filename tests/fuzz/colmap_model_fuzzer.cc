@@ -18,7 +18,7 @@ std::string Uint64(std::uint64_t value) { return std::string(reinterpret_cast<co
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  folder = new hdabench::fuzz::DamagedFolder(
+  folder = hdabench::fuzz::NewDamagedFolder(
       "fuzz-colmap", {"text/cameras.txt", "text/images.txt", "text/points3D.txt", "binary/cameras.bin",
                       "binary/images.bin", "binary/points3D.bin"});
   const std::filesystem::path& dir = folder->path();

@@ -18,7 +18,7 @@ hdabench::fuzz::DamagedFolder* folder = nullptr;
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  folder = new hdabench::fuzz::DamagedFolder(
+  folder = hdabench::fuzz::NewDamagedFolder(
       "fuzz-dataset", {"manifest.json", "camera.cameramodel", "frames.csv", "nav.csv", "lrf.csv"});
   hdabench::datasets::ExampleDatasetOptions options;
   // Small, so that the parser runs often: 2 frames of 32 px, navigation and LRF at 5 Hz.

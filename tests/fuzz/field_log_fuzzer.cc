@@ -17,8 +17,8 @@ hdabench::fuzz::DamagedFolder* folder = nullptr;
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  folder = new hdabench::fuzz::DamagedFolder("fuzz-field-log",
-                                             {"log.json", "nav.csv", "lrf.csv", "camera.cameramodel"});
+  folder =
+      hdabench::fuzz::NewDamagedFolder("fuzz-field-log", {"log.json", "nav.csv", "lrf.csv", "camera.cameramodel"});
   hdabench::datasets::ExampleDatasetOptions options;
   // Small, so that the parser runs often: 2 frames of 32 px, navigation and LRF at 5 Hz.
   options.image_size_px = 32;

@@ -16,7 +16,7 @@ hdabench::fuzz::DamagedFolder* folder = nullptr;
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  folder = new hdabench::fuzz::DamagedFolder("fuzz-gate", {"suite.json", "thresholds.json"});
+  folder = hdabench::fuzz::NewDamagedFolder("fuzz-gate", {"suite.json", "thresholds.json"});
   const std::filesystem::path gate = std::filesystem::path(HDABENCH_SOURCE_DIR) / "gate";
   std::filesystem::copy_file(gate / "suite-ci.json", folder->path() / "suite.json");
   std::filesystem::copy_file(gate / "thresholds-ci.json", folder->path() / "thresholds.json");

@@ -871,17 +871,17 @@ bool ReadTruthValues(const LoadOptions& options) {
   return options.check_truth_values || options.keep_truth;
 }
 
-// Reads the .npy file `file`: every value when `read_values`, else only its
-// header. `note` says in a read error what the file is.
-bool ReadNpy(LoadContext* context, const std::string& file, const std::string& note,
-             bool read_values, NpyFloat32* array) {
+// Reads the header of the .npy file `file` (its shape, checked against the
+// file's size; the values are left to the caller). `note` says in a read error
+// what the file is.
+bool ReadNpyHeader(LoadContext* context, const std::string& file, const std::string& note, NpyFloat32* array) {
   std::string bytes;
   std::string error;
   // A header alone: the start of the file and its size, unless the header
-  // does not fit (then the whole file, as for the values).
+  // does not fit (then the whole file).
   constexpr std::uint64_t kHeaderPrefixBytes = 1 << 16;
   std::uint64_t file_size = 0;
-  if (!read_values && util::ReadFilePrefix(context->root / file, kHeaderPrefixBytes, &bytes, &file_size, &error) &&
+  if (util::ReadFilePrefix(context->root / file, kHeaderPrefixBytes, &bytes, &file_size, &error) &&
       (ParseNpyFloat32FileHeader(bytes, file_size, array, &error) || bytes.size() == file_size)) {
     if (error.empty()) return true;
     context->problems.Add(file, error);
@@ -892,9 +892,7 @@ bool ReadNpy(LoadContext* context, const std::string& file, const std::string& n
     context->problems.Add(file, error + " (" + note + ")");
     return false;
   }
-  const bool parsed = read_values ? ParseNpyFloat32(bytes, array, &error)
-                                  : ParseNpyFloat32Header(bytes, array, &error);
-  if (!parsed) {
+  if (!ParseNpyFloat32Header(bytes, array, &error)) {
     context->problems.Add(file, error);
     return false;
   }
@@ -997,7 +995,7 @@ class TruthPointsReader {
     // The header first; the values (12 MB at 1024 x 1024) then go straight
     // from the file into the matrix that keeps them, with no copy between.
     NpyFloat32 array;
-    if (!ReadNpy(context_, file, note, false, &array)) return false;
+    if (!ReadNpyHeader(context_, file, note, &array)) return false;
     const std::optional<calib::CameraModel>& camera = context_->camera;
     if (!camera.has_value()) return false;  // the camera's problem is already reported
     const std::vector<std::int64_t> expected = {camera->HeightPx(), camera->WidthPx(), 3};
@@ -1123,10 +1121,12 @@ class TruthDemReader {
   // be finite and kept when asked.
   bool LoadDemFile(TruthDem* dem) {
     const bool read_values = ReadTruthValues(context_->options) && context_->options.read_dem;
+    const std::string note = "manifest.json field 'truth.dem.file'";
+    // The header first; the heights (50 MB for the default scene's DEM) then
+    // go straight from the file into the matrix that keeps them, with no copy
+    // between.
     NpyFloat32 array;
-    if (!ReadNpy(context_, dem->file, "manifest.json field 'truth.dem.file'", read_values, &array)) {
-      return false;
-    }
+    if (!ReadNpyHeader(context_, dem->file, note, &array)) return false;
     if (array.shape.size() != 2 || array.shape[0] < 1 || array.shape[1] < 1 ||
         array.shape[0] > std::numeric_limits<int>::max() ||
         array.shape[1] > std::numeric_limits<int>::max()) {
@@ -1136,21 +1136,26 @@ class TruthDemReader {
     }
     dem->height_cells = static_cast<int>(array.shape[0]);
     dem->width_cells = static_cast<int>(array.shape[1]);
-    if (read_values && !CheckHeightValues(*dem, array)) return false;
-    if (read_values && context_->options.keep_truth) {
-      dem->height_in_local_m.create(dem->height_cells, dem->width_cells, CV_32FC1);
-      std::memcpy(dem->height_in_local_m.data, array.values.data(),
-                  array.values.size() * sizeof(float));
+    if (!read_values) return true;
+    cv::Mat heights(dem->height_cells, dem->width_cells, CV_32FC1);
+    std::string error;
+    if (!util::ReadFileTail(context_->root / dem->file, heights.total() * heights.elemSize(), heights.ptr<char>(),
+                            &error)) {
+      problems_->Add(dem->file, error + " (" + note + ")");
+      return false;
     }
+    if (!CheckHeightValues(*dem, heights.ptr<float>(), heights.total())) return false;
+    if (context_->options.keep_truth) dem->height_in_local_m = heights;
     return true;
   }
 
   // Finite heights; else a problem with the count and the first bad cell.
-  bool CheckHeightValues(const TruthDem& dem, const NpyFloat32& array) {
+  // `values` holds `count` heights.
+  bool CheckHeightValues(const TruthDem& dem, const float* values, size_t count) {
     size_t bad = 0;
     size_t first_bad = 0;
-    for (size_t i = 0; i < array.values.size(); ++i) {
-      if (!std::isfinite(array.values[i])) {
+    for (size_t i = 0; i < count; ++i) {
+      if (!std::isfinite(values[i])) {
         if (bad == 0) first_bad = i;
         ++bad;
       }
@@ -1160,7 +1165,7 @@ class TruthDemReader {
     problems_->Add(dem.file, "has " + Plural(bad, "non-finite height", "non-finite heights") +
                                  ", the first at row " + std::to_string(first_bad / width) +
                                  ", column " + std::to_string(first_bad % width) + " (" +
-                                 util::ShortestText(static_cast<double>(array.values[first_bad])) +
+                                 util::ShortestText(static_cast<double>(values[first_bad])) +
                                  "); expected finite heights in metres");
     return false;
   }

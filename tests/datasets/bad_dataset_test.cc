@@ -615,6 +615,19 @@ std::vector<Defect> Catalogue() {
          return Problem{"truth/dem.npy", "has 1 non-finite height, the first at row 3, column 4 "
                                          "(nan); expected finite heights in metres"};
        }},
+      {"DemTruncated",
+       [](const fs::path& dir) {
+         const fs::path path = dir / "truth/dem.npy";
+         const std::string bytes = ReadText(path);
+         NpyFloat32 array;
+         std::string error;
+         EXPECT_TRUE(ParseNpyFloat32Header(bytes, &array, &error)) << error;
+         WriteText(path, bytes.substr(0, bytes.size() - 6));
+         const std::int64_t needs = 4 * array.NumValues();
+         return Problem{"truth/dem.npy", "holds " + std::to_string(needs - 6) + " bytes of data; shape " +
+                                             FormatNpyShape(array.shape) + " of float32 needs " +
+                                             std::to_string(needs) + " (truncated file?)"};
+       }},
       {"DemMissing",
        [](const fs::path& dir) {
          fs::remove(dir / "truth/dem.npy");

@@ -21,6 +21,26 @@ namespace fs = std::filesystem;
 
 namespace {
 
+// A descriptor opened for reading, closed when it goes out of scope, with
+// errno kept (close may set its own) for the caller's message. Descriptors
+// written to close by hand: their close can report a failed write.
+class ReadDescriptor {
+ public:
+  explicit ReadDescriptor(int fd) : fd_(fd) {}
+  ~ReadDescriptor() {
+    if (fd_ < 0) return;
+    const int saved = errno;
+    ::close(fd_);
+    errno = saved;
+  }
+  ReadDescriptor(const ReadDescriptor&) = delete;
+  ReadDescriptor& operator=(const ReadDescriptor&) = delete;
+  int get() const { return fd_; }
+
+ private:
+  int fd_;
+};
+
 // False with the reason when `path` is missing or a folder.
 bool IsReadableFile(const fs::path& path, std::string* error) {
   std::error_code ec;
@@ -75,33 +95,30 @@ bool ReadFilePrefix(const fs::path& path, std::uint64_t max_bytes, std::string* 
 
 bool ReadFileTail(const fs::path& path, std::uint64_t size, char* dest, std::string* error) {
   if (!IsReadableFile(path, error)) return false;
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) {
+  const ReadDescriptor file(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
+  if (file.get() < 0) {
     *error = std::string("cannot be opened (") + std::strerror(errno) + ")";
     return false;
   }
-  const off_t end = ::lseek(fd, 0, SEEK_END);
+  const off_t end = ::lseek(file.get(), 0, SEEK_END);
   if (end < 0 || static_cast<std::uint64_t>(end) < size) {
     *error = end < 0 ? std::string("cannot be read (") + std::strerror(errno) + ")"
                      : "holds " + std::to_string(end) + " bytes; expected at least " + std::to_string(size);
-    ::close(fd);
     return false;
   }
   std::uint64_t done = 0;
   while (done < size) {
     const size_t chunk = static_cast<size_t>(std::min<std::uint64_t>(size - done, std::uint64_t{1} << 30));
-    const ssize_t got = ::pread(fd, dest + done, chunk, static_cast<off_t>(static_cast<std::uint64_t>(end) - size + done));
+    const ssize_t got = ::pread(file.get(), dest + done, chunk, static_cast<off_t>(static_cast<std::uint64_t>(end) - size + done));
     if (got < 0 && errno == EINTR) continue;
     if (got <= 0) {
       *error = got < 0 ? std::string("cannot be read (") + std::strerror(errno) + ")"
                        : "ended after " + std::to_string(static_cast<std::uint64_t>(end) - size + done) +
                              " bytes while being read";
-      ::close(fd);
       return false;
     }
     done += static_cast<std::uint64_t>(got);
   }
-  ::close(fd);
   return true;
 }
 
@@ -131,13 +148,8 @@ bool WriteAll(int fd, const std::string& bytes) {
 // Flushes the folder's entries (the rename) to the disk. A file system that
 // cannot sync a folder (EINVAL) is taken as having nothing to flush.
 bool SyncFolder(const fs::path& folder) {
-  const int fd = ::open(folder.empty() ? "." : folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (fd < 0) return false;
-  const bool synced = ::fsync(fd) == 0 || errno == EINVAL;
-  const int saved = errno;
-  ::close(fd);
-  errno = saved;
-  return synced;
+  const ReadDescriptor handle(::open(folder.empty() ? "." : folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
+  return handle.get() >= 0 && (::fsync(handle.get()) == 0 || errno == EINVAL);
 }
 
 }  // namespace

@@ -263,7 +263,7 @@ std::string CompareMarkdown(const CompareRun& run) {
 
 std::vector<std::string> WriteCompareOutputs(const CompareRun& run, const cv::Mat& image1,
                                              const cv::Mat& image2, const std::string& dir,
-                                             bool figures) {
+                                             bool figures, int threads) {
   PrepareOutputFolder(dir);
   // compare.json marks a whole comparison: removed first, written last, so a
   // folder whose writing stopped halfway holds none (as result.json for run).
@@ -282,7 +282,7 @@ std::vector<std::string> WriteCompareOutputs(const CompareRun& run, const cv::Ma
   write("compare.csv", CompareRoisCsv(run));
   write("compare.md", CompareMarkdown(run));
   for (const std::string& path :
-       WriteFlightOutputs(run.flight, image1, image2, (fs::path(dir) / "flight").string(), figures)) {
+       WriteFlightOutputs(run.flight, image1, image2, (fs::path(dir) / "flight").string(), figures, threads)) {
     written.push_back("flight/" + path);
   }
   write("compare.json", CompareResultJson(run));

@@ -40,9 +40,10 @@ std::string CompareMarkdown(const CompareRun& run);
 // (WriteFlightOutputs) into dir/flight. compare.json, the mark of a whole
 // comparison, is removed first and written last. Returns the paths written,
 // relative to dir, compare.json first. Throws InputError naming a path that
-// cannot be written.
+// cannot be written. `threads` draw the flight method's figures (0: every core
+// this process may use); the files do not depend on it.
 std::vector<std::string> WriteCompareOutputs(const CompareRun& run, const cv::Mat& image1,
                                              const cv::Mat& image2, const std::string& dir,
-                                             bool figures);
+                                             bool figures, int threads = 0);
 
 }  // namespace hdabench::reference

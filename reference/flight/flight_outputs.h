@@ -105,9 +105,10 @@ void PrepareOutputFolder(const std::string& dir);
 // removed first and written last: a folder whose writing stopped halfway (a
 // full disk, a kill) holds none. Returns the paths written, relative to dir,
 // result.json first. Throws InputError naming the path when a folder or file
-// cannot be written.
+// cannot be written. `threads` draw the figures (0: every core this process
+// may use, util::AvailableCores); the files do not depend on it.
 std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat& image1,
                                             const cv::Mat& image2, const std::string& dir,
-                                            bool figures);
+                                            bool figures, int threads = 0);
 
 }  // namespace hdabench::reference

@@ -506,6 +506,11 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     compare.hda.Set("compute_budget_s", kGateComputeBudgetS, "gate");
     compare.colmap.executable = o.colmap_executable;
     ApplyColmapOptions(suite.colmap, &compare.colmap);
+    // The entries that run at once share the cores: each entry's own thread
+    // pools (the exact matcher, the figures) get its share, not every core.
+    // Neither changes what they compute.
+    const int entry_threads = std::max(1, util::AvailableCores() / std::max(1, o.jobs));
+    compare.colmap.matcher_threads = entry_threads;
     const fs::path staging = final_dir.string() + ".partial-" + std::to_string(::getpid());
     fs::remove_all(staging);
     fs::create_directories(staging);
@@ -513,7 +518,7 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
         RunCompare(*dataset, pair.first, pair.second, compare, (staging / "colmap").string());
     WriteCompareOutputs(run, dataset->frames[static_cast<size_t>(pair.first)].image,
                         dataset->frames[static_cast<size_t>(pair.second)].image, staging.string(),
-                        true);
+                        true, entry_threads);
     // The report a person reads; without Python's plots it is still written
     // (and says why), so it never fails the entry.
     ReportOptions report;

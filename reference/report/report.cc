@@ -18,6 +18,7 @@
 #include "tools/util/error.h"
 #include "tools/util/files.h"
 #include "tools/util/options_check.h"
+#include "tools/util/parallel_for.h"
 #include "tools/util/process.h"
 #include "tools/util/python_script.h"
 #include "reference/compare/compare_outputs.h"
@@ -242,10 +243,23 @@ const std::vector<std::string>& FlightStatuses() {
   return statuses;
 }
 
-void FillRunPage(const fs::path& dir, Page* page) {
+// A folder's result.json (kind "run") or compare.json ("compare"), parsed
+// and checked to be of its format.
+Json ReadFolderResult(const fs::path& dir, const std::string& kind) {
+  const bool compare = kind == "compare";
+  const fs::path path = dir / (compare ? "compare.json" : "result.json");
+  Json parsed = ParseJsonFile(path);
+  if (compare) {
+    CheckFormat(parsed, path, kCompareResultFormatName, kCompareResultFormatVersion);
+  } else {
+    CheckFormat(parsed, path, kFlightResultFormatName, kFlightResultFormatVersion);
+  }
+  return parsed;
+}
+
+// `result`: the folder's result.json (ReadFolderResult).
+void FillRunPage(const fs::path& dir, const Json& result, Page* page) {
   const fs::path result_path = dir / "result.json";
-  const Json result = ParseJsonFile(result_path);
-  CheckFormat(result, result_path, kFlightResultFormatName, kFlightResultFormatVersion);
   const Json& rois = Required(result, "rois", result_path, "array");
   const Json& frames = Member(result, "frames");
 
@@ -349,10 +363,9 @@ std::string TimingLine(const fs::path& timings_path, std::vector<std::string>* n
 
 // ---------------------------------------------------------------- compare folders
 
-void FillComparePage(const fs::path& dir, Page* page) {
+// `compare`: the folder's compare.json (ReadFolderResult).
+void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
   const fs::path compare_path = dir / "compare.json";
-  const Json compare = ParseJsonFile(compare_path);
-  CheckFormat(compare, compare_path, kCompareResultFormatName, kCompareResultFormatVersion);
   const Json& methods = Required(compare, "methods", compare_path, "array");
   const Json& rois = Required(compare, "rois", compare_path, "array");
   const Json& frames = Member(compare, "frames");
@@ -864,19 +877,23 @@ ReportResult WriteReport(const std::string& run_dir, const ReportOptions& option
                      ": neither a run folder (result.json, from hdabench run) nor a compare "
                      "folder (compare.json, from hdabench compare)");
   }
+  // A folder whose result is not of its format is refused before anything
+  // starts.
+  const Json folder_result = ReadFolderResult(dir, page.kind);
   // The plots are drawn by a Python process while the rest of the page is
   // read here: about half of the report's time, on the other core. What the
   // page holds does not depend on which finishes first. (When reading the
   // folder throws, the future's destructor waits for the plots, then the
-  // error goes on.)
-  std::future<Plots> plots = std::async(std::launch::async, DrawPlots, dir, page.kind, options);
+  // error goes on. Without a thread to spare, they are drawn when asked for.)
+  std::future<Plots> plots =
+      util::StartBeside("report plots", [dir, kind = page.kind, options] { return DrawPlots(dir, kind, options); });
   if (page.kind == "compare") {
-    FillComparePage(dir, &page);
+    FillComparePage(dir, folder_result, &page);
     const std::string timing = TimingLine(dir / "flight" / "timings.json", &page.notes);
     if (!timing.empty()) page.summary_lines.push_back(timing);
     AddRunFigures(dir / "flight" / "figures", &page);
   } else {
-    FillRunPage(dir, &page);
+    FillRunPage(dir, folder_result, &page);
     const std::string timing = TimingLine(dir / "timings.json", &page.notes);
     if (!timing.empty()) page.summary_lines.push_back(timing);
     AddRunFigures(dir / "figures", &page);

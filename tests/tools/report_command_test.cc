@@ -55,10 +55,10 @@ const fs::path& Dataset() {
   return dir;
 }
 
-CommandResult Hdabench(const std::vector<std::string>& args) {
+CommandResult Hdabench(const std::vector<std::string>& args, const std::vector<std::string>& env = {}) {
   const fs::path scratch = fs::path(HDABENCH_TEST_TMP) / (CurrentTestName() + ".cli");
   fs::create_directories(scratch);
-  return hdabench::testing_support::RunHdabench(args, scratch);
+  return hdabench::testing_support::RunHdabench(args, scratch, env);
 }
 
 std::string Chromium() { return hdabench::util::FindExecutable("chromium"); }
@@ -360,6 +360,14 @@ TEST(ReportCommand, TheSameFolderGivesTheSameBytes) {
   const CommandResult again = Hdabench({"report", out.string(), "--dataset", Dataset().string()});
   ASSERT_EQ(again.exit_code, 0) << again.out << again.err;
   EXPECT_TRUE(ReadText(out / "report.html") == html) << "report.html differs";
+  EXPECT_EQ(ReadText(out / "report.md"), md);
+  // And when no thread can be had for the plots (HDABENCH_FAULT_NO_THREAD
+  // stands for a process at its thread limit), they are drawn after the rest
+  // of the page: the same bytes.
+  const CommandResult threadless = Hdabench({"report", out.string(), "--dataset", Dataset().string()},
+                                            {"HDABENCH_FAULT_NO_THREAD=report plots"});
+  ASSERT_EQ(threadless.exit_code, 0) << threadless.out << threadless.err;
+  EXPECT_TRUE(ReadText(out / "report.html") == html) << "report.html differs without a thread for the plots";
   EXPECT_EQ(ReadText(out / "report.md"), md);
   // No temporary file is left beside them.
   for (const auto& entry : fs::directory_iterator(out)) {

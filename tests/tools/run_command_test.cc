@@ -276,6 +276,30 @@ TEST(RunCommand, AWorkerThatThrowsWhileDrawingTheFiguresIsAnErrorNotACrash) {
   EXPECT_FALSE(fs::exists(dir / "out" / "report.html"));
 }
 
+// When no thread can be had for the figures (HDABENCH_FAULT_NO_THREAD stands
+// for a process at its thread limit), the caller draws them all: the same
+// files as on every core.
+TEST(RunCommand, WithoutThreadsForTheFiguresTheFilesAreTheSame) {
+  const fs::path dir = FreshTestDir();
+  const auto run = [&](const fs::path& out, const std::vector<std::string>& env) {
+    return hdabench::testing_support::RunHdabench({"run", SmallSyntheticDataset().string(), "--out", out.string(),
+                                                   "--quiet", "--no-report", "--budget-s", "10000"},
+                                                  dir, env);
+  };
+  const CommandResult threaded = run(dir / "threaded", {});
+  ASSERT_EQ(threaded.exit_code, 0) << threaded.err;
+  const CommandResult threadless = run(dir / "threadless", {"HDABENCH_FAULT_NO_THREAD=flight figures"});
+  ASSERT_EQ(threadless.exit_code, 0) << threadless.err;
+  int figures = 0;
+  for (const fs::directory_entry& entry : fs::recursive_directory_iterator(dir / "threaded")) {
+    if (!entry.is_regular_file() || entry.path().filename() == "timings.json") continue;
+    const fs::path twin = dir / "threadless" / fs::relative(entry.path(), dir / "threaded");
+    EXPECT_TRUE(ReadText(entry.path()) == ReadText(twin)) << twin;
+    if (entry.path().extension() == ".png") ++figures;
+  }
+  EXPECT_GT(figures, 2);
+}
+
 // An output folder that is the dataset or lies inside it (however it is
 // spelled) is refused before anything is written, by run and compare alike
 // (both prepare their folders in LoadDatasetPair): the dataset's files stay

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
+#include <future>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -107,6 +108,33 @@ TEST(ParallelFor, TheFaultPointThrowsInANamedLoopOnly) {
               "a fault injected into a worker of faulty loop (HDABENCH_FAULT_IN_WORKER)");
   }
   unsetenv("HDABENCH_FAULT_IN_WORKER");
+}
+
+// Without a thread to be had (HDABENCH_FAULT_NO_THREAD stands for a process
+// at its thread limit), the loop's caller does every item, and a task started
+// beside runs on the thread that asks for its result, when it asks; other
+// names start their threads.
+TEST(ParallelFor, WithoutThreadsTheCallerDoesTheWork) {
+  ASSERT_EQ(setenv("HDABENCH_FAULT_NO_THREAD", "threadless", 1), 0);
+  const std::thread::id caller = std::this_thread::get_id();
+  std::vector<std::thread::id> ran_on(40);
+  ParallelFor("threadless", 40, 4, [&](int i) { ran_on[static_cast<size_t>(i)] = std::this_thread::get_id(); });
+  for (const std::thread::id& id : ran_on) EXPECT_EQ(id, caller);
+
+  std::atomic<bool> started{false};
+  std::future<std::thread::id> beside = StartBeside("threadless", [&started] {
+    started = true;
+    return std::this_thread::get_id();
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_FALSE(started);  // not before it is asked for
+  EXPECT_EQ(beside.get(), caller);
+
+  std::future<std::thread::id> threaded = StartBeside("another task", [] { return std::this_thread::get_id(); });
+  EXPECT_NE(threaded.get(), caller);
+  std::future<int> failing = StartBeside("threadless", []() -> int { throw std::runtime_error("task failed"); });
+  EXPECT_THROW(failing.get(), std::runtime_error);
+  unsetenv("HDABENCH_FAULT_NO_THREAD");
 }
 
 }  // namespace

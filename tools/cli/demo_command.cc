@@ -58,7 +58,8 @@ Command AddDemoCommand(CLI::App& app) {
   demo->add_option("--seed", options->seed, "Random seed")->capture_default_str();
   demo->add_option("--image-size", options->image_size_px,
                    "Square imager side in pixels (default 1024)");
-  demo->add_option("--threads", options->threads, "Worker threads (0: every core this process may use)")
+  demo->add_option("--threads", options->threads,
+                   "Worker threads of the scene's generation (0: every core this process may use)")
       ->capture_default_str();
   return {demo, [options] { return RunDemo(*options, std::cout, std::cerr); }};
 }

@@ -27,6 +27,11 @@ bool FaultInjected(const std::string& name) {
 
 }  // namespace
 
+bool NoThreadInjected(const std::string& name) {
+  const char* value = std::getenv("HDABENCH_FAULT_NO_THREAD");
+  return value != nullptr && name == value;
+}
+
 int AvailableCores() {
   cpu_set_t set;
   CPU_ZERO(&set);
@@ -72,7 +77,7 @@ void ParallelFor(const std::string& name, int count, int threads,
 
   std::vector<std::thread> pool;
   pool.reserve(static_cast<size_t>(workers - 1));
-  for (int t = 1; t < workers; ++t) {
+  for (int t = 1; t < workers && !NoThreadInjected(name); ++t) {
     try {
       pool.emplace_back(work, false);
     } catch (...) {

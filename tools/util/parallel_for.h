@@ -9,7 +9,10 @@
 #pragma once
 
 #include <functional>
+#include <future>
 #include <string>
+#include <system_error>
+#include <utility>
 
 namespace hdabench::util {
 
@@ -20,10 +23,32 @@ namespace hdabench::util {
 // ("render rows"); it names the loop for HDABENCH_FAULT_IN_WORKER, a fault
 // point for the bench's own tests: when that variable equals `name`, the
 // loop's first item on a thread other than the caller (on the caller when
-// there is no other) throws std::runtime_error instead of running.
+// there is no other) throws std::runtime_error instead of running. When no
+// more threads can be had (a process or container at its thread limit), the
+// threads that started, or the caller alone, do every item.
+// HDABENCH_FAULT_NO_THREAD equal to `name` makes the loop start none.
 void ParallelFor(const std::string& name, int count, int threads,
                  const std::function<void(int index)>& body,
                  const std::function<void(int items_done)>& done = {});
+
+// Runs task() on a thread of its own, and returns its future. When no thread
+// can be had, task() runs on the thread that asks the future for its result,
+// when it asks (std::launch::deferred): the work is done either way, and a
+// task's exception reaches that thread. `name` says what the task is ("report
+// plots"); HDABENCH_FAULT_NO_THREAD equal to it makes it take the no-thread
+// path, a fault point for the bench's own tests.
+bool NoThreadInjected(const std::string& name);
+template <typename Task>
+auto StartBeside(const std::string& name, Task task) -> std::future<decltype(task())> {
+  if (!NoThreadInjected(name)) {
+    try {
+      return std::async(std::launch::async, task);
+    } catch (const std::system_error&) {
+      // no thread to be had: run when asked
+    }
+  }
+  return std::async(std::launch::deferred, std::move(task));
+}
 
 // The cores this process may run on (its CPU affinity: what taskset, a
 // batch scheduler's allocation or a container's cpuset leaves it), at least

@@ -22,7 +22,7 @@ build_dir=${HDABENCH_BUILD_DIR:-$root/build}
 jobs=${HDABENCH_JOBS:-$(nproc)}
 
 say() { printf '== %s\n' "$*"; }
-die() { printf 'tools/bench.sh: error: %s\n' "$*" >&2; exit "${2:-1}"; }
+die() { printf 'tools/bench.sh: error: %s\n' "$1" >&2; exit "${2:-1}"; }
 
 install_packages() {
   local wanted=() missing=() pkg status
@@ -111,7 +111,8 @@ case $command in
     # Every parser of outside input under libFuzzer for 30 s (docs/fuzzing.md).
     if [[ ${HDABENCH_SKIP_FUZZ:-0} != 1 ]]; then
       say "Fuzzing (tools/fuzz.sh --seconds 30)"
-      HDABENCH_FUZZ_BUILD_DIR=${build_dir}-fuzz "$root/tools/fuzz.sh" --seconds 30 || die "a fuzz harness failed (tools/fuzz.sh names it and why)"
+      HDABENCH_FUZZ_BUILD_DIR=${build_dir}-fuzz "$root/tools/fuzz.sh" --seconds 30 ||
+        die "tools/fuzz.sh failed with exit $? (1: a harness failed or the harnesses did not build, 3: no clang or libFuzzer; its message above says which)"
     fi
     run_gate
     ;;

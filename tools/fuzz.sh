@@ -54,14 +54,16 @@ fi
 printf '== Building the harnesses in %s\n' "$build_dir"
 cmake --build "$build_dir" -j "$jobs" --target hdabench_fuzzers || die "building the harnesses failed" 1
 
-# seeds NAME DIR: the seed corpus of a harness (rebuilt every run).
+# seeds NAME DIR SCRATCH: the seed corpus of a harness (rebuilt every run).
+# The harness writes the valid files it is built around, with SCRATCH as its
+# TMPDIR; its output goes to fuzz-logs/NAME-seeds.log. Returns the harness's
+# exit status.
 seeds() {
-  local name=$1 dir=$2 file
+  local name=$1 dir=$2 scratch=$3 file status=0
   rm -rf "$dir"
   mkdir -p "$dir"
-  # The valid files the harness is built around.
-  HDABENCH_FUZZ_SEEDS=$dir TMPDIR=$build_dir/fuzz-tmp/$name "$build_dir/tests/fuzz/${name}_fuzzer" -runs=0 "$dir" \
-    >/dev/null 2>&1 || true
+  HDABENCH_FUZZ_SEEDS=$dir TMPDIR=$scratch "$build_dir/tests/fuzz/${name}_fuzzer" -runs=0 "$dir" \
+    >"$build_dir/fuzz-logs/$name-seeds.log" 2>&1 || status=$?
   case $name in
     npy) git -C "$root" ls-files '*.npy' '*.npz' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
     cameramodel) git -C "$root" ls-files '*.cameramodel' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
@@ -71,6 +73,7 @@ seeds() {
       for file in "$root"/gate/thresholds*.json; do { printf '\001'; cat "$file"; } >"$dir/$(basename "$file")"; done
       ;;
   esac
+  return "$status"
 }
 
 # fuzz_one NAME: one harness from its corpus and seeds; its result row goes to
@@ -78,13 +81,26 @@ seeds() {
 fuzz_one() {
   local name=$1 corpus=$build_dir/fuzz-corpus/$1 seed_dir=$build_dir/fuzz-seeds/$1
   local log=$build_dir/fuzz-logs/$1.log start end execs files status=0 verdict="no crash"
-  # The harness's scratch files go to a folder of its own (TMPDIR), which a
-  # run that ends without a crash must leave empty.
-  local scratch=$build_dir/fuzz-tmp/$1 left
-  rm -rf "$scratch"
-  mkdir -p "$corpus" "$scratch"
+  # The harness's scratch files go to a folder of its own (TMPDIR), one for
+  # the seed run and one for the fuzz run, which a run that ends without a
+  # crash must leave empty.
+  local scratch=$build_dir/fuzz-tmp/$1 seed_scratch=$build_dir/fuzz-tmp/$1-seeds left seed_status=0
+  rm -rf "$scratch" "$seed_scratch"
+  mkdir -p "$corpus" "$scratch" "$seed_scratch"
   rm -f "$build_dir/fuzz-logs/$name.row" "$build_dir/fuzz-logs/$name.crashed"
-  seeds "$name" "$seed_dir"
+  seeds "$name" "$seed_dir" "$seed_scratch" || seed_status=$?
+  if ((seed_status != 0)); then
+    printf '%-14s %12s %8s %8s  %s\n' "$name" - - - \
+      "SEED RUN FAILED (exit $seed_status): see $build_dir/fuzz-logs/$name-seeds.log" >"$build_dir/fuzz-logs/$name.row"
+    touch "$build_dir/fuzz-logs/$name.crashed"
+    return
+  fi
+  if [[ -n $(find "$seed_scratch" -mindepth 1 -maxdepth 1) ]]; then
+    printf '%-14s %12s %8s %8s  %s\n' "$name" - - - "SEED RUN LEFT scratch entries in $seed_scratch" \
+      >"$build_dir/fuzz-logs/$name.row"
+    touch "$build_dir/fuzz-logs/$name.crashed"
+    return
+  fi
   start=$(date +%s)
   # Leak checking on; a timeout of 10 s per input; inputs up to 64 KB.
   TMPDIR=$scratch "$build_dir/tests/fuzz/${name}_fuzzer" "${limit[@]}" -timeout=10 -max_len=65536 \

@@ -871,29 +871,54 @@ bool ReadTruthValues(const LoadOptions& options) {
   return options.check_truth_values || options.keep_truth;
 }
 
-// Reads the header of the .npy file `file` (its shape, checked against the
-// file's size; the values are left to the caller). `note` says in a read error
-// what the file is.
-bool ReadNpyHeader(LoadContext* context, const std::string& file, const std::string& note, NpyFloat32* array) {
-  std::string bytes;
+// Opens the .npy file `file` into `opened` and reads its header (the shape,
+// checked against the file's size: the data fills the file after the header,
+// so it is the file's last NumValues() * 4 bytes). The values are left to the
+// caller, to read through `opened` (ReadNpyValues). `note` says in a read
+// error what the file is.
+bool ReadNpyHeader(LoadContext* context, const std::string& file, const std::string& note,
+                   util::OpenedFile* opened, NpyFloat32* array) {
   std::string error;
-  // A header alone: the start of the file and its size, unless the header
-  // does not fit (then the whole file).
+  if (!opened->Open(context->root / file, &error)) {
+    context->problems.Add(file, error + " (" + note + ")");
+    return false;
+  }
+  // The start of the file, unless the header does not fit in it (then the
+  // whole file).
   constexpr std::uint64_t kHeaderPrefixBytes = 1 << 16;
-  std::uint64_t file_size = 0;
-  if (util::ReadFilePrefix(context->root / file, kHeaderPrefixBytes, &bytes, &file_size, &error) &&
-      (ParseNpyFloat32FileHeader(bytes, file_size, array, &error) || bytes.size() == file_size)) {
+  const std::uint64_t size = opened->Size();
+  std::string bytes(static_cast<size_t>(std::min(size, kHeaderPrefixBytes)), '\0');
+  if (!opened->ReadAt(0, bytes.size(), bytes.data(), &error)) {
+    context->problems.Add(file, error + " (" + note + ")");
+    return false;
+  }
+  if (ParseNpyFloat32FileHeader(bytes, size, array, &error) || bytes.size() == size) {
     if (error.empty()) return true;
     context->problems.Add(file, error);
     return false;
   }
   error.clear();
-  if (!util::ReadFileBytes(context->root / file, &bytes, &error)) {
+  bytes.assign(static_cast<size_t>(size), '\0');
+  if (!opened->ReadAt(0, size, bytes.data(), &error)) {
     context->problems.Add(file, error + " (" + note + ")");
     return false;
   }
   if (!ParseNpyFloat32Header(bytes, array, &error)) {
     context->problems.Add(file, error);
+    return false;
+  }
+  return true;
+}
+
+// Reads the values of the .npy file opened by ReadNpyHeader into `values`,
+// a matrix of exactly its NumValues() floats, with no copy between.
+bool ReadNpyValues(LoadContext* context, const std::string& file, const std::string& note,
+                   const util::OpenedFile& opened, cv::Mat* values) {
+  const std::uint64_t bytes = values->total() * values->elemSize();
+  const std::uint64_t offset = opened.Size() >= bytes ? opened.Size() - bytes : 0;
+  std::string error;
+  if (!opened.ReadAt(offset, bytes, values->ptr<char>(), &error)) {
+    context->problems.Add(file, error + " (" + note + ")");
     return false;
   }
   return true;
@@ -994,8 +1019,9 @@ class TruthPointsReader {
     const std::string note = "truth points of frame " + std::to_string(truth->frame);
     // The header first; the values (12 MB at 1024 x 1024) then go straight
     // from the file into the matrix that keeps them, with no copy between.
+    util::OpenedFile opened;
     NpyFloat32 array;
-    if (!ReadNpyHeader(context_, file, note, &array)) return false;
+    if (!ReadNpyHeader(context_, file, note, &opened, &array)) return false;
     const std::optional<calib::CameraModel>& camera = context_->camera;
     if (!camera.has_value()) return false;  // the camera's problem is already reported
     const std::vector<std::int64_t> expected = {camera->HeightPx(), camera->WidthPx(), 3};
@@ -1007,11 +1033,7 @@ class TruthPointsReader {
     }
     if (!read_values) return true;
     cv::Mat points(camera->HeightPx(), camera->WidthPx(), CV_32FC3);
-    std::string error;
-    if (!util::ReadFileTail(context_->root / file, points.total() * points.elemSize(), points.ptr<char>(), &error)) {
-      context_->problems.Add(file, error + " (" + note + ")");
-      return false;
-    }
+    if (!ReadNpyValues(context_, file, note, opened, &points)) return false;
     if (!CheckPointValues(file, points.ptr<float>(), points.total())) return false;
     if (context_->options.keep_truth) truth->points_in_local_m = points;
     return true;
@@ -1125,8 +1147,9 @@ class TruthDemReader {
     // The header first; the heights (50 MB for the default scene's DEM) then
     // go straight from the file into the matrix that keeps them, with no copy
     // between.
+    util::OpenedFile opened;
     NpyFloat32 array;
-    if (!ReadNpyHeader(context_, dem->file, note, &array)) return false;
+    if (!ReadNpyHeader(context_, dem->file, note, &opened, &array)) return false;
     if (array.shape.size() != 2 || array.shape[0] < 1 || array.shape[1] < 1 ||
         array.shape[0] > std::numeric_limits<int>::max() ||
         array.shape[1] > std::numeric_limits<int>::max()) {
@@ -1138,12 +1161,7 @@ class TruthDemReader {
     dem->width_cells = static_cast<int>(array.shape[1]);
     if (!read_values) return true;
     cv::Mat heights(dem->height_cells, dem->width_cells, CV_32FC1);
-    std::string error;
-    if (!util::ReadFileTail(context_->root / dem->file, heights.total() * heights.elemSize(), heights.ptr<char>(),
-                            &error)) {
-      problems_->Add(dem->file, error + " (" + note + ")");
-      return false;
-    }
+    if (!ReadNpyValues(context_, dem->file, note, opened, &heights)) return false;
     if (!CheckHeightValues(*dem, heights.ptr<float>(), heights.total())) return false;
     if (context_->options.keep_truth) dem->height_in_local_m = heights;
     return true;

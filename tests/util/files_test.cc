@@ -55,26 +55,41 @@ TEST(ReadFilePrefix, ReadsTheStartAndTheSizeAndReadFileBytesTheWhole) {
   EXPECT_EQ(error, "is a directory; expected a file");
 }
 
-TEST(ReadFileTail, ReadsTheLastBytesIntoTheBufferAndNamesAShortFile) {
+// Reads at offsets of the file as it was opened: a file renamed over the
+// path afterwards (a dataset regenerated while it is read) is not mixed in.
+TEST(OpenedFile, ReadsAtOffsetsOfTheFileItOpenedAndNamesAShortOne) {
   const TempFolder folder("files-test");
   const fs::path file = folder.path() / "data.bin";
   const std::string text = WriteTestBytes(file);
 
+  OpenedFile opened;
   std::string error;
+  ASSERT_TRUE(opened.Open(file, &error)) << error;
+  EXPECT_EQ(opened.Size(), text.size());
   std::vector<char> tail(1000, '\0');
-  ASSERT_TRUE(ReadFileTail(file, tail.size(), tail.data(), &error)) << error;
+  ASSERT_TRUE(opened.ReadAt(text.size() - 1000, tail.size(), tail.data(), &error)) << error;
   EXPECT_EQ(std::string(tail.begin(), tail.end()), text.substr(text.size() - 1000));
   std::vector<char> whole(text.size(), '\0');
-  ASSERT_TRUE(ReadFileTail(file, whole.size(), whole.data(), &error)) << error;
+  ASSERT_TRUE(opened.ReadAt(0, whole.size(), whole.data(), &error)) << error;
   EXPECT_EQ(std::string(whole.begin(), whole.end()), text);
-  EXPECT_TRUE(ReadFileTail(file, 0, nullptr, &error)) << error;
+  EXPECT_TRUE(opened.ReadAt(text.size(), 0, nullptr, &error)) << error;
 
-  std::vector<char> more(text.size() + 1, '\0');
-  EXPECT_FALSE(ReadFileTail(file, more.size(), more.data(), &error));
+  EXPECT_FALSE(opened.ReadAt(1, text.size(), whole.data(), &error));
   EXPECT_EQ(error, "holds 100000 bytes; expected at least 100001");
-  EXPECT_FALSE(ReadFileTail(folder.path() / "missing.bin", 1, tail.data(), &error));
+  EXPECT_FALSE(opened.ReadAt(text.size() + 1, 0, whole.data(), &error));
+  EXPECT_EQ(error, "holds 100000 bytes; expected at least 100001");
+
+  WriteFileAtomically(file, "replaced");
+  ASSERT_TRUE(opened.ReadAt(0, whole.size(), whole.data(), &error)) << error;
+  EXPECT_EQ(std::string(whole.begin(), whole.end()), text);
+  ASSERT_TRUE(opened.Open(file, &error)) << error;
+  EXPECT_EQ(opened.Size(), 8u);
+
+  EXPECT_FALSE(opened.Open(folder.path() / "missing.bin", &error));
   EXPECT_EQ(error, "file not found");
-  EXPECT_FALSE(ReadFileTail(folder.path(), 1, tail.data(), &error));
+  EXPECT_FALSE(opened.ReadAt(0, 1, tail.data(), &error));
+  EXPECT_EQ(error, "cannot be read (not open)");
+  EXPECT_FALSE(opened.Open(folder.path(), &error));
   EXPECT_EQ(error, "is a directory; expected a file");
 }
 

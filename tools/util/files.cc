@@ -1,6 +1,7 @@
 #include "tools/util/files.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <stdlib.h>  // mkdtemp
 #include <unistd.h>
 
@@ -93,28 +94,48 @@ bool ReadFilePrefix(const fs::path& path, std::uint64_t max_bytes, std::string* 
   return true;
 }
 
-bool ReadFileTail(const fs::path& path, std::uint64_t size, char* dest, std::string* error) {
+OpenedFile::~OpenedFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+bool OpenedFile::Open(const fs::path& path, std::string* error) {
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  size_ = 0;
   if (!IsReadableFile(path, error)) return false;
-  const ReadDescriptor file(::open(path.c_str(), O_RDONLY | O_CLOEXEC));
-  if (file.get() < 0) {
+  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd_ < 0) {
     *error = std::string("cannot be opened (") + std::strerror(errno) + ")";
     return false;
   }
-  const off_t end = ::lseek(file.get(), 0, SEEK_END);
-  if (end < 0 || static_cast<std::uint64_t>(end) < size) {
-    *error = end < 0 ? std::string("cannot be read (") + std::strerror(errno) + ")"
-                     : "holds " + std::to_string(end) + " bytes; expected at least " + std::to_string(size);
+  struct stat status {};
+  if (::fstat(fd_, &status) != 0) {
+    *error = std::string("cannot be read (") + std::strerror(errno) + ")";
+    ::close(fd_);
+    fd_ = -1;
+    return false;
+  }
+  size_ = static_cast<std::uint64_t>(status.st_size);
+  return true;
+}
+
+bool OpenedFile::ReadAt(std::uint64_t offset, std::uint64_t size, char* dest, std::string* error) const {
+  if (fd_ < 0) {
+    *error = "cannot be read (not open)";
+    return false;
+  }
+  if (offset > size_ || size > size_ - offset) {
+    *error = "holds " + std::to_string(size_) + " bytes; expected at least " + std::to_string(offset + size);
     return false;
   }
   std::uint64_t done = 0;
   while (done < size) {
     const size_t chunk = static_cast<size_t>(std::min<std::uint64_t>(size - done, std::uint64_t{1} << 30));
-    const ssize_t got = ::pread(file.get(), dest + done, chunk, static_cast<off_t>(static_cast<std::uint64_t>(end) - size + done));
+    const ssize_t got = ::pread(fd_, dest + done, chunk, static_cast<off_t>(offset + done));
     if (got < 0 && errno == EINTR) continue;
     if (got <= 0) {
       *error = got < 0 ? std::string("cannot be read (") + std::strerror(errno) + ")"
-                       : "ended after " + std::to_string(static_cast<std::uint64_t>(end) - size + done) +
-                             " bytes while being read";
+                       : "ended after " + std::to_string(offset + done) + " bytes while being read";
       return false;
     }
     done += static_cast<std::uint64_t>(got);

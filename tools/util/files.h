@@ -18,11 +18,32 @@ bool ReadFileBytes(const std::filesystem::path& path, std::string* bytes, std::s
 bool ReadFilePrefix(const std::filesystem::path& path, std::uint64_t max_bytes, std::string* bytes,
                     std::uint64_t* file_size, std::string* error);
 
-// Reads the last `size` bytes of a regular file into `dest`, with no copy in
-// between (a large array whose header was read with ReadFilePrefix goes
-// straight into its own buffer). Failures as ReadFileBytes, and "holds N
-// bytes; expected at least M" when the file is shorter.
-bool ReadFileTail(const std::filesystem::path& path, std::uint64_t size, char* dest, std::string* error);
+// A file opened for reading, and read at offsets through that one
+// descriptor: a header and the data it describes come from the same file
+// even when the path is replaced meanwhile (a dataset regenerated while it
+// is read), and a large array goes straight into its own buffer. Closed when
+// it goes out of scope.
+class OpenedFile {
+ public:
+  OpenedFile() = default;
+  ~OpenedFile();
+  OpenedFile(const OpenedFile&) = delete;
+  OpenedFile& operator=(const OpenedFile&) = delete;
+
+  // Opens `path` (closing what was open). False with `error` as ReadFileBytes
+  // sets it when it is missing, a folder, or cannot be opened.
+  bool Open(const std::filesystem::path& path, std::string* error);
+  // The file's size when it was opened.
+  std::uint64_t Size() const { return size_; }
+  // Reads `size` bytes at `offset` into `dest`. False with "holds N bytes;
+  // expected at least M" when the file is shorter, or "cannot be read
+  // (...)" when a read fails.
+  bool ReadAt(std::uint64_t offset, std::uint64_t size, char* dest, std::string* error) const;
+
+ private:
+  int fd_ = -1;
+  std::uint64_t size_ = 0;
+};
 
 // Writes `bytes` to a temporary name next to `path` (TemporaryPathFor),
 // flushes it to the disk (fsync), renames it into place and flushes the

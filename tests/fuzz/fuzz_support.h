@@ -77,17 +77,20 @@ class DamagedFolder {
   std::map<std::string, std::string> valid_;
 };
 
-// The harness's DamagedFolder, made once in LLVMFuzzerInitialize and removed
+// The harness's DamagedFolder, made in LLVMFuzzerInitialize and removed
 // when the process exits normally: libFuzzer ends a run of -runs or
 // -max_total_time with exit(), which runs the handler registered here. After a
 // crash the folder stays (the input that caused it is kept in the artifact).
+// A second call replaces the first folder.
 inline DamagedFolder* NewDamagedFolder(const std::string& purpose, const std::vector<std::string>& damageable) {
   static DamagedFolder* made = nullptr;
+  static const bool removed_at_exit = std::atexit([] {
+                                        delete made;
+                                        made = nullptr;
+                                      }) == 0;
+  (void)removed_at_exit;
+  delete made;
   made = new DamagedFolder(purpose, damageable);
-  std::atexit([] {
-    delete made;
-    made = nullptr;
-  });
   return made;
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -33,9 +34,20 @@ bool NoThreadInjected(const std::string& name) {
 }
 
 int AvailableCores() {
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (::sched_getaffinity(0, sizeof(set), &set) == 0) return std::max(1, CPU_COUNT(&set));
+  // A set as large as the kernel's CPU mask: sched_getaffinity refuses a
+  // smaller one (EINVAL), as cpu_set_t's 1024 CPUs are on larger hosts.
+  for (int cpus = CPU_SETSIZE; cpus <= (1 << 20); cpus *= 2) {
+    cpu_set_t* set = CPU_ALLOC(cpus);
+    if (set == nullptr) break;
+    const size_t size = CPU_ALLOC_SIZE(cpus);
+    CPU_ZERO_S(size, set);
+    const bool read = ::sched_getaffinity(0, size, set) == 0;
+    const bool too_small = !read && errno == EINVAL;
+    const int count = read ? CPU_COUNT_S(size, set) : 0;
+    CPU_FREE(set);
+    if (read) return std::max(1, count);
+    if (!too_small) break;
+  }
   return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 

@@ -405,7 +405,7 @@ void Report(const SynthProgress& progress, const std::string& stage, double frac
 Dataset EmptyDataset(const calib::CameraModel& camera, const SynthOptions& options, std::uint64_t seed) {
   Dataset dataset(camera);
   dataset.name = options.preset + "-" + options.terrain + "-seed" + std::to_string(seed);
-  dataset.description = "hdabench synthetic scene: preset " + options.preset + ", terrain " +
+  dataset.description = std::string(kSyntheticSceneDescription) + " preset " + options.preset + ", terrain " +
                         options.terrain + ", seed " + std::to_string(seed) + ".";
   dataset.cam_from_body = CamFromBody(DegToRad(options.off_nadir_deg));
   dataset.gravity_in_local_mps2 = Eigen::Vector3d(0.0, 0.0, -1.62);

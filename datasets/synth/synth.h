@@ -15,6 +15,11 @@
 
 namespace hdabench::datasets::synth {
 
+// How the description of every dataset synth makes begins ("hdabench
+// synthetic scene: preset ..."): what tells a scene the bench can make again
+// (demo replaces only such a dataset).
+inline constexpr char kSyntheticSceneDescription[] = "hdabench synthetic scene:";
+
 enum class Motion {
   kLateral,    // constant altitude and attitude, moving sideways (across the line of sight)
   kBoresight,  // along the optical axis toward the ILS (glide slope): poorly observable

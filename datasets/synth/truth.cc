@@ -35,8 +35,9 @@ RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi)
     throw InputError("frame " + std::to_string(frame) + " has no truth points in the dataset");
   }
   const cv::Mat& raster = truth->points_in_local_m;
-  if (roi.width <= 0 || roi.height <= 0 || roi.x < 0 || roi.y < 0 || roi.x + roi.width > raster.cols ||
-      roi.y + roi.height > raster.rows) {
+  // Compared without a sum that could overflow (x, width near INT_MAX).
+  if (roi.width <= 0 || roi.height <= 0 || roi.x < 0 || roi.y < 0 || roi.x > raster.cols - roi.width ||
+      roi.y > raster.rows - roi.height) {
     throw InputError("ROI x=" + std::to_string(roi.x) + " y=" + std::to_string(roi.y) + " w=" +
                      std::to_string(roi.width) + " h=" + std::to_string(roi.height) +
                      " is empty or leaves the " + std::to_string(raster.cols) + " x " +

@@ -101,6 +101,29 @@ TEST(Cli, DemoCreatesTheDefaultDatasetDeterministicallyAndComparesOnIt) {
   EXPECT_GT(files, 3u);
 }
 
+// The demo replaces its dataset/ only when synth made it: a folder of the
+// user's own there (a dataset of theirs, or anything else) is refused, exit 3,
+// and left as it was.
+TEST(Cli, DemoLeavesADatasetFolderItDidNotMakeAlone) {
+  const fs::path dir = FreshTestDir();
+  for (const std::string kind : {"files", "dataset"}) {
+    const fs::path out = dir / kind;
+    if (kind == "dataset") {
+      ASSERT_EQ(RunHdabench({"dataset", "create", (out / "dataset").string()}).exit_code, 0);
+    } else {
+      fs::create_directories(out / "dataset");
+    }
+    hdabench::testing_support::WriteText(out / "dataset" / "notes.txt", "mine");
+    const CommandResult result = RunHdabench({"demo", "--out", out.string(), "--image-size", "96"});
+    EXPECT_EQ(result.exit_code, 3) << result.err;
+    EXPECT_NE(result.err.find((out / "dataset").string() + " exists and is not a synthetic scene hdabench made"),
+              std::string::npos)
+        << result.err;
+    EXPECT_EQ(ReadText(out / "dataset" / "notes.txt"), "mine");
+    EXPECT_FALSE(fs::exists(out / "compare"));
+  }
+}
+
 // A worker that throws, in the terrain generator, the renderer or the gate,
 // gives the internal-error exit code and one line naming the fault, not a
 // crash (an exception escaping a std::thread aborts, exit 134), and no output

@@ -5,6 +5,10 @@
 #include <system_error>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "datasets/synth/synth.h"
+#include "tools/util/files.h"
 
 #include "tools/cli/command_line.h"
 #include "tools/cli/commands.h"
@@ -14,12 +18,35 @@ namespace hdabench::tools {
 
 namespace fs = std::filesystem;
 
+namespace {
+
+// True when `dir` holds a dataset hdabench synth made (its manifest's
+// description says so): one the demo may replace, as it can make it again.
+bool IsSyntheticScene(const fs::path& dir) {
+  std::string bytes, error;
+  if (!util::ReadFileBytes(dir / "manifest.json", &bytes, &error)) return false;
+  const nlohmann::json manifest = nlohmann::json::parse(bytes, nullptr, /*allow_exceptions=*/false);
+  if (!manifest.is_object() || !manifest.contains("description") || !manifest["description"].is_string()) {
+    return false;
+  }
+  return manifest["description"].get<std::string>().rfind(datasets::synth::kSyntheticSceneDescription, 0) == 0;
+}
+
+}  // namespace
+
 int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
   const fs::path dataset_dir = fs::path(options.out_dir) / "dataset";
-  // The demo folder is the bench's own: its dataset is replaced on every run.
-  // synth renames a complete folder into place, so a failed run leaves no
+  // The demo's dataset is replaced on every run, but only when it is one
+  // synth made: anything else there is the user's, and is left alone. synth
+  // renames a complete folder into place, so a failed run leaves no
   // half-written dataset behind.
   std::error_code ec;
+  if (fs::symlink_status(dataset_dir, ec).type() != fs::file_type::not_found && !IsSyntheticScene(dataset_dir)) {
+    err << "hdabench demo: " << dataset_dir.string()
+        << " exists and is not a synthetic scene hdabench made; the demo replaces only its own dataset "
+           "(choose another --out, or move it away)\n";
+    return kExitInput;
+  }
   fs::remove_all(dataset_dir, ec);
   if (ec) {
     err << "hdabench demo: cannot replace " << dataset_dir.string() << ": " << ec.message() << "\n";
@@ -53,7 +80,9 @@ Command AddDemoCommand(CLI::App& app) {
       "demo",
       "The main job on the built-in default: generate the default synthetic dataset and compare\n"
       "every method on it");
-  demo->add_option("--out", options->out_dir, "Output folder (replaced on each run)")
+  demo->add_option("--out", options->out_dir,
+                   "Output folder; its dataset/ and compare/ are replaced on each run (a dataset/ that "
+                   "synth did not make is refused)")
       ->capture_default_str();
   demo->add_option("--seed", options->seed, "Random seed")->capture_default_str();
   demo->add_option("--image-size", options->image_size_px,

@@ -1,6 +1,7 @@
 #include "datasets/synth/synth.h"
 
 #include <cmath>
+#include <limits>
 #include <filesystem>
 #include <string>
 
@@ -195,6 +196,11 @@ TEST(ComputeRoiTruth, TiltedPlaneGivesItsSlopeAndBadRoisAreRefused) {
   EXPECT_NEAR(truth.slope_deg, 20.0, 1e-4);
   EXPECT_THROW(ComputeRoiTruth(dataset, 0, PixelRoi{30, 30, 8, 8}), InputError);
   EXPECT_THROW(ComputeRoiTruth(dataset, 0, PixelRoi{0, 0, 0, 8}), InputError);
+  // Sides whose sum with the corner overflows an int are outside too.
+  EXPECT_THROW(ComputeRoiTruth(dataset, 0, PixelRoi{10, 10, std::numeric_limits<int>::max(), 8}), InputError);
+  EXPECT_THROW(ComputeRoiTruth(dataset, 0, PixelRoi{std::numeric_limits<int>::max() - 100,
+                                                    std::numeric_limits<int>::max() - 100, 2000, 2000}),
+               InputError);
   EXPECT_THROW(ComputeRoiTruth(dataset, 42, PixelRoi{0, 0, 8, 8}), InputError);
 }
 

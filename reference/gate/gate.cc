@@ -493,7 +493,19 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     {
       std::lock_guard<std::mutex> lock(g_load_mutex);
       datasets::DatasetLoadResult loaded = datasets::LoadDataset(dataset_dir, load);
-      if (!loaded.Ok()) throw InputError(loaded.Summary());
+      if (!loaded.Ok()) {
+        // The problems themselves, not only their count: the entry's FAILED
+        // line and gate.md are all its reader sees (the first five, and how
+        // many more `hdabench dataset check` lists).
+        std::string message = dataset_dir + ": " + loaded.Summary();
+        const size_t shown = std::min<size_t>(loaded.problems.size(), 5);
+        for (size_t i = 0; i < shown; ++i) message += (i == 0 ? ": " : "; ") + loaded.problems[i].ToString();
+        if (loaded.problems.size() > shown) {
+          message += "; and " + std::to_string(loaded.problems.size() - shown) + " more (hdabench dataset check " +
+                     dataset_dir + ")";
+        }
+        throw InputError(message);
+      }
       dataset = std::move(loaded.dataset);
     }
     const std::pair<int, int> pair = DefaultFramePair(*dataset);
@@ -1054,7 +1066,14 @@ std::vector<std::string> GateRunOptions::Validate() const {
 std::vector<GateEntryOutcome> RunGateSuite(const GateSuite& suite, const GateRunOptions& options,
                                            const GateProgress& progress) {
   ThrowIfInvalid("", options.Validate());
-  fs::create_directories(fs::path(options.out_dir) / "entries");
+  {
+    std::error_code ec;
+    fs::create_directories(fs::path(options.out_dir) / "entries", ec);
+    if (ec) {
+      throw InputError((fs::path(options.out_dir) / "entries").string() + ": cannot create the folder (" +
+                       ec.message() + ")");
+    }
+  }
   // Leftovers of an interrupted run are never trusted.
   for (const fs::path& folder : {fs::path(options.out_dir) / "entries", fs::path(options.out_dir) / "datasets"}) {
     std::error_code ec;

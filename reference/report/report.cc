@@ -860,7 +860,9 @@ std::vector<std::string> ReportOptions::Validate() const {
   return errors;
 }
 
-ReportResult WriteReport(const std::string& run_dir, const ReportOptions& options) {
+namespace {
+
+ReportResult WriteReportOrThrow(const std::string& run_dir, const ReportOptions& options) {
   ThrowIfInvalid("", options.Validate());
   std::error_code ec;
   const fs::path dir(run_dir);
@@ -921,6 +923,19 @@ ReportResult WriteReport(const std::string& run_dir, const ReportOptions& option
   util::WriteFileAtomically(result.html_path, BuildHtml(page));
   util::WriteFileAtomically(result.markdown_path, BuildMarkdown(page, result.num_figures));
   return result;
+}
+
+}  // namespace
+
+ReportResult WriteReport(const std::string& run_dir, const ReportOptions& options) {
+  try {
+    return WriteReportOrThrow(run_dir, options);
+  } catch (const fs::filesystem_error& e) {
+    // A folder or file of the run that cannot be looked at (a symbolic link
+    // loop, no permission): named, as every other problem of the folder.
+    const std::string where = e.path1().empty() ? run_dir : e.path1().string();
+    throw InputError(where + ": cannot be read (" + e.code().message() + ")");
+  }
 }
 
 }  // namespace hdabench::reference

@@ -819,6 +819,27 @@ TEST_F(GateCommand, BadFilesAndFlagsHaveTheirExitCodes) {
                         (dir / "o").string(), "--jobs", "0"},
                        dir);
   EXPECT_EQ(result.exit_code, 2);
+  // A baseline that could not be written is refused before any entry runs.
+  const fs::path loose = WriteThresholds(
+      dir, "loose.json", {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", 90}}});
+  testing_support::WriteText(dir / "afile", "");
+  result = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", loose.string(), "--out",
+                        (dir / "b").string(), "--write-baseline", (dir / "afile" / "b.json").string()},
+                       dir);
+  EXPECT_EQ(result.exit_code, 3) << result.err;
+  EXPECT_NE(result.err.find("--write-baseline " + (dir / "afile" / "b.json").string() + ": cannot create its folder"),
+            std::string::npos)
+      << result.err;
+  EXPECT_FALSE(fs::exists(dir / "b" / "entries"));
+  // An output folder whose entries/ cannot be made is named, exit 3.
+  fs::create_directories(dir / "e");
+  testing_support::WriteText(dir / "e" / "entries", "");
+  result = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", loose.string(), "--out",
+                        (dir / "e").string()},
+                       dir);
+  EXPECT_EQ(result.exit_code, 3) << result.err;
+  EXPECT_NE(result.err.find((dir / "e" / "entries").string() + ": cannot create the folder"), std::string::npos)
+      << result.err;
 }
 
 }  // namespace

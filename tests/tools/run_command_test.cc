@@ -276,6 +276,30 @@ TEST(RunCommand, AWorkerThatThrowsWhileDrawingTheFiguresIsAnErrorNotACrash) {
   EXPECT_FALSE(fs::exists(dir / "out" / "report.html"));
 }
 
+// A folder of the run that cannot be looked at (here figures/, a symbolic
+// link to itself) is the report's problem, named: run keeps its exit code
+// with a warning, and report exits 3.
+TEST(RunCommand, AReportThatCannotReadTheFolderIsAWarningAndReportExits3) {
+  const fs::path dir = FreshTestDir();
+  const fs::path out = dir / "out";
+  fs::create_directories(out);
+  fs::create_directory_symlink("figures", out / "figures");
+  const CommandResult run = hdabench::testing_support::RunHdabench(
+      {"run", SmallSyntheticDataset().string(), "--out", out.string(), "--quiet", "--no-figures", "--budget-s",
+       "10000"},
+      dir);
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_NE(run.err.find("hdabench run: warning: report: " + (out / "figures").string() + ": cannot be read ("),
+            std::string::npos)
+      << run.err;
+  EXPECT_TRUE(fs::is_regular_file(out / "result.json"));
+  const CommandResult report = hdabench::testing_support::RunHdabench({"report", out.string()}, dir);
+  EXPECT_EQ(report.exit_code, 3) << report.err;
+  EXPECT_NE(report.err.find("hdabench report: " + (out / "figures").string() + ": cannot be read ("),
+            std::string::npos)
+      << report.err;
+}
+
 // When no thread can be had for the figures (HDABENCH_FAULT_NO_THREAD stands
 // for a process at its thread limit), the caller draws them all: the same
 // files as on every core.

@@ -50,10 +50,11 @@ int WriteVerdict(const VerdictInputs& v, const std::vector<reference::GateEntryO
   }
   std::vector<reference::GateMetric> metrics;
   std::vector<reference::GateCheck> checks;
+  std::string metrics_json;
   try {
     metrics = reference::ComputeGateMetrics(dirs, v.processor_scale);
     checks = reference::CheckGate(metrics, v.thresholds, v.baseline ? &*v.baseline : nullptr);
-    const std::string metrics_json = reference::GateMetricsJson(metrics);
+    metrics_json = reference::GateMetricsJson(metrics);
     util::WriteFileAtomically(fs::path(v.out_dir) / "metrics.json", metrics_json);
     std::string markdown = "# Gate: " + v.suite_file + "\n\n" + std::to_string(dirs.size()) + " of " +
                            std::to_string(outcomes.size()) + " entries; thresholds " + v.thresholds_file +
@@ -63,14 +64,22 @@ int WriteVerdict(const VerdictInputs& v, const std::vector<reference::GateEntryO
     util::WriteFileAtomically(fs::path(v.out_dir) / "gate.md", markdown);
     util::WriteFileAtomically(fs::path(v.out_dir) / "gate.html",
                               reference::GateHtml(v.suite_file, checks, outcomes));
-    if (!v.write_baseline_file.empty()) {
-      util::WriteFileAtomically(v.write_baseline_file, metrics_json);
-      progress("wrote the baseline " + v.write_baseline_file);
-    }
     out << markdown;
   } catch (const InputError& e) {
     err << command << e.what() << "\n";
     return kExitInput;
+  }
+  // The baseline last: a baseline that cannot be written does not hide the
+  // table or the verdict above it.
+  bool baseline_written = true;
+  if (!v.write_baseline_file.empty()) {
+    try {
+      util::WriteFileAtomically(v.write_baseline_file, metrics_json);
+      progress("wrote the baseline " + v.write_baseline_file);
+    } catch (const InputError& e) {
+      err << command << "--write-baseline " << e.what() << "\n";
+      baseline_written = false;
+    }
   }
 
   int failures = static_cast<int>(failed_entries.size());
@@ -85,7 +94,7 @@ int WriteVerdict(const VerdictInputs& v, const std::vector<reference::GateEntryO
     return kExitCheckFailed;
   }
   progress("every metric within its threshold");
-  return kExitOk;
+  return baseline_written ? kExitOk : kExitInput;
 }
 
 // Reads the suite, the thresholds and the baseline, and makes the output
@@ -103,6 +112,17 @@ int ReadInputs(const Options& options, reference::GateSuite* suite, VerdictInput
     v->thresholds = reference::ReadGateThresholds(v->thresholds_file);
     if (!v->baseline_file.empty()) v->baseline = reference::ReadGateMetrics(v->baseline_file);
     fs::create_directories(v->out_dir);
+    // The baseline's folder before anything runs, not after the whole suite.
+    const fs::path baseline_folder = fs::path(v->write_baseline_file).parent_path();
+    if (!v->write_baseline_file.empty() && !baseline_folder.empty()) {
+      std::error_code ec;
+      fs::create_directories(baseline_folder, ec);
+      if (ec || !fs::is_directory(baseline_folder)) {
+        err << command << "--write-baseline " << v->write_baseline_file << ": cannot create its folder ("
+            << (ec ? ec.message() : std::string("exists and is not a folder")) << ")\n";
+        return kExitInput;
+      }
+    }
   } catch (const InputError& e) {
     err << command << e.what() << "\n";
     return kExitInput;
@@ -177,7 +197,13 @@ int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::os
              for (const std::string& m : suite.methods) text += (text.empty() ? "" : ",") + m;
              return text;
            }() + ", " + std::to_string(options.jobs) + " at a time, into " + options.out_dir);
-  const std::vector<reference::GateEntryOutcome> outcomes = reference::RunGateSuite(suite, run, progress);
+  std::vector<reference::GateEntryOutcome> outcomes;
+  try {
+    outcomes = reference::RunGateSuite(suite, run, progress);
+  } catch (const InputError& e) {
+    err << command << e.what() << "\n";
+    return kExitInput;
+  }
   if (shard.Whole()) return WriteVerdict(verdict, outcomes, progress, out, err, command);
 
   try {

@@ -1,6 +1,7 @@
 // `hdabench report`: the HTML page and Markdown summary of a run or compare
 // folder (reference/report/report.h, docs/report.md); also written at the end of
 // `hdabench run` and `hdabench compare` unless --no-report.
+#include <exception>
 #include <iostream>
 #include <memory>
 #include <string>
@@ -57,6 +58,12 @@ bool WriteReportAfterCommand(const std::string& out_dir, const std::string& data
     result = reference::WriteReport(out_dir, report);
   } catch (const InputError& e) {
     err << "hdabench " << command << ": warning: report: " << e.what()
+        << " (the other outputs are written; hdabench report " << out_dir << " retries)\n";
+    return false;
+  } catch (const std::exception& e) {
+    // Not the folder's fault but the report's own: still not the command's,
+    // whose results are written (docs/report.md).
+    err << "hdabench " << command << ": warning: report: internal error: " << e.what()
         << " (the other outputs are written; hdabench report " << out_dir << " retries)\n";
     return false;
   }

@@ -127,7 +127,8 @@ std::vector<std::string> StudyOptions::Validate() const {
   }
   RequireOption(!points.empty(), "points", static_cast<double>(points.size()), "at least one", &errors);
   for (const int n : points) RequireOption(n >= 3, "points", n, ">= 3", &errors);
-  RequireOption(trials >= 1, "trials", trials, ">= 1", &errors);
+  RequireOption(trials >= 1 && trials <= kMaxStudyTrials, "trials", trials,
+                "in [1, 10000000] (each setting's errors are kept in memory to rank them)", &errors);
   RequireOption(std::isfinite(altitude_m) && altitude_m > 0.0, "altitude_m", altitude_m, "> 0", &errors);
   RequireOption(std::isfinite(downrange_m) && downrange_m >= 0.0, "downrange_m", downrange_m, ">= 0", &errors);
   RequireOption(std::isfinite(site_size_m) && site_size_m > 0.0, "site_size_m", site_size_m, "> 0", &errors);

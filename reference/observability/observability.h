@@ -41,12 +41,16 @@ const char* ToString(StudyGeometry geometry);  // "lateral", "boresight"
 // The inverse; throws InputError listing the names.
 StudyGeometry ParseStudyGeometry(const std::string& name);
 
+// The most trials per setting a study takes: each setting's errors are kept
+// in memory to rank them (percentiles).
+inline constexpr int kMaxStudyTrials = 10000000;
+
 struct StudyOptions {
   std::vector<StudyGeometry> geometries = {StudyGeometry::kLateral, StudyGeometry::kBoresight};
   std::vector<double> baselines_m;          // distance between the two camera centres, metres
   std::vector<double> pixel_noises_px = {0.05, 0.1, 0.25, 0.5};  // per axis, per image, 1 sigma
   std::vector<int> points = {50};           // feature points drawn on each site
-  int trials = 1000;                        // per setting
+  int trials = 1000;                        // per setting, in [1, kMaxStudyTrials]
   double altitude_m = 400.0;                // camera 1 above the ILS
   double downrange_m = 400.0;               // camera 1 short of the ILS, horizontally
   double site_size_m = 10.0;                // side of the square site

@@ -1,8 +1,10 @@
 // `hdabench observability` as a user meets it: a small study whole and in two
 // shards merged by the CLI into the same files, the figures, and the errors
 // with their exit codes.
+#include <algorithm>
 #include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -22,9 +24,15 @@ CommandResult Hdabench(const std::vector<std::string>& args) {
   return hdabench::testing_support::RunInOwnFolder(args);
 }
 
+// A small study into `out`, with `extra` flags; the study's own baselines,
+// noises and trials where `extra` does not give them (a flag given twice is a
+// usage error of its own).
 std::vector<std::string> Study(const fs::path& out, const std::vector<std::string>& extra) {
-  std::vector<std::string> args = {"observability", "--baseline", "10:30:10", "--pixel-noise", "0.05,0.2",
-                                   "--trials",      "30",         "--out",      out.string(), "--quiet"};
+  std::vector<std::string> args = {"observability", "--out", out.string(), "--quiet"};
+  for (const auto& [flag, value] : std::vector<std::pair<std::string, std::string>>{
+           {"--baseline", "10:30:10"}, {"--pixel-noise", "0.05,0.2"}, {"--trials", "30"}}) {
+    if (std::find(extra.begin(), extra.end(), flag) == extra.end()) args.insert(args.end(), {flag, value});
+  }
   args.insert(args.end(), extra.begin(), extra.end());
   return args;
 }
@@ -69,9 +77,11 @@ TEST(ObservabilityCommand, BadFlagsAreUsageErrors) {
                                              {"--pixel-noise", "0.1,x"},
                                              {"--points", "2"},
                                              {"--trials", "0"},
+                                             {"--trials", "20000000"},
                                              {"--set", "hda.no_such_key=1"}}) {
     const CommandResult result = Hdabench(Study(dir / "bad", extra));
     EXPECT_EQ(result.exit_code, 2) << extra[0] << " " << extra[1] << ": " << result.err;
+    EXPECT_EQ(result.err.find("At Most 1"), std::string::npos) << result.err;  // refused for its value
     EXPECT_FALSE(fs::exists(dir / "bad")) << extra[0];
   }
   const CommandResult no_out = Hdabench({"observability", "--trials", "5"});
@@ -80,6 +90,21 @@ TEST(ObservabilityCommand, BadFlagsAreUsageErrors) {
       Hdabench(Study(dir / "camera", {"--camera", (dir / "missing.cameramodel").string()}));
   EXPECT_EQ(camera.exit_code, 3) << camera.err;
   EXPECT_NE(camera.err.find("missing.cameramodel"), std::string::npos) << camera.err;
+}
+
+// The output folder is checked before the study runs: a file in its place,
+// or a folder holding a dataset, is exit 3 with no trial run.
+TEST(ObservabilityCommand, AnUnusableOutputFolderIsRefusedBeforeTheStudy) {
+  const fs::path dir = FreshTestDir();
+  hdabench::testing_support::WriteText(dir / "afile", "");
+  const CommandResult file = Hdabench(Study(dir / "afile", {"--trials", "10000000"}));
+  EXPECT_EQ(file.exit_code, 3) << file.err;
+  EXPECT_NE(file.err.find((dir / "afile").string()), std::string::npos) << file.err;
+  ASSERT_EQ(Hdabench({"dataset", "create", (dir / "dataset").string()}).exit_code, 0);
+  const CommandResult dataset = Hdabench(Study(dir / "dataset", {"--trials", "10000000"}));
+  EXPECT_EQ(dataset.exit_code, 3) << dataset.err;
+  EXPECT_NE(dataset.err.find("holds a dataset"), std::string::npos) << dataset.err;
+  EXPECT_FALSE(fs::exists(dir / "dataset" / "study.json"));
 }
 
 }  // namespace

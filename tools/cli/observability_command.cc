@@ -15,6 +15,7 @@
 #include "reference/flight/hda_params.h"
 #include "reference/observability/observability.h"
 #include "tools/cli/command_line.h"
+#include "reference/flight/flight_outputs.h"
 #include "tools/cli/command_support.h"
 #include "tools/cli/exit_codes.h"
 #include "tools/util/error.h"
@@ -140,6 +141,15 @@ int RunObservability(ObservabilityArgs& args) {
       for (const std::string& e : errors) err << command << e << "\n";
       return kExitUsage;
     }
+    // The output folder before the study, not after it: a folder that
+    // cannot be written, or one holding a dataset or another command's
+    // results, costs no trials.
+    if (const std::string held = OtherCommandsResults(args.out_dir, "study.json"); !held.empty()) {
+      err << command << "--out " << args.out_dir << ": holds " << held
+          << "; a rerun of hdabench observability may write into its own results only: give a new folder\n";
+      return kExitInput;
+    }
+    reference::PrepareOutputFolder(args.out_dir);
     const size_t total = reference::StudySettings(study).size();
     if (!args.quiet) {
       err << command << total << " settings x " << study.trials << " trials"

@@ -9,6 +9,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <nlohmann/json.hpp>
@@ -778,6 +779,24 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
   for (const FrameRecord& frame : dataset.frames) {
     if (frame.image.empty()) throw InputError("the dataset's images are not loaded");
   }
+  // The images are named by their camera-clock time in whole nanoseconds:
+  // each must fit a 64-bit count (about +-292 years) and be its own.
+  std::vector<long long> image_ns;
+  for (size_t i = 0; i < dataset.frames.size(); ++i) {
+    const double ns = (dataset.frames[i].time_s - clock_offset_s) * 1e9;
+    if (!(std::abs(ns) < 9.2e18)) {
+      throw InputError("frame " + std::to_string(i) + " at " + util::ShortestText(dataset.frames[i].time_s) +
+                       " s with the clock offset " + util::ShortestText(clock_offset_s) +
+                       " s is outside the camera clock's range (+-9.2e9 s in nanoseconds)");
+    }
+    image_ns.push_back(std::llround(ns));
+    for (size_t j = 0; j < i; ++j) {
+      if (image_ns[j] == image_ns[i]) {
+        throw InputError("frames " + std::to_string(j) + " and " + std::to_string(i) +
+                         " fall on the same nanosecond of the camera clock; their images would share a name");
+      }
+    }
+  }
   fs::create_directories(fs::path(dir) / "images", ec);
   if (ec) throw InputError(dir + ": cannot be created: " + ec.message());
   const auto write = [&](const std::string& name, const std::string& text) {
@@ -786,9 +805,10 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
     if (!out) throw InputError((fs::path(dir) / name).string() + ": cannot be written");
   };
   dataset.camera.Save((fs::path(dir) / "camera.cameramodel").string());
-  for (const FrameRecord& frame : dataset.frames) {
+  for (size_t i = 0; i < dataset.frames.size(); ++i) {
+    const FrameRecord& frame = dataset.frames[i];
     if (frame.image.empty()) throw InputError("the dataset's images are not loaded");
-    const long long ns = std::llround((frame.time_s - clock_offset_s) * 1e9);
+    const long long ns = image_ns[i];
     const fs::path path = fs::path(dir) / "images" / ("img_" + std::to_string(ns) + ".png");
     bool written = false;
     try {

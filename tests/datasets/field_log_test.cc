@@ -18,6 +18,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "datasets/example.h"
 #include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "tests/support/flight_results.h"
@@ -211,6 +212,31 @@ TEST(FieldLog, EpochNanosecondNames) {
   ASSERT_EQ(dataset.frames.size(), 5u);
   // Epoch seconds as doubles: steps of 2.4e-7 s.
   for (size_t i = 0; i < dataset.frames.size(); ++i) EXPECT_NEAR(dataset.frames[i].time_s, log.camera_times[i] + 0.05, 1e-6);
+}
+
+// A clock offset that puts a frame outside a 64-bit nanosecond count is
+// refused before anything is written (it had collapsed every image onto one
+// name, with exit 0).
+TEST(FieldLog, AClockOffsetBeyondTheNanosecondRangeIsRefusedBeforeWriting) {
+  ExampleDatasetOptions options;
+  options.image_size_px = 32;
+  options.num_frames = 3;
+  const Dataset dataset = MakeExampleDataset(options);
+  const fs::path dir = FreshTestDir() / "log";
+  const Geodetic origin{32.38, -106.48, 1200.0};
+  for (const double offset : {1e300, -1e10, 1e10}) {
+    try {
+      WriteFieldLog(dataset, dir.string(), origin, offset);
+      ADD_FAILURE() << "offset " << offset << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("outside the camera clock's range"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir / "images")) << offset;
+  }
+  WriteFieldLog(dataset, dir.string(), origin, -1.7e9);  // epoch-sized offsets fit
+  size_t images = 0;
+  for (const auto& entry : fs::directory_iterator(dir / "images")) images += entry.is_regular_file() ? 1 : 0;
+  EXPECT_EQ(images, 3u);
 }
 
 TEST(FieldLog, AGapLeavesTheFrameOutAndSaysSo) {

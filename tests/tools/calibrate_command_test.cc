@@ -214,6 +214,9 @@ TEST(Calibrate, ASpacingOfZeroOrABadBoardIsAUsageErrorAndCreatesNothing) {
   EXPECT_NE(run.err.find("--board '9by6'"), std::string::npos) << run.err;
   run = RunHdabench(with("--board", "1x6"), dir);
   EXPECT_EQ(run.exit_code, 2);
+  run = RunHdabench(with("--board", "4294967305x6"), dir);  // had wrapped to 9 x 6
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("--board '4294967305x6'"), std::string::npos) << run.err;
   std::vector<std::string> lens = args;
   lens.push_back("--lensmodel");
   lens.push_back("LENSMODEL_NONSENSE");

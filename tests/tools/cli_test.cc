@@ -68,6 +68,24 @@ TEST(Cli, UsageErrorsExitTwo) {
   EXPECT_EQ(bad_frames.exit_code, 2);
   EXPECT_NE(bad_frames.out.find("--frames"), std::string::npos) << bad_frames.out;
   EXPECT_EQ(RunHdabench({"dataset", "create", "somewhere", "--seed", "minus-one"}).exit_code, 2);
+  // A seed is a whole number that fits 64 bits: not wrapped to another scene.
+  for (const std::string command : {"dataset create somewhere", "synth --out somewhere", "demo", "faults somewhere",
+                                    "observability --out somewhere", "calibrate somewhere"}) {
+    std::vector<std::string> args;
+    std::stringstream words(command);
+    for (std::string word; words >> word;) args.push_back(word);
+    for (const std::string seed : {"-1", "99999999999999999999999", "1.5"}) {
+      std::vector<std::string> with_seed = args;
+      with_seed.insert(with_seed.end(), {"--seed", seed});
+      const CommandResult result = RunHdabench(with_seed);
+      EXPECT_EQ(result.exit_code, 2) << command << " --seed " << seed;
+      const std::string said = result.out + result.err;
+      EXPECT_NE(said.find("--seed: expected a whole number in [0, 18446744073709551615], got '" + seed + "'"),
+                std::string::npos)
+          << command << ": " << said;
+    }
+  }
+  EXPECT_FALSE(fs::exists("somewhere"));
 }
 
 TEST(Cli, MissingDatasetFolderExitsThree) {

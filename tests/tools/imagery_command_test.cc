@@ -84,6 +84,16 @@ TEST(ImageryCommand, EdgePassesForTheCameraModelAndFailsForPointSampling) {
   const CommandResult bad = RunInOwnFolder({"imagery", "edge", "--set", "render.fill_factor=2"});
   EXPECT_EQ(bad.exit_code, 2) << bad.err;
   EXPECT_NE(bad.err.find("fill_factor: 2; expected in (0, 1]"), std::string::npos) << bad.err;
+  // A limit the check can fail: finite and positive.
+  for (const std::string limit : {"inf", "nan", "-1", "0"}) {
+    const CommandResult edge = RunInOwnFolder({"imagery", "edge", "--max-error", limit});
+    EXPECT_EQ(edge.exit_code, 2) << limit << ": " << edge.out << edge.err;
+    EXPECT_NE(edge.err.find("--max-error"), std::string::npos) << edge.err;
+    const CommandResult pair = RunInOwnFolder(
+        {"imagery", "pair", SmallSyntheticDataset().string(), "--out", "limits", "--max-ratio", limit});
+    EXPECT_EQ(pair.exit_code, 2) << limit << ": " << pair.out << pair.err;
+    EXPECT_NE(pair.err.find("--max-ratio"), std::string::npos) << pair.err;
+  }
 }
 
 }  // namespace

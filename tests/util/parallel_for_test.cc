@@ -110,6 +110,19 @@ TEST(ParallelFor, TheFaultPointThrowsInANamedLoopOnly) {
   unsetenv("HDABENCH_FAULT_IN_WORKER");
 }
 
+// K/N in whole numbers that fit an int, 1 <= K <= N; anything else, an
+// overflow included (it had wrapped to another shard), is refused.
+TEST(ParseShard, WholeNumbersInRangeOnly) {
+  const Shard shard = ParseShard("2/3");
+  EXPECT_EQ(shard.index, 2);
+  EXPECT_EQ(shard.count, 3);
+  EXPECT_TRUE(ParseShard("1/1").Whole());
+  for (const char* bad : {"1/99999999999", "99999999999/1", "0/2", "3/2", "-1/2", "1/", "/2", "1/2/3", "1.5/2", "a/b",
+                          "", "1x2"}) {
+    EXPECT_THROW(ParseShard(bad), InputError) << bad;
+  }
+}
+
 // Without a thread to be had (HDABENCH_FAULT_NO_THREAD stands for a process
 // at its thread limit), the loop's caller does every item, and a task started
 // beside runs on the thread that asks for its result, when it asks; other

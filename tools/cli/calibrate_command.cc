@@ -169,9 +169,7 @@ Command AddCalibrateCommand(CLI::App& app) {
   calibrate->add_option("--slope-samples", options->slope_samples,
                         "Monte Carlo re-solves behind the slope-error figure")
       ->capture_default_str();
-  calibrate->add_option("--seed", options->seed,
-                        "Random seed of mrcal's starting values and of the Monte Carlo noise")
-      ->capture_default_str();
+  AddSeedOption(calibrate, &options->seed, "Random seed of mrcal's starting values and of the Monte Carlo noise");
   calibrate->add_flag("--quiet", options->quiet, "No progress lines");
   return {calibrate, [options] { return RunCalibrate(*options, std::cout, std::cerr); }};
 }

@@ -1,15 +1,18 @@
 #include "tools/cli/command_support.h"
 
-#include <cstdio>
+#include <charconv>
+#include <cstdint>
 #include <filesystem>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 #include <system_error>
 #include <utility>
 
 #include <CLI/CLI.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/text.h"
 #include "reference/flight/flight_outputs.h"
 #include "reference/flight/flight_run.h"
 #include "tools/cli/exit_codes.h"
@@ -42,12 +45,30 @@ std::vector<int> ParseIntList(const std::string& text, std::size_t count, const 
   return values;
 }
 
+CLI::Option* AddSeedOption(CLI::App* app, std::uint64_t* seed, const std::string& help) {
+  const CLI::Validator whole_number(
+      [](std::string& text) -> std::string {
+        std::uint64_t value = 0;
+        const char* end = text.data() + text.size();
+        const std::from_chars_result parsed = std::from_chars(text.data(), end, value);
+        if (text.empty() || parsed.ec != std::errc() || parsed.ptr != end) {
+          return "expected a whole number in [0, 18446744073709551615], got '" + text + "'";
+        }
+        return "";
+      },
+      "");
+  return app->add_option("--seed", *seed, help)->check(whole_number)->capture_default_str();
+}
+
 bool ParseBoardSize(const std::string& text, int* width, int* height) {
+  // Whole numbers that fit an int either side of the x: "4294967305x6" is
+  // refused, not wrapped to 9 x 6.
+  const size_t x = text.find_first_of("xX");
   int w = 0, h = 0;
-  char x = 0;
-  int consumed = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%n", &w, &x, &h, &consumed) != 3) return false;
-  if (consumed != static_cast<int>(text.size()) || (x != 'x' && x != 'X')) return false;
+  if (x == std::string::npos || util::ParseInt(std::string_view(text).substr(0, x), &w) != util::ParseStatus::kOk ||
+      util::ParseInt(std::string_view(text).substr(x + 1), &h) != util::ParseStatus::kOk) {
+    return false;
+  }
   *width = w;
   *height = h;
   return true;

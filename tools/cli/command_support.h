@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <ostream>
@@ -16,7 +17,17 @@
 #include "tools/util/error.h"
 #include "reference/flight/hda_params.h"
 
+namespace CLI {
+class App;
+class Option;
+}  // namespace CLI
+
 namespace hdabench::tools {
+
+// Adds --seed to `app`: a whole number in [0, 2^64 - 1], digits only, its
+// default shown. (CLI11 alone takes "-1" and "99999999999999999999999" as
+// 2^64 - 1, a different scene without a word.)
+CLI::Option* AddSeedOption(CLI::App* app, std::uint64_t* seed, const std::string& help);
 
 // Parses a flag's text "a,b,..." into exactly `count` integers; otherwise throws
 // CLI::ValidationError (exit code 2) naming `flag` and the expected `form`.

@@ -185,7 +185,7 @@ Command AddDatasetCreateCommand(CLI::App& dataset) {
       "create", "Write the built-in small example dataset (deterministic for a seed)");
   create->add_option("DIR", options->out_dir, "Folder to create (must not exist, or be empty)")
       ->required();
-  create->add_option("--seed", options->seed, "Random seed")->capture_default_str();
+  AddSeedOption(create, &options->seed, "Random seed");
   return {create, [options] { return RunDatasetCreate(*options, std::cout, std::cerr); }};
 }
 

@@ -11,6 +11,7 @@
 #include "tools/util/files.h"
 
 #include "tools/cli/command_line.h"
+#include "tools/cli/command_support.h"
 #include "tools/cli/commands.h"
 #include "tools/cli/exit_codes.h"
 
@@ -84,7 +85,7 @@ Command AddDemoCommand(CLI::App& app) {
                    "Output folder; its dataset/ and compare/ are replaced on each run (a dataset/ that "
                    "synth did not make is refused)")
       ->capture_default_str();
-  demo->add_option("--seed", options->seed, "Random seed")->capture_default_str();
+  AddSeedOption(demo, &options->seed, "Random seed");
   demo->add_option("--image-size", options->image_size_px,
                    "Square imager side in pixels (default 1024)");
   demo->add_option("--threads", options->threads,

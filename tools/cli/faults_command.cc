@@ -139,7 +139,7 @@ Command AddFaultsCommand(CLI::App& app) {
                      "A fault and its magnitudes, NAME or NAME=M1,M2,... (repeatable; default: every fault\n"
                      "at its default sweep; --list shows them)")
       ->allow_extra_args(false);
-  faults->add_option("--seed", args->seed, "Seed of the faults' random numbers (lrf-noise)")->capture_default_str();
+  AddSeedOption(faults, &args->seed, "Seed of the faults' random numbers (lrf-noise)");
   faults->add_option("--max-median-deg", args->requirements.max_median_deg,
                      "Requirement: slope error median at most this")
       ->capture_default_str();

@@ -2,6 +2,7 @@
 // imagery behaves like a camera's (datasets/synth/imagery_check.h,
 // docs/synthetic-scenes.md "Checking the imagery").
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -48,8 +49,11 @@ int RunImageryPair(const ImageryPairArgs& args, std::ostream& out, std::ostream&
   const auto progress = [&](const std::string& line) {
     if (!args.quiet) err << "hdabench imagery pair: " << line << "\n";
   };
-  if (!(args.max_ratio > 0.0)) {
-    err << "hdabench imagery pair: --max-ratio " << util::ShortestText(args.max_ratio) << ": expected > 0\n";
+  // A limit the check can fail: finite (inf would pass anything, and write
+  // null into imagery.json).
+  if (!(args.max_ratio > 0.0 && std::isfinite(args.max_ratio))) {
+    err << "hdabench imagery pair: --max-ratio " << util::ShortestText(args.max_ratio)
+        << ": expected a finite number > 0\n";
     return kExitUsage;
   }
   const std::string out_dir = args.out_dir.empty() ? std::string() : args.out_dir;
@@ -165,6 +169,11 @@ struct ImageryEdgeArgs {
 };
 
 int RunImageryEdge(const ImageryEdgeArgs& args, std::ostream& out, std::ostream& err) {
+  if (!(args.max_error > 0.0 && std::isfinite(args.max_error))) {
+    err << "hdabench imagery edge: --max-error " << util::ShortestText(args.max_error)
+        << ": expected a finite number > 0 (a fraction of the step)\n";
+    return kExitUsage;
+  }
   synth::SynthOptions options;
   options.render.anti_aliasing = synth::RenderOptions::AntiAliasing::kCamera;
   synth::TerrainOptions terrain;

@@ -224,7 +224,7 @@ std::vector<Command> AddObservabilityCommands(CLI::App& app) {
   study->add_option("--lrf-sigma-m", s.lrf_sigma_m, "LRF range error, 1 sigma, metres")->capture_default_str();
   study->add_option("--requirement-deg", s.requirement_deg, "Slope requirement on the p95 of |slope error|, degrees")
       ->capture_default_str();
-  study->add_option("--seed", s.seed, "Study seed")->capture_default_str();
+  AddSeedOption(study, &s.seed, "Study seed");
   study->add_option("--params", args->params_file, kParamsHelp);
   study->add_option("--set", args->hda_sets, kSetHelp)->allow_extra_args(false);
   study->add_option("--shard", args->shard, "Run slice K of N (K/N); merge the slices with `observability merge`")

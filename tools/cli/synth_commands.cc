@@ -156,8 +156,7 @@ Command AddSynthCommand(CLI::App& app) {
       ->capture_default_str();
   synth_app->add_option("--terrain", options->terrain,
                         "mare, cratered or rocky (default: the preset's)");
-  synth_app->add_option("--seed", options->seed, "Random seed: same seed, same bytes")
-      ->capture_default_str();
+  AddSeedOption(synth_app, &options->seed, "Random seed: same seed, same bytes");
   synth_app->add_option("--threads", options->threads,
                         "Worker threads (0: every core this process may use); output does not depend on it")
       ->capture_default_str();

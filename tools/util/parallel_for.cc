@@ -5,15 +5,16 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
-#include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <mutex>
 #include <stdexcept>
+#include <string_view>
 #include <thread>
 #include <vector>
 
 #include "tools/util/error.h"
+#include "tools/util/text.h"
 
 namespace hdabench::util {
 
@@ -103,9 +104,11 @@ void ParallelFor(const std::string& name, int count, int threads,
 }
 
 Shard ParseShard(const std::string& text) {
-  int k = 0, n = 0, consumed = 0;
-  if (std::sscanf(text.c_str(), "%d/%d%n", &k, &n, &consumed) != 2 || consumed != static_cast<int>(text.size()) ||
-      n < 1 || k < 1 || k > n) {
+  // Whole numbers that fit an int: "1/99999999999" is refused, not wrapped.
+  const size_t slash = text.find('/');
+  int k = 0, n = 0;
+  if (slash == std::string::npos || ParseInt(std::string_view(text).substr(0, slash), &k) != ParseStatus::kOk ||
+      ParseInt(std::string_view(text).substr(slash + 1), &n) != ParseStatus::kOk || n < 1 || k < 1 || k > n) {
     throw InputError("shard '" + text + "': expected K/N with 1 <= K <= N");
   }
   return {k, n};

@@ -1,5 +1,7 @@
 #include "hda/hda_options.h"
 
+#include <cmath>
+
 #include "tools/util/options_check.h"
 
 namespace hdabench::hda {
@@ -33,6 +35,11 @@ std::vector<std::string> HdaOptions::Validate() const {
   RequireOption(fault_match_noise_px >= 0, "fault_match_noise_px", fault_match_noise_px, ">= 0",
                 &errors);
   RequireOption(processor_scale > 0, "processor_scale", processor_scale, "> 0", &errors);
+  // The wall-time budget they make is a number the results can hold.
+  if (compute_budget_s > 0 && processor_scale > 0) {
+    RequireOption(std::isfinite(compute_budget_s * processor_scale), "compute_budget_s * processor_scale",
+                  compute_budget_s * processor_scale, "finite (the wall-time budget, seconds)", &errors);
+  }
   return errors;
 }
 

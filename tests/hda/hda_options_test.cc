@@ -27,5 +27,18 @@ TEST(HdaOptionsValidate, ReportsEveryBadFieldWithItsValue) {
   EXPECT_EQ(errors[2], "min_points = 2: expected >= 3 (a plane needs 3 points)");
 }
 
+// The wall-time budget is compute_budget_s * processor_scale, written into
+// every result: it must be a number, not inf (null in JSON).
+TEST(HdaOptionsValidate, TheWallTimeBudgetIsFinite) {
+  HdaOptions options;
+  options.processor_scale = 1e308;
+  const std::vector<std::string> errors = options.Validate();
+  ASSERT_EQ(errors.size(), 1u);
+  EXPECT_EQ(errors[0], "compute_budget_s * processor_scale = inf: expected finite (the wall-time budget, seconds)");
+  options.processor_scale = 1e6;
+  options.compute_budget_s = 1e9;
+  EXPECT_TRUE(options.Validate().empty());
+}
+
 }  // namespace
 }  // namespace hdabench::hda

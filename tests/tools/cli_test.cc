@@ -86,6 +86,22 @@ TEST(Cli, UsageErrorsExitTwo) {
     }
   }
   EXPECT_FALSE(fs::exists("somewhere"));
+  // Counts whose 0 means the default are whole numbers >= 0: -5 is refused,
+  // not quietly the default.
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"synth", "--out", "somewhere", "--image-size", "-5"},
+           {"synth", "--out", "somewhere", "--threads", "-7"},
+           {"demo", "--image-size", "-5"},
+           {"demo", "--threads", "1.5"},
+           {"observability", "--out", "somewhere", "--threads", "-4"}}) {
+    const CommandResult result = RunHdabench(args);
+    EXPECT_EQ(result.exit_code, 2) << args[0] << " " << args[args.size() - 2];
+    EXPECT_NE((result.out + result.err).find(args[args.size() - 2] + ": expected a whole number >= 0, got '" +
+                                             args.back() + "'"),
+              std::string::npos)
+        << result.out << result.err;
+  }
+  EXPECT_FALSE(fs::exists("somewhere"));
 }
 
 TEST(Cli, MissingDatasetFolderExitsThree) {

@@ -45,6 +45,18 @@ std::vector<int> ParseIntList(const std::string& text, std::size_t count, const 
   return values;
 }
 
+CLI::Validator NonNegativeWhole() {
+  return CLI::Validator(
+      [](std::string& text) -> std::string {
+        int value = 0;
+        if (util::ParseInt(text, &value) != util::ParseStatus::kOk || value < 0) {
+          return "expected a whole number >= 0, got '" + text + "'";
+        }
+        return "";
+      },
+      "");
+}
+
 CLI::Option* AddSeedOption(CLI::App* app, std::uint64_t* seed, const std::string& help) {
   const CLI::Validator whole_number(
       [](std::string& text) -> std::string {
@@ -250,7 +262,7 @@ int BuildHdaSettings(const std::string& params_file, const std::vector<HdaFlag>&
       }
       settings->SetText(set.substr(4, equals - 4), set.substr(equals + 1), where);
     }
-    settings->Validate("hdabench " + command);
+    settings->Validate("the command line");
   } catch (const InputError& e) {
     err << prefix << e.what() << "\n";
     return kExitUsage;

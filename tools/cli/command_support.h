@@ -20,6 +20,7 @@
 namespace CLI {
 class App;
 class Option;
+class Validator;
 }  // namespace CLI
 
 namespace hdabench::tools {
@@ -28,6 +29,11 @@ namespace hdabench::tools {
 // default shown. (CLI11 alone takes "-1" and "99999999999999999999999" as
 // 2^64 - 1, a different scene without a word.)
 CLI::Option* AddSeedOption(CLI::App* app, std::uint64_t* seed, const std::string& help);
+
+// A check for an int flag whose 0 means "the default" (--threads,
+// --image-size): a whole number >= 0 that fits an int, where CLI11 alone
+// took -5 and quietly meant the default.
+CLI::Validator NonNegativeWhole();
 
 // Parses a flag's text "a,b,..." into exactly `count` integers; otherwise throws
 // CLI::ValidationError (exit code 2) naming `flag` and the expected `form`.

@@ -86,10 +86,11 @@ Command AddDemoCommand(CLI::App& app) {
                    "synth did not make is refused)")
       ->capture_default_str();
   AddSeedOption(demo, &options->seed, "Random seed");
-  demo->add_option("--image-size", options->image_size_px,
-                   "Square imager side in pixels (default 1024)");
+  demo->add_option("--image-size", options->image_size_px, "Square imager side in pixels (default 1024)")
+      ->check(NonNegativeWhole());
   demo->add_option("--threads", options->threads,
                    "Worker threads of the scene's generation (0: every core this process may use)")
+      ->check(NonNegativeWhole())
       ->capture_default_str();
   return {demo, [options] { return RunDemo(*options, std::cout, std::cerr); }};
 }

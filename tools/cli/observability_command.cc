@@ -230,6 +230,7 @@ std::vector<Command> AddObservabilityCommands(CLI::App& app) {
   study->add_option("--shard", args->shard, "Run slice K of N (K/N); merge the slices with `observability merge`")
       ->capture_default_str();
   study->add_option("--threads", args->threads, "Worker threads (0: every core this process may use; the numbers do not depend on it)")
+      ->check(NonNegativeWhole())
       ->capture_default_str();
   study->add_option("--out", args->out_dir, "Output folder (created; files replaced); required");
   study->add_option("--python", args->python, "Python 3 with matplotlib, for the figures")->capture_default_str();

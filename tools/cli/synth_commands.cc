@@ -159,9 +159,11 @@ Command AddSynthCommand(CLI::App& app) {
   AddSeedOption(synth_app, &options->seed, "Random seed: same seed, same bytes");
   synth_app->add_option("--threads", options->threads,
                         "Worker threads (0: every core this process may use); output does not depend on it")
+      ->check(NonNegativeWhole())
       ->capture_default_str();
   synth_app->add_option("--image-size", options->image_size_px,
-                        "Square imager side in pixels (default 1024; 2048 variant)");
+                        "Square imager side in pixels (default 1024; 2048 variant)")
+      ->check(NonNegativeWhole());
   synth_app->add_option("--camera-model", options->camera_model_file,
                         "A .cameramodel to use instead of the default camera");
   synth_app->add_option(

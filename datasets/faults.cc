@@ -201,6 +201,31 @@ std::vector<Fault> ParseFaults(const std::string& text) {
   return faults;
 }
 
+void CheckFaultMagnitude(const Fault& fault) {
+  RequireFiniteMagnitude(fault);
+  const double m = fault.magnitude;
+  switch (fault.kind) {
+    case FaultKind::kLrfStuck:
+      if (!(m >= 0.0)) Refuse(fault, "expected >= 0 seconds");
+      return;
+    case FaultKind::kLrfNoise:
+      if (!(m >= 0.0)) Refuse(fault, "expected a sigma >= 0 metres");
+      return;
+    case FaultKind::kLrfRock:
+      if (!(m >= 0.0)) Refuse(fault, "expected a height >= 0 metres");
+      return;
+    case FaultKind::kImageBlur:
+      if (!(m > 0.0)) Refuse(fault, "expected a sigma > 0 pixels");
+      return;
+    case FaultKind::kImageSaturated:
+    case FaultKind::kImageDark:
+      if (!(m > 1.0)) Refuse(fault, "expected a factor > 1");
+      return;
+    default:
+      return;  // any finite magnitude (a bias, an offset, a scale), or none
+  }
+}
+
 Fault ParseOneFault(const std::string& text) {
   const std::vector<Fault> faults = ParseFaults(text);
   if (faults.size() != 1) {
@@ -228,7 +253,7 @@ void ApplyFaultInPlace(const Fault& fault, int frame1, int frame2, std::uint64_t
                         std::to_string(n - 1) + ")");
     }
   }
-  RequireFiniteMagnitude(fault);
+  CheckFaultMagnitude(fault);
   const double m = fault.magnitude;
   const double t1 = dataset->frames[static_cast<size_t>(frame1)].time_s;
   const double t2 = dataset->frames[static_cast<size_t>(frame2)].time_s;
@@ -237,7 +262,6 @@ void ApplyFaultInPlace(const Fault& fault, int frame1, int frame2, std::uint64_t
       dataset->lrf.clear();
       return;
     case FaultKind::kLrfStuck: {
-      if (!(m >= 0.0)) Refuse(fault, "expected >= 0 seconds");
       if (dataset->lrf.empty() || t1 - m < dataset->lrf.front().time_s) {
         Refuse(fault, "the LRF log does not reach back to " + util::FixedText(t1 - m, 3) + " s");
       }
@@ -254,13 +278,11 @@ void ApplyFaultInPlace(const Fault& fault, int frame1, int frame2, std::uint64_t
       ChangeRanges(fault, dataset, [&](const LrfSample& s) { return s.range_m + m; });
       return;
     case FaultKind::kLrfNoise: {
-      if (!(m >= 0.0)) Refuse(fault, "expected a sigma >= 0 metres");
       std::uint64_t state = seed ^ 0x4c5246u;  // "LRF"
       ChangeRanges(fault, dataset, [&](const LrfSample& s) { return s.range_m + m * Gaussian(&state); });
       return;
     }
     case FaultKind::kLrfRock: {
-      if (!(m >= 0.0)) Refuse(fault, "expected a height >= 0 metres");
       const Eigen::Vector3d down = -UpOf(*dataset);
       ChangeRanges(fault, dataset, [&](const LrfSample& s) {
         Rigid3d local_from_body;
@@ -311,7 +333,6 @@ void ApplyFaultInPlace(const Fault& fault, int frame1, int frame2, std::uint64_t
       return;
     }
     case FaultKind::kImageBlur:
-      if (!(m > 0.0)) Refuse(fault, "expected a sigma > 0 pixels");
       for (const int frame : {frame1, frame2}) {
         cv::Mat& image = PairImage(dataset, frame, fault);
         cv::Mat blurred;
@@ -321,7 +342,6 @@ void ApplyFaultInPlace(const Fault& fault, int frame1, int frame2, std::uint64_t
       return;
     case FaultKind::kImageSaturated:
     case FaultKind::kImageDark:
-      if (!(m > 1.0)) Refuse(fault, "expected a factor > 1");
       for (const int frame : {frame1, frame2}) {
         cv::Mat& image = PairImage(dataset, frame, fault);
         cv::Mat changed;

@@ -80,6 +80,11 @@ std::vector<Fault> ParseFaults(const std::string& text);
 // sweep of 8 magnitudes: give one, NAME=M").
 Fault ParseOneFault(const std::string& text);
 
+// Throws InputError ("fault image-blur=-1: expected a sigma > 0 pixels")
+// when the fault's magnitude is outside what the fault takes, whatever the
+// dataset: a check before the work (ApplyFault makes it too).
+void CheckFaultMagnitude(const Fault& fault);
+
 // Applies `fault` to `dataset` for the pair (frame1, frame2): its LRF,
 // navigation, frame times or the pair's images (which must be loaded for the
 // image faults). `seed` draws the noise of kLrfNoise (the same seed, the same

@@ -152,6 +152,13 @@ TEST(SynthCommand, FaultsAreAppliedToThePairAndTheDatasetRunsWithThem) {
   const CommandResult sweep = RunInOwnFolder(args);
   EXPECT_EQ(sweep.exit_code, 2);
   EXPECT_NE(sweep.err.find("--fault 'lrf-scale' is a sweep of 8 magnitudes: give one"), std::string::npos) << sweep.err;
+  // A magnitude the fault never takes is refused before the scene is made.
+  args = {"synth", "--out", (dir / "negative").string(), "--fault", "image-blur=-1"};
+  const CommandResult negative = RunInOwnFolder(args);
+  EXPECT_EQ(negative.exit_code, 2);
+  EXPECT_NE(negative.err.find("--fault image-blur=-1: expected a sigma > 0 pixels"), std::string::npos)
+      << negative.err;
+  EXPECT_FALSE(fs::exists(dir / "negative"));
   args = {"synth", "--out", (dir / "late").string(), "--fault", "clock-offset=100"};
   args.insert(args.end(), scene.begin(), scene.end());
   const CommandResult late = RunInOwnFolder(args);

@@ -63,6 +63,12 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
       err << "hdabench synth: --fault " << e.what() << " (hdabench faults --list)\n";
       return kExitUsage;
     }
+    try {
+      datasets::CheckFaultMagnitude(faults.back());  // before the scene is rendered
+    } catch (const InputError& e) {
+      err << "hdabench synth: --" << e.what() << " (hdabench faults --list)\n";  // "--fault NAME=M: why"
+      return kExitUsage;
+    }
   }
 
   int last_percent = -1;

@@ -322,6 +322,17 @@ TEST(FieldLog, CommandWritesADatasetThatChecksOrNothing) {
   EXPECT_NE(ingest.out.find("outside the navigation span"), std::string::npos) << ingest.out;
   EXPECT_EQ(RunHdabench({"dataset", "check", out.string()}, log.dir.parent_path()).exit_code, 0);
 
+  // Exported back, the log goes neither among the dataset's files nor over
+  // another command's results: exit 3, nothing written.
+  for (const fs::path& into : {out / "log", out}) {
+    const testing_support::CommandResult inside =
+        RunHdabench({"export", "field", out.string(), "--out", into.string()}, log.dir.parent_path());
+    EXPECT_EQ(inside.exit_code, 3) << inside.err;
+    EXPECT_NE(inside.err.find("is the dataset folder"), std::string::npos) << inside.err;
+  }
+  EXPECT_FALSE(fs::exists(out / "log"));
+  EXPECT_FALSE(fs::exists(out / "log.json"));
+
   // A malformed log: exit 3, the line named, no folder written.
   WriteText(log.dir / "lrf.csv", "t_ms,range_m\n0,850\n50,abc\n");
   const fs::path bad = log.dir.parent_path() / "bad";

@@ -840,6 +840,14 @@ TEST_F(GateCommand, BadFilesAndFlagsHaveTheirExitCodes) {
   EXPECT_EQ(result.exit_code, 3) << result.err;
   EXPECT_NE(result.err.find((dir / "e" / "entries").string() + ": cannot create the folder"), std::string::npos)
       << result.err;
+  // Nor into a dataset's folder.
+  ASSERT_EQ(RunHdabench({"dataset", "create", (dir / "d").string()}, dir).exit_code, 0);
+  result = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", loose.string(), "--out",
+                        (dir / "d").string()},
+                       dir);
+  EXPECT_EQ(result.exit_code, 3) << result.err;
+  EXPECT_NE(result.err.find("holds a dataset"), std::string::npos) << result.err;
+  EXPECT_FALSE(fs::exists(dir / "d" / "entries"));
 }
 
 }  // namespace

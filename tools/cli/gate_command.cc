@@ -17,6 +17,7 @@
 #include "tools/util/files.h"
 #include "reference/gate/gate.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/command_support.h"
 #include "tools/cli/commands.h"
 #include "tools/cli/exit_codes.h"
 
@@ -107,6 +108,12 @@ int ReadInputs(const Options& options, reference::GateSuite* suite, VerdictInput
   v->baseline_file = options.baseline_file;
   v->write_baseline_file = options.write_baseline_file;
   v->out_dir = options.out_dir;
+  // Not over a dataset or another command's results (a gate's own folder,
+  // marked by metrics.json, is reused: its complete entries are kept).
+  if (const std::string held = OtherCommandsResults(v->out_dir, "metrics.json"); !held.empty()) {
+    err << command << "--out " << v->out_dir << ": holds " << held << "; give a new folder or a gate's own\n";
+    return kExitInput;
+  }
   try {
     *suite = reference::ReadGateSuite(v->suite_file);
     v->thresholds = reference::ReadGateThresholds(v->thresholds_file);

@@ -147,7 +147,7 @@ class Reader {
     try {
       root_ = Json::parse(text);
     } catch (const Json::exception& e) {
-      Fail("", std::string("not valid JSON (") + e.what() + ")");
+      Fail("", "not valid JSON (" + util::JsonErrorText(e.what()) + ")");
     }
   }
 

@@ -86,15 +86,6 @@ std::string Describe(const json& value) {
   }
 }
 
-std::string StripJsonExceptionPrefix(const std::string& what) {
-  // "[json.exception.parse_error.101] parse error at ..." -> "parse error at ..."
-  if (!what.empty() && what.front() == '[') {
-    const size_t close = what.find("] ");
-    if (close != std::string::npos) return what.substr(close + 2);
-  }
-  return what;
-}
-
 // Splits a CameraModel error "origin:12:3: what" or "origin: what" into a
 // location and a message.
 Problem CameraProblem(const std::string& origin, const std::string& what) {
@@ -328,7 +319,7 @@ class ManifestReader {
       *manifest = json::parse(text, callback);
     } catch (const json::exception& e) {
       problems_->Add(kManifestFileName,
-                     "is not valid JSON (" + StripJsonExceptionPrefix(e.what()) + ")");
+                     "is not valid JSON (" + util::JsonErrorText(e.what()) + ")");
       return false;
     }
     if (!manifest->is_object()) {

@@ -720,7 +720,7 @@ Dataset IngestFieldLog(const std::string& config_path, FieldIngestReport* report
   try {
     j = Json::parse(Text(config_path));
   } catch (const Json::exception& e) {
-    throw InputError(config_path + ": not valid JSON: " + e.what());
+    throw InputError(config_path + ": not valid JSON: " + util::JsonErrorText(e.what()));
   }
   if (!j.is_object()) throw InputError(config_path + ": expected a JSON object");
   const Fields top(j, config_path, true);

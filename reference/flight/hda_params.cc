@@ -5,7 +5,6 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
-#include <fstream>
 #include <limits>
 #include <sstream>
 
@@ -15,7 +14,9 @@
 #include "hda/pipeline.h"
 #include "hda/quadtree.h"
 #include "tools/util/error.h"
+#include "tools/util/files.h"
 #include "tools/util/options_check.h"
+#include "tools/util/text.h"
 
 namespace hdabench::reference {
 
@@ -80,9 +81,16 @@ bool IsComment(const std::string& key) {
          (key.size() > suffix.size() && key.compare(key.size() - suffix.size(), suffix.size(), suffix) == 0);
 }
 
+// The value as the message quotes it: nan and inf as such (JSON writes
+// them as null, which is not what was given).
+std::string Quoted(const Json& value) {
+  if (value.is_number_float() && !std::isfinite(value.get<double>())) return util::ShortestText(value.get<double>());
+  return value.dump();
+}
+
 void SetField(double* field, const Json& value, const std::string& where) {
   if (!value.is_number() || !std::isfinite(value.get<double>())) {
-    throw InputError(where + ": expected a finite number, got " + value.dump());
+    throw InputError(where + ": expected a finite number, got " + Quoted(value));
   }
   *field = value.get<double>();
 }
@@ -199,15 +207,15 @@ Json HdaSettings::GivenJson() const {
 }
 
 void HdaSettings::ReadFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot read the parameter file");
-  std::stringstream text;
-  text << in.rdbuf();
+  std::string text, error;
+  if (!util::ReadFileBytes(path, &text, &error)) {
+    throw InputError(path + ": cannot read the parameter file (" + error + ")");
+  }
   Json j;
   try {
-    j = Json::parse(text.str());
+    j = Json::parse(text);
   } catch (const Json::exception& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
+    throw InputError(path + ": not valid JSON: " + util::JsonErrorText(e.what()));
   }
   if (j.is_object() && j.contains("format") && j["format"] != "hdabench-flight-params") {
     throw InputError(path + ": field 'format' must be \"hdabench-flight-params\"");

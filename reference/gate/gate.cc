@@ -48,7 +48,7 @@ Json ReadJsonFile(const std::string& path) {
   try {
     return Json::parse(text.str());
   } catch (const Json::exception& e) {
-    throw InputError(path + ": not valid JSON: " + e.what());
+    throw InputError(path + ": not valid JSON: " + util::JsonErrorText(e.what()));
   }
 }
 

@@ -567,7 +567,7 @@ MergedStudy MergeStudyFolders(const std::vector<std::string>& dirs) {
     try {
       j = Json::parse(ReadText(json_path));
     } catch (const nlohmann::json::exception& e) {
-      throw InputError(json_path + ": not JSON: " + e.what());
+      throw InputError(json_path + ": not JSON: " + util::JsonErrorText(e.what()));
     }
     if (!j.is_object() || j.value("format", "") != "hdabench-observability" || !j.contains("shard")) {
       throw InputError(json_path + ": not an observability study's study.json");

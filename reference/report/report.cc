@@ -51,7 +51,7 @@ Json ParseJsonFile(const fs::path& path) {
   try {
     return Json::parse(text);
   } catch (const Json::exception& e) {
-    throw InputError(path.string() + ": not valid JSON (" + e.what() + ")");
+    throw InputError(path.string() + ": not valid JSON (" + util::JsonErrorText(e.what()) + ")");
   }
 }
 

@@ -74,6 +74,12 @@ TEST(HdaParams, ValuesAreTypedAndTextParsedWhole) {
   EXPECT_NE(InputErrorOf([&] { settings.SetText("max_relief_m", "5m", "w"); }).find("not a number"),
             std::string::npos);
   EXPECT_NE(InputErrorOf([&] { settings.SetText("max_relief_m", "nan", "w"); }), "");
+  // A flag's value (--processor-scale nan) is named as given, not as JSON's null.
+  EXPECT_NE(InputErrorOf([&] { settings.Set("max_relief_m", Json(std::nan("")), "w"); })
+                .find("expected a finite number, got nan"),
+            std::string::npos);
+  EXPECT_NE(InputErrorOf([&] { settings.Set("max_relief_m", Json(-HUGE_VAL), "w"); }).find("got -inf"),
+            std::string::npos);
   EXPECT_NE(InputErrorOf([&] { settings.SetText("max_relief_m", "", "w"); }), "");
   EXPECT_NE(InputErrorOf([&] { settings.Set("matching.cross_check", Json(1), "w"); }).find("true or false"),
             std::string::npos);

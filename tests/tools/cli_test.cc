@@ -61,7 +61,15 @@ TEST(Cli, VersionNamesTheLibraries) {
 
 TEST(Cli, UsageErrorsExitTwo) {
   EXPECT_EQ(RunHdabench({}).exit_code, 2);
-  EXPECT_EQ(RunHdabench({"no-such-command"}).exit_code, 2);
+  const CommandResult unknown = RunHdabench({"no-such-command"});
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_NE(unknown.err.find("hdabench: unknown command 'no-such-command' (the commands: version, dataset,"),
+            std::string::npos)
+      << unknown.err;
+  const CommandResult typo = RunHdabench({"dataset", "chek", "somewhere"});
+  EXPECT_EQ(typo.exit_code, 2);
+  EXPECT_NE(typo.err.find("hdabench dataset: unknown command 'chek' (the commands: check, create)"), std::string::npos)
+      << typo.err;
   EXPECT_EQ(RunHdabench({"dataset", "check"}).exit_code, 2);  // DIR missing
   EXPECT_EQ(RunHdabench({"dataset", "check", "somewhere", "--no-such-flag"}).exit_code, 2);
   const CommandResult bad_frames = RunHdabench({"dataset", "check", "somewhere", "--frames", "1-2"});

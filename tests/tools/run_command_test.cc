@@ -173,7 +173,19 @@ TEST(RunCommand, BadParamsAndSetAreNamed) {
   const CommandResult missing = RunInOwnFolder(
       {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--params", (dir / "nope.json").string()});
   EXPECT_EQ(missing.exit_code, 3);
-  EXPECT_NE(missing.err.find("nope.json: cannot read the parameter file"), std::string::npos) << missing.err;
+  EXPECT_NE(missing.err.find("nope.json: cannot read the parameter file (file not found)"), std::string::npos)
+      << missing.err;
+  const CommandResult folder = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--params", SmallSyntheticDataset().string()});
+  EXPECT_EQ(folder.exit_code, 3);
+  EXPECT_NE(folder.err.find("cannot read the parameter file (is a directory; expected a file)"), std::string::npos)
+      << folder.err;
+  hdabench::testing_support::WriteText(dir / "broken.json", "{\"min_points\": ");
+  const CommandResult broken = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--params", (dir / "broken.json").string()});
+  EXPECT_EQ(broken.exit_code, 3);
+  EXPECT_NE(broken.err.find("broken.json: not valid JSON: parse error at line 1"), std::string::npos) << broken.err;
+  EXPECT_EQ(broken.err.find("[json.exception"), std::string::npos) << broken.err;
   hdabench::testing_support::WriteText(dir / "bad.json", R"({"min_points": 2})");
   const CommandResult bad = RunInOwnFolder(
       {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--params", (dir / "bad.json").string()});

@@ -52,15 +52,44 @@ std::vector<Command> AddCommands(CLI::App& app) {
   return commands;
 }
 
+// The message for the first word of the command line that names no command
+// where one is expected ("hdabench dataset: unknown command 'chek' (the
+// commands: check, create)"), or empty: CLI11 alone answers "A subcommand is
+// required" without naming the word.
+std::string UnknownCommand(CLI::App& app, int argc, char** argv) {
+  CLI::App* current = &app;
+  std::string path = "hdabench";
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.empty() || word[0] == '-') return "";
+    const std::vector<CLI::App*> subcommands = current->get_subcommands({});
+    if (subcommands.empty()) return "";  // a command's own arguments
+    CLI::App* found = nullptr;
+    std::string names;
+    for (CLI::App* subcommand : subcommands) {
+      if (subcommand->get_name() == word) found = subcommand;
+      names += (names.empty() ? "" : ", ") + subcommand->get_name();
+    }
+    if (found == nullptr) return path + ": unknown command '" + word + "' (the commands: " + names + ")";
+    current = found;
+    path += " " + word;
+  }
+  return "";
+}
+
 // Parses the command line and runs the chosen command; returns the exit code.
 int Main(int argc, char** argv) {
   CLI::App app{"hdabench: test bench for the NOVA-C hazard detection and avoidance method.\n"
                "Exit codes: 0 ok, 1 checks failed, 2 bad command line, 3 unusable input,\n"
-               "4 an external program failed, 70 internal error.",
+               "4 an external program failed, 70 internal error, 130/143 interrupted (SIGINT/SIGTERM).",
                "hdabench"};
   app.require_subcommand(1);
   app.set_version_flag("--version", kVersionString);
   const std::vector<Command> commands = AddCommands(app);
+  if (const std::string unknown = UnknownCommand(app, argc, argv); !unknown.empty()) {
+    std::cerr << unknown << "; see hdabench --help\n";
+    return kExitUsage;
+  }
 
   try {
     app.parse(argc, argv);

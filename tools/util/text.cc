@@ -137,4 +137,12 @@ ParseStatus ParseInt(std::string_view text, int* value) {
   return ParseStatus::kNotNumber;
 }
 
+std::string JsonErrorText(const std::string& what) {
+  if (!what.empty() && what.front() == '[') {
+    const size_t close = what.find("] ");
+    if (close != std::string::npos) return what.substr(close + 2);
+  }
+  return what;
+}
+
 }  // namespace hdabench::util

@@ -71,4 +71,8 @@ ParseStatus ParseInt(std::string_view text, int* value);
 // Removes leading and trailing spaces and tabs.
 std::string_view Trim(std::string_view text);
 
+// A JSON library error's what() without its "[json.exception.parse_error.101] "
+// tag: "parse error at line 1, column 1: ...", for a message about a file.
+std::string JsonErrorText(const std::string& what);
+
 }  // namespace hdabench::util

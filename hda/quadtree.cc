@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/text.h"
 #include "tools/util/options_check.h"
 
 namespace hdabench::hda {
@@ -150,7 +151,9 @@ int MinimumBlockSizePx(const calib::CameraModel& camera, double lrf_range_m,
   // losing a pixel.
   const double side_px = std::floor(options.min_block_fraction * site_px + 1e-9);
   if (!(side_px < 1e9)) {
-    throw InputError("MinimumBlockSizePx: projected site side is not finite");
+    throw InputError("quadtree.site_size_m = " + util::ShortestText(options.site_size_m) + ": a site of " +
+                     util::ShortestText(site_px) + " px at the LRF range " + util::ShortestText(lrf_range_m) +
+                     " m; expected one the image can hold");
   }
   return std::max(kMinBlockSidePx, static_cast<int>(side_px));
 }

@@ -541,7 +541,10 @@ fs::path FindDataset(const fs::path& run_dir, const std::string& name, const std
                      std::vector<std::string>* notes) {
   if (!given.empty()) {
     std::error_code ec;
-    if (!fs::is_directory(given, ec)) throw InputError(given + ": dataset folder not found");
+    if (!fs::is_directory(given, ec)) {
+      throw InputError(given + (fs::exists(given, ec) ? ": is not a folder; expected a dataset folder"
+                                                      : ": dataset folder not found"));
+    }
     const std::string found = DatasetName(given);
     if (found != name) {
       notes->push_back("The dataset folder " + given + " holds '" + found +

@@ -75,6 +75,9 @@ TEST(Cli, UsageErrorsExitTwo) {
   const CommandResult bad_frames = RunHdabench({"dataset", "check", "somewhere", "--frames", "1-2"});
   EXPECT_EQ(bad_frames.exit_code, 2);
   EXPECT_NE(bad_frames.out.find("--frames"), std::string::npos) << bad_frames.out;
+  const CommandResult trailing = RunHdabench({"dataset", "check", "somewhere", "--frames", "1,2,"});
+  EXPECT_EQ(trailing.exit_code, 2);
+  EXPECT_NE(trailing.out.find("--frames"), std::string::npos) << trailing.out;
   EXPECT_EQ(RunHdabench({"dataset", "create", "somewhere", "--seed", "minus-one"}).exit_code, 2);
   // A seed is a whole number that fits 64 bits: not wrapped to another scene.
   for (const std::string command : {"dataset create somewhere", "synth --out somewhere", "demo", "faults somewhere",

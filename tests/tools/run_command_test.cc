@@ -175,6 +175,11 @@ TEST(RunCommand, BadParamsAndSetAreNamed) {
   EXPECT_EQ(missing.exit_code, 3);
   EXPECT_NE(missing.err.find("nope.json: cannot read the parameter file (file not found)"), std::string::npos)
       << missing.err;
+  // A site the image cannot hold is named by its parameter.
+  const CommandResult huge = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--site-size-m", "1e9"});
+  EXPECT_EQ(huge.exit_code, 3);
+  EXPECT_NE(huge.err.find("quadtree.site_size_m = 1e+09: a site of"), std::string::npos) << huge.err;
   const CommandResult folder = RunInOwnFolder(
       {"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--params", SmallSyntheticDataset().string()});
   EXPECT_EQ(folder.exit_code, 3);
@@ -310,6 +315,14 @@ TEST(RunCommand, AReportThatCannotReadTheFolderIsAWarningAndReportExits3) {
   EXPECT_NE(report.err.find("hdabench report: " + (out / "figures").string() + ": cannot be read ("),
             std::string::npos)
       << report.err;
+  // A file given as the dataset folder is named as what it is.
+  fs::remove(out / "figures");
+  hdabench::testing_support::WriteText(dir / "afile", "");
+  const CommandResult file = hdabench::testing_support::RunHdabench(
+      {"report", out.string(), "--dataset", (dir / "afile").string()}, dir);
+  EXPECT_EQ(file.exit_code, 3) << file.err;
+  EXPECT_NE(file.err.find((dir / "afile").string() + ": is not a folder; expected a dataset folder"), std::string::npos)
+      << file.err;
 }
 
 // When no thread can be had for the figures (HDABENCH_FAULT_NO_THREAD stands

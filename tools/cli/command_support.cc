@@ -24,6 +24,9 @@ namespace fs = std::filesystem;
 std::vector<int> ParseIntList(const std::string& text, std::size_t count, const std::string& flag,
                               const std::string& form) {
   std::vector<int> values;
+  if (!text.empty() && text.back() == ',') {  // getline would drop the empty last item
+    throw CLI::ValidationError(flag, "expected " + form + ", got '" + text + "'");
+  }
   std::stringstream in(text);
   std::string item;
   while (std::getline(in, item, ',')) {

@@ -212,10 +212,12 @@ TEST(RunCommand, EqualFramesAreAUsageError) {
 }
 
 TEST(RunCommand, AFrameOutsideTheDatasetIsNamed) {
+  const fs::path out = FreshTestDir() / "out";
   const CommandResult run =
-      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--frames", "0,99", "--out", FreshTestDir().string()});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--frames", "0,99", "--out", out.string()});
   EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
   EXPECT_NE(run.err.find("frame 99 is not in"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(out));  // the output folder it made is not left behind
 }
 
 TEST(RunCommand, AMissingDatasetIsAnInputErrorNamingIt) {
@@ -229,6 +231,7 @@ TEST(RunCommand, AMissingDatasetIsAnInputErrorNamingIt) {
   const CommandResult empty = RunInOwnFolder({"run", (dir / "empty").string(), "--out", (dir / "out").string()});
   EXPECT_EQ(empty.exit_code, 3) << empty.out << empty.err;
   EXPECT_NE(empty.err.find("problem(s) in"), std::string::npos) << empty.err;
+  EXPECT_FALSE(fs::exists(dir / "out"));
 }
 
 TEST(RunCommand, AnOutputFolderUnderAFileIsAnInputError) {

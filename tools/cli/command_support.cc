@@ -203,6 +203,14 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
     result.exit_code = kExitInput;
     return result;
   }
+  // A folder made here and still empty is removed again when the dataset or
+  // its frames turn out unusable: a refused command leaves nothing behind.
+  std::error_code exists_error;
+  const bool made_here = !out_dir.empty() && !fs::exists(out_dir, exists_error);
+  const auto remove_if_made_here = [&] {
+    std::error_code ignored;
+    if (made_here && fs::is_empty(out_dir, ignored)) fs::remove(out_dir, ignored);
+  };
   try {
     reference::PrepareOutputFolder(out_dir);
   } catch (const InputError& e) {
@@ -225,6 +233,7 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
   };
   result.dataset = LoadDatasetOrReport(dataset_dir, load, command, err);
   if (!result.dataset.has_value()) {
+    remove_if_made_here();
     result.exit_code = kExitInput;
     return result;
   }
@@ -235,6 +244,7 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
       err << prefix << "--frames: frame " << frame << " is not in " << dataset_dir
           << ", which has frames 0.." << num_frames - 1 << "\n";
       result.dataset.reset();
+      remove_if_made_here();
       result.exit_code = kExitUsage;
       return result;
     }

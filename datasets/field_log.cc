@@ -782,6 +782,7 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
   // The images are named by their camera-clock time in whole nanoseconds:
   // each must fit a 64-bit count (about +-292 years) and be its own.
   std::vector<long long> image_ns;
+  std::map<long long, size_t> frame_at_ns;
   for (size_t i = 0; i < dataset.frames.size(); ++i) {
     const double ns = (dataset.frames[i].time_s - clock_offset_s) * 1e9;
     if (!(std::abs(ns) < 9.2e18)) {
@@ -790,11 +791,10 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
                        " s is outside the camera clock's range (+-9.2e9 s in nanoseconds)");
     }
     image_ns.push_back(std::llround(ns));
-    for (size_t j = 0; j < i; ++j) {
-      if (image_ns[j] == image_ns[i]) {
-        throw InputError("frames " + std::to_string(j) + " and " + std::to_string(i) +
-                         " fall on the same nanosecond of the camera clock; their images would share a name");
-      }
+    const auto [at, added] = frame_at_ns.emplace(image_ns.back(), i);
+    if (!added) {
+      throw InputError("frames " + std::to_string(at->second) + " and " + std::to_string(i) +
+                       " fall on the same nanosecond of the camera clock; their images would share a name");
     }
   }
   fs::create_directories(fs::path(dir) / "images", ec);

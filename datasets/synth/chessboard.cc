@@ -606,7 +606,7 @@ ViewShading ShadingFor(const Rigid3d& pose, const ChessboardViewsOptions& option
 
 // Render workers: options.threads, or every core this process may use when it is 0.
 int RenderThreads(const ChessboardViewsOptions& options) {
-  return options.threads > 0 ? options.threads : util::AvailableCores();
+  return util::WorkerThreads(options.threads);
 }
 
 // The imager, the sampling and the board's squares, as the noise-free render reads them.

@@ -495,10 +495,7 @@ std::vector<std::string> VerificationArgs(const ColmapOptions& o) {
 }
 
 // ColmapOptions::matcher_threads, 0 resolved to the cores this process may use.
-int MatcherThreads(const ColmapOptions& o) {
-  if (o.matcher_threads > 0) return o.matcher_threads;
-  return util::AvailableCores();
-}
+int MatcherThreads(const ColmapOptions& o) { return util::WorkerThreads(o.matcher_threads); }
 
 // The exact matcher's options: COLMAP's defaults (max_distance 0.7,
 // cross-check) but for the ratio and for the number of matches, which only

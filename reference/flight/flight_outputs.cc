@@ -716,7 +716,7 @@ std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat&
     // leaves behind are those of one thread.
     const int count = 2 + static_cast<int>(pairs.size());
     std::vector<std::string> names(static_cast<size_t>(count)), pngs(static_cast<size_t>(count));
-    util::ParallelFor("flight figures", count, threads > 0 ? threads : util::AvailableCores(), [&](int i) {
+    util::ParallelFor("flight figures", count, util::WorkerThreads(threads), [&](int i) {
       const size_t k = static_cast<size_t>(i);
       cv::Mat figure;
       if (i == 0) {

@@ -3,8 +3,6 @@
 #include <charconv>
 #include <cstdint>
 #include <filesystem>
-#include <sstream>
-#include <stdexcept>
 #include <string_view>
 #include <system_error>
 #include <utility>
@@ -24,23 +22,19 @@ namespace fs = std::filesystem;
 std::vector<int> ParseIntList(const std::string& text, std::size_t count, const std::string& flag,
                               const std::string& form) {
   std::vector<int> values;
-  if (!text.empty() && text.back() == ',') {  // getline would drop the empty last item
-    throw CLI::ValidationError(flag, "expected " + form + ", got '" + text + "'");
-  }
-  std::stringstream in(text);
-  std::string item;
-  while (std::getline(in, item, ',')) {
-    std::size_t used = 0;
+  // Every item between the commas, the last included: "1,2," has an empty
+  // third item, which is refused.
+  for (std::size_t start = 0; !text.empty();) {
+    const std::size_t comma = text.find(',', start);
+    const std::string_view item =
+        std::string_view(text).substr(start, comma == std::string::npos ? std::string::npos : comma - start);
     int value = 0;
-    try {
-      value = std::stoi(item, &used);
-    } catch (const std::logic_error&) {
-      used = std::string::npos;
-    }
-    if (used != item.size()) {
+    if (util::ParseInt(item, &value) != util::ParseStatus::kOk) {
       throw CLI::ValidationError(flag, "expected " + form + " (whole numbers), got '" + text + "'");
     }
     values.push_back(value);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
   }
   if (values.size() != count) {
     throw CLI::ValidationError(flag, "expected " + form + ", got '" + text + "'");
@@ -166,6 +160,23 @@ std::string OtherCommandsResults(const std::string& out_dir, const std::string& 
   return "";
 }
 
+int CheckOutputFolder(const std::string& out_dir, const std::string& dataset_dir, const std::string& own_file,
+                      const std::string& prefix, std::ostream& err) {
+  if (!dataset_dir.empty() && IsSameOrInsideFolder(out_dir, dataset_dir)) {
+    err << prefix << "--out " << out_dir << ": is the dataset folder " << dataset_dir
+        << " or inside it; the results would be written among the dataset's files: give a folder "
+           "outside it\n";
+    return kExitInput;
+  }
+  const std::string held = OtherCommandsResults(out_dir, own_file);
+  if (!held.empty()) {
+    err << prefix << "--out " << out_dir << ": holds " << held << "; give a new folder"
+        << (own_file.empty() ? "" : ", or one holding this command's own results (" + own_file + ")") << "\n";
+    return kExitInput;
+  }
+  return kExitOk;
+}
+
 bool IsSameOrInsideFolder(const std::string& path, const std::string& folder) {
   const fs::path resolved_path = Resolved(path);
   const fs::path resolved_folder = Resolved(folder);
@@ -189,20 +200,8 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
   }
   result.exit_code = CheckDatasetFolder(dataset_dir, command, err);
   if (result.exit_code != kExitOk) return result;
-  if (IsSameOrInsideFolder(out_dir, dataset_dir)) {
-    err << prefix << "--out " << out_dir << ": is the dataset folder " << dataset_dir
-        << " or inside it; the results would be written among the dataset's files: give a folder "
-           "outside it\n";
-    result.exit_code = kExitInput;
-    return result;
-  }
-  const std::string held = OtherCommandsResults(out_dir, own_result_file);
-  if (!held.empty()) {
-    err << prefix << "--out " << out_dir << ": holds " << held
-        << "; a rerun of hdabench " << command << " may write into its own results only: give a new folder\n";
-    result.exit_code = kExitInput;
-    return result;
-  }
+  result.exit_code = CheckOutputFolder(out_dir, dataset_dir, own_result_file, prefix, err);
+  if (result.exit_code != kExitOk) return result;
   // A folder made here and still empty is removed again when the dataset or
   // its frames turn out unusable: a refused command leaves nothing behind.
   std::error_code exists_error;

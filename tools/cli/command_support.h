@@ -90,6 +90,14 @@ std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
 // empty path (a command without an output folder) is inside nothing.
 bool IsSameOrInsideFolder(const std::string& path, const std::string& folder);
 
+// Whether `out_dir` may take a command's results: not `dataset_dir` (when
+// given) nor inside it, and holding no dataset or other command's results
+// (OtherCommandsResults; `own_file` marks the command's own, which a rerun
+// replaces). kExitOk when it may; otherwise one line after `prefix`
+// ("hdabench run: ") says why, and kExitInput.
+int CheckOutputFolder(const std::string& out_dir, const std::string& dataset_dir, const std::string& own_file,
+                      const std::string& prefix, std::ostream& err);
+
 // What an output folder already holds of another command's results: "a
 // dataset (DIR/manifest.json)", "the results of hdabench compare
 // (DIR/compare.json)", ...: the first of the files that mark a dataset or a

@@ -110,9 +110,8 @@ int ReadInputs(const Options& options, reference::GateSuite* suite, VerdictInput
   v->out_dir = options.out_dir;
   // Not over a dataset or another command's results (a gate's own folder,
   // marked by metrics.json, is reused: its complete entries are kept).
-  if (const std::string held = OtherCommandsResults(v->out_dir, "metrics.json"); !held.empty()) {
-    err << command << "--out " << v->out_dir << ": holds " << held << "; give a new folder or a gate's own\n";
-    return kExitInput;
+  if (const int code = CheckOutputFolder(v->out_dir, "", "metrics.json", command, err); code != kExitOk) {
+    return code;
   }
   try {
     *suite = reference::ReadGateSuite(v->suite_file);

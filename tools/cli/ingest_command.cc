@@ -186,14 +186,8 @@ int RunExportField(const ExportFieldOptions& options, std::ostream& out, std::os
     return kExitUsage;
   }
   // Not among the dataset's files, nor over another command's results.
-  if (IsSameOrInsideFolder(options.out_dir, options.dataset_dir)) {
-    err << command << "--out " << options.out_dir << ": is the dataset folder " << options.dataset_dir
-        << " or inside it; the log would be written among the dataset's files: give a folder outside it\n";
-    return kExitInput;
-  }
-  if (const std::string held = OtherCommandsResults(options.out_dir, ""); !held.empty()) {
-    err << command << "--out " << options.out_dir << ": holds " << held << "; give a new folder\n";
-    return kExitInput;
+  if (const int code = CheckOutputFolder(options.out_dir, options.dataset_dir, "", command, err); code != kExitOk) {
+    return code;
   }
   datasets::LoadOptions load;
   load.keep_images = true;

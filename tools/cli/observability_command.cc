@@ -131,7 +131,7 @@ int RunObservability(ObservabilityArgs& args) {
       code != kExitOk) {
     return code;
   }
-  const int threads = args.threads > 0 ? args.threads : util::AvailableCores();
+  const int threads = util::WorkerThreads(args.threads);
   return WithExitCodes(command, err, [&] {
     const calib::CameraModel camera = args.camera_file.empty()
                                           ? datasets::synth::DefaultSynthCamera(1024, 30.0)
@@ -144,10 +144,8 @@ int RunObservability(ObservabilityArgs& args) {
     // The output folder before the study, not after it: a folder that
     // cannot be written, or one holding a dataset or another command's
     // results, costs no trials.
-    if (const std::string held = OtherCommandsResults(args.out_dir, "study.json"); !held.empty()) {
-      err << command << "--out " << args.out_dir << ": holds " << held
-          << "; a rerun of hdabench observability may write into its own results only: give a new folder\n";
-      return kExitInput;
+    if (const int code = CheckOutputFolder(args.out_dir, "", "study.json", command, err); code != kExitOk) {
+      return code;
     }
     reference::PrepareOutputFolder(args.out_dir);
     const size_t total = reference::StudySettings(study).size();

@@ -43,7 +43,7 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
   if (!options.terrain.empty()) synth_options.terrain = options.terrain;
   if (options.image_size_px > 0) synth_options.image_size_px = options.image_size_px;
   synth_options.camera_model_file = options.camera_model_file;
-  synth_options.threads = options.threads > 0 ? options.threads : util::AvailableCores();
+  synth_options.threads = util::WorkerThreads(options.threads);
   synth::TerrainOptions terrain = synth::TerrainPreset(synth_options.terrain);
   for (const std::string& override_text : options.overrides) {
     const size_t eq = override_text.find('=');

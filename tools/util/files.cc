@@ -22,26 +22,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// A descriptor opened for reading, closed when it goes out of scope, with
-// errno kept (close may set its own) for the caller's message. Descriptors
-// written to close by hand: their close can report a failed write.
-class ReadDescriptor {
- public:
-  explicit ReadDescriptor(int fd) : fd_(fd) {}
-  ~ReadDescriptor() {
-    if (fd_ < 0) return;
-    const int saved = errno;
-    ::close(fd_);
-    errno = saved;
-  }
-  ReadDescriptor(const ReadDescriptor&) = delete;
-  ReadDescriptor& operator=(const ReadDescriptor&) = delete;
-  int get() const { return fd_; }
-
- private:
-  int fd_;
-};
-
 // False with the reason when `path` is missing or a folder.
 bool IsReadableFile(const fs::path& path, std::string* error) {
   std::error_code ec;
@@ -169,8 +149,13 @@ bool WriteAll(int fd, const std::string& bytes) {
 // Flushes the folder's entries (the rename) to the disk. A file system that
 // cannot sync a folder (EINVAL) is taken as having nothing to flush.
 bool SyncFolder(const fs::path& folder) {
-  const ReadDescriptor handle(::open(folder.empty() ? "." : folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
-  return handle.get() >= 0 && (::fsync(handle.get()) == 0 || errno == EINVAL);
+  const int fd = ::open(folder.empty() ? "." : folder.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool synced = ::fsync(fd) == 0 || errno == EINVAL;
+  const int saved = errno;
+  ::close(fd);
+  errno = saved;
+  return synced;
 }
 
 }  // namespace

@@ -52,6 +52,8 @@ int AvailableCores() {
   return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
+int WorkerThreads(int requested) { return requested > 0 ? requested : AvailableCores(); }
+
 void ParallelFor(const std::string& name, int count, int threads,
                  const std::function<void(int index)>& body,
                  const std::function<void(int items_done)>& done) {
@@ -90,7 +92,8 @@ void ParallelFor(const std::string& name, int count, int threads,
 
   std::vector<std::thread> pool;
   pool.reserve(static_cast<size_t>(workers - 1));
-  for (int t = 1; t < workers && !NoThreadInjected(name); ++t) {
+  const bool threadless = NoThreadInjected(name);
+  for (int t = 1; t < workers && !threadless; ++t) {
     try {
       pool.emplace_back(work, false);
     } catch (...) {

@@ -56,6 +56,10 @@ auto StartBeside(const std::string& name, Task task) -> std::future<decltype(tas
 // to std::thread::hardware_concurrency when the affinity cannot be read.
 int AvailableCores();
 
+// A thread count as options give it: `requested` when it is > 0, else every
+// core this process may use (AvailableCores).
+int WorkerThreads(int requested);
+
 // One slice of a piece of work split over processes or machines (the
 // observability study's and the gate's --shard K/N): slice k of n holds the
 // items whose 0-based index is congruent to k - 1 modulo n, so the slices

@@ -242,9 +242,10 @@ double ParseDoubleValue(const std::string& key, const std::string& text) {
   return value;
 }
 
-// The overrides whose values are names or flags (motion, terrain,
-// terrain.rock_law, render.anti_aliasing, render.shot_noise); false for any
-// other key.
+// The overrides whose values are names or flags, as the unknown-key message lists them.
+constexpr const char* kNamedOverrides = "motion terrain terrain.rock_law render.anti_aliasing render.shot_noise";
+
+// Applies one of kNamedOverrides; false for any other key.
 bool ApplyNamedOverride(const std::string& key, const std::string& value, SynthOptions* o, TerrainOptions* t) {
   RenderOptions& r = o->render;
   if (key == "terrain.rock_law") {
@@ -376,7 +377,7 @@ void ApplyOverride(const std::string& key, const std::string& value, SynthOption
   for (const auto& [name, unused] : doubles) known += " " + name;
   for (const auto& [name, unused] : ints) known += " " + name;
   throw InputError("--set " + key + "=" + value + ": unknown parameter '" + key +
-                   "'; known: motion terrain" + known);
+                   "'; known: " + kNamedOverrides + known);
 }
 
 std::string SynthSummary::Summary() const {

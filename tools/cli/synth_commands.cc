@@ -16,6 +16,7 @@
 
 #include "tools/util/error.h"
 #include "tools/util/parallel_for.h"
+#include "calib/camera_model.h"
 #include "datasets/dataset.h"
 #include "datasets/faults.h"
 #include "datasets/synth/synth.h"
@@ -39,22 +40,39 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
         << " already exists and is not an empty folder; choose a new --out\n";
     return kExitUsage;
   }
-  synth::SynthOptions synth_options = synth::SynthPreset(options.preset);
-  if (!options.terrain.empty()) synth_options.terrain = options.terrain;
-  if (options.image_size_px > 0) synth_options.image_size_px = options.image_size_px;
-  synth_options.camera_model_file = options.camera_model_file;
-  synth_options.threads = util::WorkerThreads(options.threads);
-  synth::TerrainOptions terrain = synth::TerrainPreset(synth_options.terrain);
-  for (const std::string& override_text : options.overrides) {
-    const size_t eq = override_text.find('=');
-    if (eq == std::string::npos || eq == 0) {
-      err << "hdabench synth: --set expects key=value, got '" << override_text << "'\n";
-      return kExitUsage;
+  // The scene comes from flags alone, so an unknown preset, an unknown or
+  // unparsable --set and options the scene cannot have are bad flag values
+  // (exit 2); only the camera model file is an input that can be unusable (exit 3).
+  synth::SynthOptions synth_options;
+  synth::TerrainOptions terrain;
+  try {
+    synth_options = synth::SynthPreset(options.preset);
+    if (!options.terrain.empty()) synth_options.terrain = options.terrain;
+    if (options.image_size_px > 0) synth_options.image_size_px = options.image_size_px;
+    synth_options.camera_model_file = options.camera_model_file;
+    synth_options.threads = util::WorkerThreads(options.threads);
+    terrain = synth::TerrainPreset(synth_options.terrain);
+    for (const std::string& override_text : options.overrides) {
+      const size_t eq = override_text.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        throw InputError("--set expects key=value, got '" + override_text + "'");
+      }
+      synth::ApplyOverride(override_text.substr(0, eq), override_text.substr(eq + 1), &synth_options,
+                           &terrain);
     }
-    synth::ApplyOverride(override_text.substr(0, eq), override_text.substr(eq + 1), &synth_options,
-                         &terrain);
+    synth::ScaleTerrain(synth_options.terrain_scale, &terrain);
+  } catch (const InputError& e) {
+    err << "hdabench synth: " << e.what() << "\n";
+    return kExitUsage;
   }
-  synth::ScaleTerrain(synth_options.terrain_scale, &terrain);
+  if (!options.camera_model_file.empty()) {
+    try {
+      calib::CameraModel::Load(options.camera_model_file);
+    } catch (const InputError& e) {
+      err << "hdabench synth: --camera-model: " << e.what() << "\n";
+      return kExitInput;
+    }
+  }
   std::vector<datasets::Fault> faults;
   for (const std::string& text : options.faults) {
     try {
@@ -82,7 +100,15 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
     err << "hdabench synth: " << stage << " " << percent << "%\n";
   };
   synth::SynthSummary summary;
-  datasets::Dataset dataset = synth::GenerateSynthDataset(synth_options, terrain, options.seed, progress, &summary);
+  std::optional<datasets::Dataset> generated;
+  try {
+    // Its InputErrors are the options': the camera model file loaded above.
+    generated.emplace(synth::GenerateSynthDataset(synth_options, terrain, options.seed, progress, &summary));
+  } catch (const InputError& e) {
+    err << "hdabench synth: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  datasets::Dataset& dataset = *generated;
   if (!faults.empty()) {
     // On the pair `run` takes; a fault that cannot apply is an InputError
     // (exit 3) before anything is written.

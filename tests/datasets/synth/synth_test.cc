@@ -3,7 +3,10 @@
 #include <cmath>
 #include <limits>
 #include <filesystem>
+#include <fstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -155,13 +158,54 @@ TEST(SynthCommand, FailureLeavesNoDatasetBehind) {
   const auto run = RunHdabench({"synth", "--out", out.string(), "--image-size", "64", "--set",
                                 "render.sun_elevation_deg=-5", "--quiet"},
                                dir);
-  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("hdabench synth: invalid synthetic dataset options"), std::string::npos) << run.err;
   EXPECT_NE(run.err.find("sun_elevation_deg"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(out));
   const auto bad_key = RunHdabench({"synth", "--out", out.string(), "--set", "warp_factor=9"}, dir);
-  EXPECT_EQ(bad_key.exit_code, 3) << bad_key.err;
+  EXPECT_EQ(bad_key.exit_code, 2) << bad_key.err;
   EXPECT_NE(bad_key.err.find("warp_factor"), std::string::npos) << bad_key.err;
+  // The named keys are listed with the numeric ones.
+  for (const char* key : {"terrain.rock_law", "render.anti_aliasing", "render.shot_noise", "terrain.rock_k"}) {
+    EXPECT_NE(bad_key.err.find(key), std::string::npos) << key << ": " << bad_key.err;
+  }
   EXPECT_FALSE(fs::exists(out));
+}
+
+// Everything synth makes a scene from is a flag, so what the scene cannot
+// have is a bad flag value (exit 2), found before anything is rendered; only
+// an unusable camera model file is exit 3.
+TEST(SynthCommand, BadOptionsAreUsageErrorsAndABadCameraModelAnInputError) {
+  const fs::path dir = FreshTestDir();
+  const fs::path out = dir / "out";
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{"--preset", "lander"}, "unknown preset 'lander'"},
+      {{"--terrain", "swamp"}, "swamp"},
+      {{"--set", "render.shot_noise=2"}, "render.shot_noise=2: expected 0 or 1"},
+      {{"--set", "motion=sideways"}, "motion=sideways"},
+      {{"--set", "altitude_m"}, "--set expects key=value"},
+      {{"--set", "image_size_px=2.5"}, "expected a whole number"},
+      {{"--set", "altitude_m=-5"}, "altitude_m = -5"},
+      {{"--set", "off_nadir_deg=75", "--set", "horizontal_fov_deg=60"}, "the camera sees no terrain"},
+  };
+  for (const auto& [flags, message] : cases) {
+    std::vector<std::string> args = {"synth", "--out", out.string(), "--image-size", "64", "--quiet"};
+    args.insert(args.end(), flags.begin(), flags.end());
+    const auto run = RunHdabench(args, dir);
+    EXPECT_EQ(run.exit_code, 2) << flags.back() << ": " << run.err;
+    EXPECT_NE(run.err.find("hdabench synth: "), std::string::npos) << run.err;
+    EXPECT_NE(run.err.find(message), std::string::npos) << run.err;
+    EXPECT_FALSE(fs::exists(out)) << flags.back();
+  }
+  std::ofstream(dir / "broken.cameramodel") << "{ 'lensmodel': 'LENSMODEL_PINHOLE',";
+  for (const fs::path& model : {dir / "absent.cameramodel", dir / "broken.cameramodel"}) {
+    const auto run = RunHdabench({"synth", "--out", out.string(), "--image-size", "64", "--quiet",
+                                  "--camera-model", model.string()},
+                                 dir);
+    EXPECT_EQ(run.exit_code, 3) << run.err;
+    EXPECT_NE(run.err.find("hdabench synth: --camera-model: " + model.string()), std::string::npos) << run.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
 }
 
 TEST(ComputeRoiTruth, FlatGroundHasZeroSlopeAndRoughness) {

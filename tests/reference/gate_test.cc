@@ -819,6 +819,23 @@ TEST_F(GateCommand, BadFilesAndFlagsHaveTheirExitCodes) {
                         (dir / "o").string(), "--jobs", "0"},
                        dir);
   EXPECT_EQ(result.exit_code, 2);
+  for (const char* noise : {"inf", "nan", "-1"}) {
+    result = RunHdabench({"gate", "--suite", suite.string(), "--thresholds", suite.string(), "--out",
+                          (dir / "o").string(), "--fault-match-noise-px", noise},
+                         dir);
+    EXPECT_EQ(result.exit_code, 2) << noise << ": " << result.err;
+    EXPECT_NE(result.err.find(std::string("--fault-match-noise-px ") + noise + ": expected a finite number >= 0"),
+              std::string::npos)
+        << result.err;
+  }
+  // The gate's own flags given to gate merge are refused, not dropped.
+  result = RunHdabench({"gate", "--jobs", "2", "merge", (dir / "o").string(), "--suite", suite.string(),
+                        "--thresholds", suite.string(), "--out", (dir / "m").string()},
+                       dir);
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find("hdabench gate merge: --jobs is a flag of gate, not of gate merge"), std::string::npos)
+      << result.err;
+  EXPECT_FALSE(fs::exists(dir / "m"));
   // A baseline that could not be written is refused before any entry runs.
   const fs::path loose = WriteThresholds(
       dir, "loose.json", {{{"method", "flight"}, {"metric", "slope_error_median_deg"}, {"max", 90}}});

@@ -2,6 +2,7 @@
 // metrics per method, check them against the thresholds (and a baseline), and
 // print the table (reference/gate/gate.h, docs/gate.md); with --shard, one
 // slice of the suite; `hdabench gate merge`: the slices into the whole verdict.
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <iostream>
@@ -170,8 +171,8 @@ int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::os
     err << command << "--jobs " << options.jobs << ": expected >= 1\n";
     return kExitUsage;
   }
-  if (!(options.fault_match_noise_px >= 0.0)) {
-    err << command << "--fault-match-noise-px " << options.fault_match_noise_px << ": expected >= 0\n";
+  if (!(std::isfinite(options.fault_match_noise_px) && options.fault_match_noise_px >= 0.0)) {
+    err << command << "--fault-match-noise-px " << options.fault_match_noise_px << ": expected a finite number >= 0\n";
     return kExitUsage;
   }
   util::Shard shard;
@@ -300,7 +301,22 @@ std::vector<Command> AddGateCommands(CLI::App& app) {
   // The gate's own flags are checked when it runs: a parsed merge has its
   // parent parsed too, so merge comes first.
   gate->require_subcommand(0, 1);
-  return {{merge_app, [merge] { return RunGateMerge(*merge, std::cout, std::cerr); }},
+  return {{merge_app,
+           [merge, gate, merge_app] {
+             // `gate --jobs 2 merge ...` would otherwise drop --jobs without a word.
+             for (const CLI::Option* option : gate->get_options()) {
+               if (option->count() == 0) continue;
+               std::string own;
+               for (const CLI::Option* merge_option : merge_app->get_options()) {
+                 if (merge_option->get_name() != "--help") own += " " + merge_option->get_name();
+               }
+               std::cerr << "hdabench gate merge: " << option->get_name()
+                         << " is a flag of gate, not of gate merge (whose arguments, after 'merge', are" << own
+                         << ")\n";
+               return kExitUsage;
+             }
+             return RunGateMerge(*merge, std::cout, std::cerr);
+           }},
           {gate, [options] { return RunGateCommand(*options, std::cout, std::cerr); }}};
 }
 

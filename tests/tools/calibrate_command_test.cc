@@ -420,6 +420,23 @@ TEST(CalibDiff, MissingOrMismatchedModelsAreInputErrors) {
                     dir);
   EXPECT_EQ(run.exit_code, 3);
   EXPECT_NE(run.err.find("imager"), std::string::npos) << run.err;
+  // Neither refusal leaves the output folder behind.
+  EXPECT_FALSE(fs::exists(dir / "d"));
+  // A grid finer than A's 640 pixels is a bad flag value; an --out that is a
+  // file is named with the reason.
+  run = RunHdabench({"calib-diff", (dir / "a.cameramodel").string(), (dir / "a.cameramodel").string(),
+                     "--out", (dir / "d").string(), "--gridn", "641"},
+                    dir);
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_NE(run.err.find("--gridn 641: more grid points across than the 640 pixels"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(dir / "d"));
+  run = RunHdabench({"calib-diff", (dir / "a.cameramodel").string(), (dir / "a.cameramodel").string(),
+                     "--out", (dir / "a.cameramodel").string()},
+                    dir);
+  EXPECT_EQ(run.exit_code, 3) << run.err;
+  EXPECT_NE(run.err.find("a.cameramodel: cannot create the output folder: it exists and is not a folder"),
+            std::string::npos)
+      << run.err;
   // A model against itself: no difference.
   run = RunHdabench({"calib-diff", (dir / "a.cameramodel").string(), (dir / "a.cameramodel").string(),
                      "--out", (dir / "same").string()},

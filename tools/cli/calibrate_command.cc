@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -90,24 +91,48 @@ int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std:
     for (const std::string& p : problems) err << command << p << "\n";
     return kExitUsage;
   }
-  namespace fs = std::filesystem;
-  std::error_code ec;
-  fs::create_directories(options.out_dir, ec);
-  if (ec || !fs::is_directory(options.out_dir, ec)) {
-    err << command << options.out_dir << ": cannot create the output folder\n";
+  // Both must be models the bench itself can use; they are read before the
+  // output folder is made, so a refused diff leaves nothing behind.
+  std::optional<calib::CameraModel> a;
+  std::optional<calib::CameraModel> b;
+  if (const int code = WithExitCodes(command, err,
+                                     [&] {
+                                       a.emplace(calib::CameraModel::Load(options.model_a));
+                                       b.emplace(calib::CameraModel::Load(options.model_b));
+                                     });
+      code != kExitOk) {
+    return code;
+  }
+  if (a->WidthPx() != b->WidthPx() || a->HeightPx() != b->HeightPx()) {
+    err << command << options.model_b << ": imager " << b->WidthPx() << " x " << b->HeightPx() << " differs from "
+        << options.model_a << ": " << a->WidthPx() << " x " << a->HeightPx()
+        << "; the projection difference needs equal imager sizes\n";
     return kExitInput;
   }
-  return WithExitCodes(command, err, [&] {
-    // Both must be models the bench itself can use.
-    const calib::CameraModel a = calib::CameraModel::Load(options.model_a);
-    const calib::CameraModel b = calib::CameraModel::Load(options.model_b);
-    const fs::path dir(options.out_dir);
+  // A grid finer than A's pixels adds nothing but memory (mrcal holds every point).
+  if (options.gridn > a->WidthPx()) {
+    err << command << "--gridn " << options.gridn << ": more grid points across than the " << a->WidthPx()
+        << " pixels of " << options.model_a << "'s imager\n";
+    return kExitUsage;
+  }
+  namespace fs = std::filesystem;
+  const fs::path dir(options.out_dir);
+  std::error_code ec;
+  const bool made_here = !fs::exists(dir, ec);
+  fs::create_directories(dir, ec);
+  std::error_code kind_error;
+  if (ec || !fs::is_directory(dir, kind_error)) {
+    err << command << "--out " << options.out_dir << ": cannot create the output folder: "
+        << (fs::exists(dir, kind_error) ? std::string("it exists and is not a folder") : ec.message()) << "\n";
+    return kExitInput;
+  }
+  const int code = WithExitCodes(command, err, [&] {
     const calib::ProjectionDiff result = calib::DiffCalibrations(
         options.model_a, options.model_b, (dir / "calib-diff.json").string(),
         (dir / "calib-diff.png").string(), diff);
     out << "projection difference " << options.model_a << " -> " << options.model_b << " ("
-        << a.LensModelName() << " -> " << b.LensModelName() << ", " << a.WidthPx() << " x "
-        << a.HeightPx() << " px, " << result.points << " grid points, implied rotation "
+        << a->LensModelName() << " -> " << b->LensModelName() << ", " << a->WidthPx() << " x "
+        << a->HeightPx() << " px, " << result.points << " grid points, implied rotation "
         << util::FixedText(result.rotation_deg, 4) << " deg taken out):\n"
         << "  median " << util::FixedText(result.median_px, 3) << " px, p90 " << util::FixedText(result.p90_px, 3)
         << " px, max " << util::FixedText(result.max_px, 3) << " px\n";
@@ -120,6 +145,8 @@ int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std:
     }
     out << "wrote " << result.json_path << " and " << result.heatmap_png << "\n";
   });
+  if (code != kExitOk && made_here && fs::is_empty(dir, ec)) fs::remove(dir, ec);
+  return code;
 }
 
 namespace {

@@ -278,15 +278,12 @@ bool ParseLensModel(const std::string& name, mrcal_lensmodel_t* lensmodel) {
 }
 
 std::string ReadWholeFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    throw InputError(path + ": cannot open the camera model file (" +
-                     std::generic_category().message(errno) + ")");
+  std::string bytes;
+  std::string error;
+  if (!util::ReadFileBytes(path, &bytes, &error)) {
+    throw InputError(path + ": cannot open the camera model file (" + error + ")");
   }
-  std::ostringstream buffer;
-  buffer << in.rdbuf();
-  if (in.bad()) throw InputError(path + ": cannot read the camera model file");
-  return buffer.str();
+  return bytes;
 }
 
 void RefineBearings(const mrcal_lensmodel_t* model, const std::vector<double>& intrinsics,

@@ -13,6 +13,7 @@
 
 #include "datasets/internal/pair_frames.h"
 #include "tools/images/codecs.h"
+#include "tools/util/files.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/text.h"
@@ -31,8 +32,7 @@ Eigen::Vector3d BoardCorner(const calib::ChessboardSpec& board, int i) {
 
 // 8-bit grey image of `path`, checked against the model's imager size.
 cv::Mat ReadGrey(const std::string& path, const calib::CameraModel& camera) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path + ": no such file");
+  if (std::string error; !util::IsReadableFile(path, &error)) throw InputError(path + ": " + error);
   const cv::Mat image = images::Read(path, cv::IMREAD_GRAYSCALE);
   if (image.empty()) throw InputError(path + ": not an image OpenCV can read");
   if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {

@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tools/images/codecs.h"
+#include "tools/util/files.h"
 #include "tools/util/error.h"
 #include "tools/util/text.h"
 #include "datasets/internal/pair_frames.h"
@@ -103,8 +104,7 @@ std::vector<SourceFrame> ListFrames(const fs::path& dir) {
 // The grey image of a frame, CV_8UC1. A 3-channel JPEG (grey stored as
 // colour) gives its first channel.
 cv::Mat ReadImage(const fs::path& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path.string() + ": no such file");
+  if (std::string error; !util::IsReadableFile(path, &error)) throw InputError(path.string() + ": " + error);
   const cv::Mat raw = images::Read(path.string(), cv::IMREAD_UNCHANGED);
   if (raw.empty()) throw InputError(path.string() + ": cannot be decoded as an image");
   if (raw.depth() != CV_8U || (raw.channels() != 1 && raw.channels() != 3)) {
@@ -120,9 +120,8 @@ cv::Mat ReadImage(const fs::path& path) {
 
 // The z-depth raster of a frame, CV_32FC1, metres.
 cv::Mat ReadDepth(const fs::path& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) {
-    throw InputError(path.string() + ": no such file (the frame's z-depth)");
+  if (std::string error; !util::IsReadableFile(path, &error)) {
+    throw InputError(path.string() + ": " + error + " (the frame's z-depth)");
   }
   // OpenCV reads this variable once, at its first EXR decode.
   ::setenv("OPENCV_IO_ENABLE_OPENEXR", "1", 1);
@@ -346,8 +345,7 @@ void CheckCamera(const StereoLunarCamera& camera, const std::string& where) {
 }  // namespace
 
 std::vector<StereoLunarCamera> ReadStereoLunarCameras(const std::string& path) {
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw InputError(path + ": no such file");
+  if (std::string error; !util::IsReadableFile(path, &error)) throw InputError(path + ": " + error);
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot be opened");
   std::vector<StereoLunarCamera> cameras;

@@ -22,6 +22,7 @@
 #include "tools/images/codecs.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
+#include "tools/util/files.h"
 #include "tools/util/options_check.h"
 #include "tools/util/process.h"
 #include "tools/util/parallel_for.h"
@@ -122,7 +123,7 @@ CameraSetup SetupCamera(const calib::CameraModel& camera) {
 
 // Reads an image as 8-bit grey (16-bit divided by 257, rounded; colour to grey).
 cv::Mat ReadGrey8(const std::string& path, const calib::CameraModel& camera) {
-  if (!fs::is_regular_file(path)) throw InputError(path + ": image file does not exist");
+  if (std::string error; !util::IsReadableFile(path, &error)) throw InputError(path + ": " + error);
   cv::Mat image = images::Read(path, cv::IMREAD_UNCHANGED);
   if (image.empty()) throw InputError(path + ": cannot read the image");
   if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {

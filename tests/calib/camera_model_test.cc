@@ -394,7 +394,15 @@ TEST(CameraModelLoad, MissingFileNamesThePath) {
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()),
-              path.string() + ": cannot open the camera model file (No such file or directory)");
+              path.string() + ": cannot open the camera model file (file not found)");
+  }
+  // A folder is named as one, not read as an empty model.
+  try {
+    CameraModel::Load(path.parent_path().string());
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path.parent_path().string() +
+                                         ": cannot open the camera model file (is a directory; expected a file)");
   }
 }
 

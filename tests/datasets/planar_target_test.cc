@@ -144,7 +144,12 @@ TEST(PlanarTarget, UnusableInputsAreNamed) {
   const fs::path dir = FreshTestDir();
   EXPECT_NE(InputErrorOf([&] {
               MakePlanarTargetPair((dir / "none.jpg").string(), camera, Image("right", "01"), camera, Board());
-            }).find("none.jpg: no such file"),
+            }).find("none.jpg: file not found"),
+            std::string::npos);
+  // A folder is named as one.
+  EXPECT_NE(InputErrorOf([&] {
+              MakePlanarTargetPair(dir.string(), camera, Image("right", "01"), camera, Board());
+            }).find(dir.string() + ": is a directory; expected a file"),
             std::string::npos);
   // An image without the board.
   const fs::path blank = dir / "blank.png";

@@ -286,13 +286,13 @@ TEST(StereoLunar, BadSourcesGiveErrorsNamingTheFile) {
                    {cameras, "no line for paire1/im_00594"});
   ExpectInputError(
       [&] { ConvertStereoLunarPair(pair.string(), (dir / "none.txt").string(), 0); },
-      {(dir / "none.txt").string(), "no such file"});
+      {(dir / "none.txt").string(), "file not found"});
   WriteText(cameras, testing_support::JoinLines(lines));
 
   // A missing depth file, then a depth file that is not an EXR.
   fs::remove(pair / "im_00595.exr");
   ExpectInputError([&] { ConvertStereoLunarPair(pair.string(), cameras, 0); },
-                   {(pair / "im_00595.exr").string(), "no such file"});
+                   {(pair / "im_00595.exr").string(), "file not found"});
   WriteText(pair / "im_00595.exr", "not an image");
   ExpectInputError([&] { ConvertStereoLunarPair(pair.string(), cameras, 0); },
                    {(pair / "im_00595.exr").string(), "cannot be decoded"});

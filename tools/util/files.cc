@@ -20,9 +20,6 @@ namespace hdabench::util {
 
 namespace fs = std::filesystem;
 
-namespace {
-
-// False with the reason when `path` is missing or a folder.
 bool IsReadableFile(const fs::path& path, std::string* error) {
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
@@ -36,8 +33,6 @@ bool IsReadableFile(const fs::path& path, std::string* error) {
   }
   return true;
 }
-
-}  // namespace
 
 bool ReadFileBytes(const fs::path& path, std::string* bytes, std::string* error) {
   return ReadFilePrefix(path, std::numeric_limits<std::uint64_t>::max(), bytes, nullptr, error);

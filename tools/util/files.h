@@ -8,6 +8,10 @@
 
 namespace hdabench::util {
 
+// False with `error` set to "file not found" or "is a directory; expected a
+// file" when `path` is missing or a folder; true otherwise.
+bool IsReadableFile(const std::filesystem::path& path, std::string* error);
+
 // Reads a whole file. On failure returns false and sets `error` to a message
 // without the path: "file not found", "is a directory; expected a file",
 // "cannot be read (Permission denied)".

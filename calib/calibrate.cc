@@ -86,14 +86,7 @@ CameraImages DetectCamera(const CalibrateOptions& options, int camera,
     use.camera = camera;
     use.name = MrcalImageName(camera, i, paths[i]);
     CornerDetection detection;
-    std::error_code ec;
-    cv::Mat gray;
-    if (!fs::is_regular_file(paths[i], ec)) {
-      use.reason = fs::exists(paths[i], ec) ? "not a regular file" : "file not found";
-    } else {
-      gray = images::Read(paths[i], cv::IMREAD_GRAYSCALE);
-      if (gray.empty()) use.reason = "unreadable: not an image format OpenCV can decode";
-    }
+    const cv::Mat gray = images::ReadWholeImage(paths[i], cv::IMREAD_GRAYSCALE, &use.reason);
     if (!gray.empty()) {
       use.width_px = gray.cols;
       use.height_px = gray.rows;

@@ -285,8 +285,9 @@ std::vector<ImageFile> ImagesFromCsv(const fs::path& folder, const std::string& 
 }
 
 cv::Mat ReadGreyImage(const ImageFile& image, std::vector<std::string>* notes) {
-  cv::Mat pixels = images::Read(image.path, cv::IMREAD_UNCHANGED);
-  if (pixels.empty()) throw InputError(image.path + ": not an image OpenCV can read");
+  std::string error;
+  cv::Mat pixels = images::ReadWholeImage(image.path, cv::IMREAD_UNCHANGED, &error);
+  if (pixels.empty()) throw InputError(image.path + ": " + error);
   if (pixels.depth() != CV_8U && pixels.depth() != CV_16U) {
     throw InputError(image.path + ": pixels are neither 8-bit nor 16-bit");
   }

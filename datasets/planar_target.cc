@@ -32,9 +32,9 @@ Eigen::Vector3d BoardCorner(const calib::ChessboardSpec& board, int i) {
 
 // 8-bit grey image of `path`, checked against the model's imager size.
 cv::Mat ReadGrey(const std::string& path, const calib::CameraModel& camera) {
-  if (std::string error; !util::IsReadableFile(path, &error)) throw InputError(path + ": " + error);
-  const cv::Mat image = images::Read(path, cv::IMREAD_GRAYSCALE);
-  if (image.empty()) throw InputError(path + ": not an image OpenCV can read");
+  std::string error;
+  const cv::Mat image = images::ReadWholeImage(path, cv::IMREAD_GRAYSCALE, &error);
+  if (image.empty()) throw InputError(path + ": " + error);
   if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {
     throw InputError(path + ": " + std::to_string(image.cols) + " x " + std::to_string(image.rows) +
                      " px, but its camera model is " + std::to_string(camera.WidthPx()) + " x " +

@@ -104,9 +104,9 @@ std::vector<SourceFrame> ListFrames(const fs::path& dir) {
 // The grey image of a frame, CV_8UC1. A 3-channel JPEG (grey stored as
 // colour) gives its first channel.
 cv::Mat ReadImage(const fs::path& path) {
-  if (std::string error; !util::IsReadableFile(path, &error)) throw InputError(path.string() + ": " + error);
-  const cv::Mat raw = images::Read(path.string(), cv::IMREAD_UNCHANGED);
-  if (raw.empty()) throw InputError(path.string() + ": cannot be decoded as an image");
+  std::string error;
+  const cv::Mat raw = images::ReadWholeImage(path.string(), cv::IMREAD_UNCHANGED, &error);
+  if (raw.empty()) throw InputError(path.string() + ": " + error);
   if (raw.depth() != CV_8U || (raw.channels() != 1 && raw.channels() != 3)) {
     throw InputError(path.string() + ": " + std::to_string(raw.channels()) +
                      " channel(s) of OpenCV depth " + std::to_string(raw.depth()) +

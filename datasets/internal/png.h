@@ -7,17 +7,13 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "tools/images/png.h"
+
 namespace hdabench::datasets::internal {
 
-struct PngHeader {
-  int width_px = 0;
-  int height_px = 0;
-  int bit_depth = 0;   // bits per sample
-  int color_type = 0;  // 0 grey, 2 RGB, 3 palette, 4 grey + alpha, 6 RGBA
-};
+using PngHeader = images::PngHeader;
 
-// Checks the PNG container: signature, every chunk's length and CRC, IHDR
-// first, at least one IDAT, IEND last with nothing after it. Then requires a
+// Checks the PNG container: signature, then images::CheckPngChunks. Then requires a
 // single-channel (greyscale, colour type 0) image of 8 or 16 bits. Returns false
 // with `error` saying what is wrong (without the file name).
 bool CheckPngStructure(const std::string& bytes, PngHeader* header, std::string* error);

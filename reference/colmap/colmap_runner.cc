@@ -123,9 +123,9 @@ CameraSetup SetupCamera(const calib::CameraModel& camera) {
 
 // Reads an image as 8-bit grey (16-bit divided by 257, rounded; colour to grey).
 cv::Mat ReadGrey8(const std::string& path, const calib::CameraModel& camera) {
-  if (std::string error; !util::IsReadableFile(path, &error)) throw InputError(path + ": " + error);
-  cv::Mat image = images::Read(path, cv::IMREAD_UNCHANGED);
-  if (image.empty()) throw InputError(path + ": cannot read the image");
+  std::string error;
+  cv::Mat image = images::ReadWholeImage(path, cv::IMREAD_UNCHANGED, &error);
+  if (image.empty()) throw InputError(path + ": " + error);
   if (image.cols != camera.WidthPx() || image.rows != camera.HeightPx()) {
     throw InputError(path + ": image is " + std::to_string(image.cols) + " x " +
                      std::to_string(image.rows) + " px, the camera's imager " +

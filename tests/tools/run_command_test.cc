@@ -493,8 +493,18 @@ TEST(RunCommand, PlanarTargetIngestedAndRunOnTheBoard) {
   args.insert(args.end(), {"--out", (dir / "no-image").string()});
   const CommandResult no_image = RunInOwnFolder(args);
   EXPECT_EQ(no_image.exit_code, 3) << no_image.err;
-  EXPECT_NE(no_image.err.find("README.md: not an image OpenCV can read"), std::string::npos) << no_image.err;
+  EXPECT_NE(no_image.err.find("README.md: is not an image OpenCV can read"), std::string::npos) << no_image.err;
   EXPECT_FALSE(fs::exists(dir / "no-image") && !fs::is_empty(dir / "no-image"));
+  // A JPEG cut short is refused, not read as a partly grey image.
+  const std::string jpeg = ReadText(ingest[3]);
+  hdabench::testing_support::WriteText(dir / "cut.jpg", jpeg.substr(0, jpeg.size() / 2));
+  args = ingest;
+  args[3] = (dir / "cut.jpg").string();
+  args.insert(args.end(), {"--out", (dir / "cut").string()});
+  const CommandResult cut = RunInOwnFolder(args);
+  EXPECT_EQ(cut.exit_code, 3) << cut.err;
+  EXPECT_NE(cut.err.find("cut.jpg: is truncated: "), std::string::npos) << cut.err;
+  EXPECT_EQ(cut.err.find("Premature end of JPEG file"), std::string::npos) << cut.err;
 }
 
 TEST(RunCommand, HasHelp) {

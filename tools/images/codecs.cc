@@ -4,6 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "tools/images/png.h"
+#include "tools/util/files.h"
 #include "tools/util/shared_library.h"
 
 namespace hdabench::images {
@@ -60,6 +61,70 @@ const Codecs& TheCodecs() {
 bool CodecsLoaded() { return util::SharedLibraryLoaded(kLibrary); }
 
 cv::Mat Read(const std::string& path, int flags) { return TheCodecs().imread(path, flags); }
+
+bool CheckJpegComplete(const std::string& bytes, std::string* error) {
+  const auto byte = [&](size_t at) { return static_cast<unsigned char>(bytes[at]); };
+  const size_t size = bytes.size();
+  if (size < 2 || byte(0) != 0xFF || byte(1) != 0xD8) {
+    *error = "is not a JPEG file (no start-of-image marker)";
+    return false;
+  }
+  const auto truncated = [&](const std::string& what) {
+    *error = "is truncated: " + what + " (file size " + std::to_string(size) + " bytes)";
+    return false;
+  };
+  size_t at = 2;
+  while (true) {
+    // A marker: 0xFF, any fill 0xFF bytes, then its code. Stray bytes before
+    // it are skipped, as libjpeg does (with a warning).
+    while (at < size && byte(at) != 0xFF) ++at;
+    while (at < size && byte(at) == 0xFF) ++at;
+    if (at >= size) return truncated("the file ends without the end-of-image marker");
+    const unsigned char code = byte(at);
+    const size_t marker_at = at - 1;
+    ++at;
+    if (code == 0xD9) return true;  // end of image
+    if ((code >= 0xD0 && code <= 0xD7) || code == 0x01 || code == 0x00) continue;  // no segment
+    if (size - at < 2) return truncated("the file ends inside the segment at byte " + std::to_string(marker_at));
+    const size_t length = (static_cast<size_t>(byte(at)) << 8) | byte(at + 1);
+    if (length < 2 || size - at < length) {
+      return truncated("the segment at byte " + std::to_string(marker_at) + " needs " + std::to_string(length + 2) +
+                       " bytes but the file ends after " + std::to_string(size - marker_at));
+    }
+    at += length;
+    if (code != 0xDA) continue;
+    // After a start of scan, entropy-coded data up to the next marker: 0xFF
+    // followed by neither 0x00 (a stuffed 0xFF) nor a restart marker.
+    while (true) {
+      while (at < size && byte(at) != 0xFF) ++at;
+      if (at + 1 >= size) {
+        return truncated("the image data of the scan at byte " + std::to_string(marker_at) +
+                         " ends without the end-of-image marker");
+      }
+      const unsigned char next = byte(at + 1);
+      if (next == 0x00 || (next >= 0xD0 && next <= 0xD7) || next == 0xFF) {
+        at += next == 0xFF ? 1 : 2;
+        continue;
+      }
+      break;
+    }
+  }
+}
+
+cv::Mat ReadWholeImage(const std::string& path, int flags, std::string* error) {
+  std::string bytes;
+  if (!util::ReadFileBytes(path, &bytes, error)) return cv::Mat();
+  if (HasPngSignature(bytes)) {
+    PngHeader header;
+    if (!CheckPngChunks(bytes, &header, error)) return cv::Mat();
+  } else if (bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0xFF &&
+             static_cast<unsigned char>(bytes[1]) == 0xD8) {
+    if (!CheckJpegComplete(bytes, error)) return cv::Mat();
+  }
+  cv::Mat image = Read(path, flags);
+  if (image.empty()) *error = bytes.empty() ? "is empty (0 bytes)" : "is not an image OpenCV can read";
+  return image;
+}
 
 bool Write(const std::string& path, const cv::Mat& image, const std::vector<int>& params) {
   return TheCodecs().imwrite(path, image, params);

@@ -19,6 +19,23 @@ namespace hdabench::images {
 // cv::imread: the image at `path`, or an empty Mat when OpenCV cannot read it.
 cv::Mat Read(const std::string& path, int flags);
 
+// Read of an image from outside the bench (a camera's JPEG or PNG):
+// cv::imread of a file checked first to be whole, since OpenCV decodes a
+// truncated JPEG or PNG into a partly grey image with only a warning on
+// stderr. An empty Mat, with `error` saying why without the path, when the
+// file is missing or a folder ("file not found"), a PNG whose chunks are
+// damaged (CheckPngChunks), a JPEG whose data ends before its end-of-image
+// marker (CheckJpegComplete), or anything OpenCV cannot decode. Other formats
+// are not checked beyond OpenCV's decoding.
+cv::Mat ReadWholeImage(const std::string& path, int flags, std::string* error);
+
+// Whether JPEG bytes run from the start-of-image marker to the end-of-image
+// marker: each marker segment whole, and the entropy-coded data after each
+// start-of-scan followed by a marker. Bytes after the end-of-image marker
+// are allowed (cameras append some). False with `error` ("is truncated: ...",
+// "is not a JPEG file ...") otherwise.
+bool CheckJpegComplete(const std::string& bytes, std::string* error);
+
 // cv::imwrite: false when OpenCV cannot write the file.
 bool Write(const std::string& path, const cv::Mat& image, const std::vector<int>& params = {});
 

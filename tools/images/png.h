@@ -34,6 +34,21 @@ bool DecodeGreyPng(const std::string& bytes, cv::Mat* image, std::string* error)
 // bytes libpng cannot decode; codecs.h's DecodeAsBgr then asks OpenCV.
 bool DecodePlainRgbPng(const std::string& bytes, cv::Mat* image);
 
+// What IHDR says of a PNG.
+struct PngHeader {
+  int width_px = 0;
+  int height_px = 0;
+  int bit_depth = 0;   // bits per sample
+  int color_type = 0;  // 0 grey, 2 RGB, 3 palette, 4 grey + alpha, 6 RGBA
+};
+
+// Checks the container of a PNG: its signature, every
+// chunk's length and CRC, IHDR first (once, with a valid size), at least one
+// IDAT, IEND last with nothing after it. Fills `header` from IHDR. Returns
+// false with `error` saying what is wrong, without the file name ("is
+// truncated: chunk 'IDAT' at byte 33 needs ...").
+bool CheckPngChunks(const std::string& bytes, PngHeader* header, std::string* error);
+
 // True when `bytes` begin with the 8 bytes of the PNG signature.
 bool HasPngSignature(const std::string& bytes);
 

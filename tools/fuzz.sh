@@ -67,6 +67,7 @@ seeds() {
   case $name in
     npy) git -C "$root" ls-files '*.npy' '*.npz' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
     cameramodel) git -C "$root" ls-files '*.cameramodel' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
+    png) git -C "$root" ls-files '*01.jpg' | while read -r file; do cp "$root/$file" "$dir/$(echo "$file" | tr / -)"; done ;;
     gate_files)
       # Index byte 0: the suite; 1: the thresholds.
       for file in "$root"/gate/suite*.json; do { printf '\000'; cat "$file"; } >"$dir/$(basename "$file")"; done

@@ -2,7 +2,8 @@
 // passes it (datasets/internal/png.h): false with a reason or an 8- or 16-bit
 // single-channel image, never a crash. And the decoding of the maps and
 // figures a report embeds (tools/images/png.h, DecodePlainRgbPng): false or a
-// 3-channel 8-bit image.
+// 3-channel 8-bit image. And the check that an outside JPEG is whole
+// (tools/images/codecs.h, CheckJpegComplete): true, or false with a reason.
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -12,10 +13,12 @@
 
 #include "datasets/internal/png.h"
 #include "tests/fuzz/fuzz_support.h"
+#include "tools/images/codecs.h"
 #include "tools/images/png.h"
 
 // With HDABENCH_FUZZ_SEEDS naming a folder: seeds there, an 8-bit and a 16-bit
-// greyscale PNG and an 8-bit RGB one.
+// greyscale PNG and an 8-bit RGB one (tools/fuzz.sh adds two of the
+// repository's JPEGs).
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   const char* seeds = std::getenv("HDABENCH_FUZZ_SEEDS");
   if (seeds == nullptr || *seeds == '\0') return 0;
@@ -44,6 +47,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   cv::Mat colour;
   if (hdabench::images::DecodePlainRgbPng(bytes, &colour) && colour.type() != CV_8UC3) __builtin_trap();
   std::string error;
+  if (!hdabench::images::CheckJpegComplete(bytes, &error) && error.empty()) __builtin_trap();
+  error.clear();
   internal::PngHeader header;
   if (!internal::CheckPngStructure(bytes, &header, &error)) return 0;
   cv::Mat image;

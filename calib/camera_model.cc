@@ -281,7 +281,7 @@ std::string ReadWholeFile(const std::string& path) {
   std::string bytes;
   std::string error;
   if (!util::ReadFileBytes(path, &bytes, &error)) {
-    throw InputError(path + ": cannot open the camera model file (" + error + ")");
+    throw InputError(path + ": camera model file: " + error);
   }
   return bytes;
 }

@@ -657,9 +657,9 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
                              std::uint64_t seed, const SynthProgress& progress,
                              SynthSummary* summary) {
   ThrowIfInvalid(options);
-  calib::CameraModel camera = options.camera_model_file.empty()
-                                  ? DefaultCamera(options)
-                                  : calib::CameraModel::Load(options.camera_model_file);
+  calib::CameraModel camera = options.camera_model.has_value()     ? *options.camera_model
+                              : options.camera_model_file.empty() ? DefaultCamera(options)
+                                                                  : calib::CameraModel::Load(options.camera_model_file);
   Dataset dataset = EmptyDataset(camera, options, seed);
   const FrameTrajectory frames = TrueFrames(options, dataset.cam_from_body);
 

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -33,6 +34,7 @@ struct SynthOptions {
   int image_size_px = 1024;              // imager side, pixels (the 2048 variant: 2048)
   double horizontal_fov_deg = 30.0;      // full field of view across the imager, degrees
   std::string camera_model_file;         // a .cameramodel to use instead of the default camera
+  std::optional<calib::CameraModel> camera_model;  // a model already read: used instead of both
 
   // Trajectory, in the local frame (ENU) with the ILS at the origin. The vehicle
   // starts south of the ILS, flies with body x pointing north, and the camera

@@ -394,7 +394,7 @@ TEST(CameraModelLoad, MissingFileNamesThePath) {
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()),
-              path.string() + ": cannot open the camera model file (file not found)");
+              path.string() + ": camera model file: file not found");
   }
   // A folder is named as one, not read as an empty model.
   try {
@@ -402,7 +402,7 @@ TEST(CameraModelLoad, MissingFileNamesThePath) {
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()), path.parent_path().string() +
-                                         ": cannot open the camera model file (is a directory; expected a file)");
+                                         ": camera model file: is a directory; expected a file");
   }
 }
 

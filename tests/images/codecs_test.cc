@@ -2,6 +2,8 @@
 // into a partly grey image, and nothing is printed.
 #include "tools/images/codecs.h"
 
+#include <sys/stat.h>
+
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -52,6 +54,9 @@ TEST(CheckJpegComplete, AcceptsWholeFilesAndRefusesEveryShorterOne) {
   std::string error;
   EXPECT_FALSE(CheckJpegComplete("GIF89a", &error));
   EXPECT_EQ(error, "is not a JPEG file (no start-of-image marker)");
+  // A segment whose length cannot hold itself is damage, not a short file.
+  EXPECT_FALSE(CheckJpegComplete(std::string("\xff\xd8\xff\xe0\x00\x01rest\xff\xd9", 12), &error));
+  EXPECT_EQ(error, "is corrupt: the segment at byte 2 gives a length of 1 bytes (at least 2)");
 }
 
 TEST(ReadWholeImage, ReadsWhatOpenCvReadsAndRefusesACutFileSilently) {
@@ -74,6 +79,15 @@ TEST(ReadWholeImage, ReadsWhatOpenCvReadsAndRefusesACutFileSilently) {
     EXPECT_EQ(error.rfind("is truncated: ", 0), 0u) << name << ": " << error;
     EXPECT_EQ(printed, "") << name;
   }
+  // Bytes after a PNG's IEND are allowed, as libpng stops there.
+  WriteText(dir / "tail.png", png + "appended");
+  EXPECT_EQ(cv::norm(ReadWholeImage((dir / "tail.png").string(), cv::IMREAD_GRAYSCALE, &error), whole, cv::NORM_INF),
+            0.0)
+      << error;
+  // A pipe would be empty when OpenCV opens it again.
+  ASSERT_EQ(::mkfifo((dir / "pipe.png").c_str(), 0600), 0);
+  EXPECT_TRUE(ReadWholeImage((dir / "pipe.png").string(), cv::IMREAD_GRAYSCALE, &error).empty());
+  EXPECT_EQ(error, "is a pipe; expected an image file");
   EXPECT_TRUE(ReadWholeImage((dir / "none.png").string(), cv::IMREAD_GRAYSCALE, &error).empty());
   EXPECT_EQ(error, "file not found");
   EXPECT_TRUE(ReadWholeImage(dir.string(), cv::IMREAD_GRAYSCALE, &error).empty());

@@ -833,7 +833,17 @@ TEST_F(GateCommand, BadFilesAndFlagsHaveTheirExitCodes) {
                         "--thresholds", suite.string(), "--out", (dir / "m").string()},
                        dir);
   EXPECT_EQ(result.exit_code, 2) << result.err;
-  EXPECT_NE(result.err.find("hdabench gate merge: --jobs is a flag of gate, not of gate merge"), std::string::npos)
+  EXPECT_NE(result.err.find("hdabench gate merge: --jobs was given before 'merge' and is a flag of gate, not of "
+                            "gate merge"),
+            std::string::npos)
+      << result.err;
+  EXPECT_FALSE(fs::exists(dir / "m"));
+  result = RunHdabench({"gate", "--quiet", "merge", (dir / "o").string(), "--suite", suite.string(),
+                        "--thresholds", suite.string(), "--out", (dir / "m").string()},
+                       dir);
+  EXPECT_EQ(result.exit_code, 2) << result.err;
+  EXPECT_NE(result.err.find("hdabench gate merge: --quiet was given before 'merge': give it after 'merge'"),
+            std::string::npos)
       << result.err;
   EXPECT_FALSE(fs::exists(dir / "m"));
   // A baseline that could not be written is refused before any entry runs.

@@ -218,6 +218,14 @@ TEST(RunCommand, AFrameOutsideTheDatasetIsNamed) {
   EXPECT_EQ(run.exit_code, 2) << run.out << run.err;
   EXPECT_NE(run.err.find("frame 99 is not in"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(out));  // the output folder it made is not left behind
+  // Nor the parents it made for it; a folder that was there stays.
+  const fs::path parent = out.parent_path();
+  fs::create_directories(parent / "kept");
+  const CommandResult nested = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--frames", "0,99", "--out",
+                                               (parent / "kept" / "new" / "deeper" / "out/").string()});
+  EXPECT_EQ(nested.exit_code, 2) << nested.out << nested.err;
+  EXPECT_FALSE(fs::exists(parent / "kept" / "new"));
+  EXPECT_TRUE(fs::is_directory(parent / "kept"));
 }
 
 TEST(RunCommand, AMissingDatasetIsAnInputErrorNamingIt) {

@@ -2,6 +2,7 @@
 #include "tools/util/files.h"
 
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -53,6 +54,12 @@ TEST(ReadFilePrefix, ReadsTheStartAndTheSizeAndReadFileBytesTheWhole) {
   EXPECT_EQ(error, "file not found");
   EXPECT_FALSE(ReadFilePrefix(folder.path(), 10, &bytes, &size, &error));
   EXPECT_EQ(error, "is a directory; expected a file");
+  // A device would never end; a pipe (the shell's <(...)) is a file to read.
+  EXPECT_FALSE(ReadFileBytes("/dev/zero", &bytes, &error));
+  EXPECT_EQ(error, "is a device or socket; expected a file");
+  const fs::path fifo = folder.path() / "fifo";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_TRUE(IsReadableFile(fifo, &error)) << error;
 }
 
 // Reads at offsets of the file as it was opened: a file renamed over the

@@ -118,7 +118,7 @@ int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std:
   namespace fs = std::filesystem;
   const fs::path dir(options.out_dir);
   std::error_code ec;
-  const bool made_here = !fs::exists(dir, ec);
+  const NewFolders made_here(dir);
   fs::create_directories(dir, ec);
   std::error_code kind_error;
   if (ec || !fs::is_directory(dir, kind_error)) {
@@ -145,7 +145,7 @@ int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std:
     }
     out << "wrote " << result.json_path << " and " << result.heatmap_png << "\n";
   });
-  if (code != kExitOk && made_here && fs::is_empty(dir, ec)) fs::remove(dir, ec);
+  if (code != kExitOk) made_here.Remove();
   return code;
 }
 

@@ -177,6 +177,24 @@ int CheckOutputFolder(const std::string& out_dir, const std::string& dataset_dir
   return kExitOk;
 }
 
+NewFolders::NewFolders(const fs::path& path) : path_(path.lexically_normal()) {
+  if (!path_.has_filename() && path_.has_parent_path()) path_ = path_.parent_path();  // "a/b/" is "a/b"
+  std::error_code ec;
+  for (fs::path p = path_; !p.empty() && !fs::exists(p, ec) && !ec; p = p.parent_path()) {
+    top_ = p;
+    if (p == p.parent_path()) break;
+  }
+}
+
+void NewFolders::Remove() const {
+  if (top_.empty()) return;
+  std::error_code ec;
+  for (fs::path p = path_;; p = p.parent_path()) {
+    if (!fs::is_directory(p, ec) || !fs::is_empty(p, ec) || ec || !fs::remove(p, ec)) return;
+    if (p == top_ || p == p.parent_path()) return;
+  }
+}
+
 bool IsSameOrInsideFolder(const std::string& path, const std::string& folder) {
   const fs::path resolved_path = Resolved(path);
   const fs::path resolved_folder = Resolved(folder);
@@ -202,14 +220,9 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
   if (result.exit_code != kExitOk) return result;
   result.exit_code = CheckOutputFolder(out_dir, dataset_dir, own_result_file, prefix, err);
   if (result.exit_code != kExitOk) return result;
-  // A folder made here and still empty is removed again when the dataset or
-  // its frames turn out unusable: a refused command leaves nothing behind.
-  std::error_code exists_error;
-  const bool made_here = !out_dir.empty() && !fs::exists(out_dir, exists_error);
-  const auto remove_if_made_here = [&] {
-    std::error_code ignored;
-    if (made_here && fs::is_empty(out_dir, ignored)) fs::remove(out_dir, ignored);
-  };
+  // The folders made here and still empty are removed again when the dataset
+  // or its frames turn out unusable: a refused command leaves nothing behind.
+  const NewFolders made_here(out_dir);
   try {
     reference::PrepareOutputFolder(out_dir);
   } catch (const InputError& e) {
@@ -232,7 +245,7 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
   };
   result.dataset = LoadDatasetOrReport(dataset_dir, load, command, err);
   if (!result.dataset.has_value()) {
-    remove_if_made_here();
+    made_here.Remove();
     result.exit_code = kExitInput;
     return result;
   }
@@ -243,7 +256,7 @@ PairLoad LoadDatasetPair(const std::string& dataset_dir,
       err << prefix << "--frames: frame " << frame << " is not in " << dataset_dir
           << ", which has frames 0.." << num_frames - 1 << "\n";
       result.dataset.reset();
-      remove_if_made_here();
+      made_here.Remove();
       result.exit_code = kExitUsage;
       return result;
     }

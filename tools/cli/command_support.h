@@ -4,6 +4,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <optional>
 #include <ostream>
@@ -83,6 +84,20 @@ int CheckDatasetFolder(const std::string& dir, const std::string& command, std::
 std::optional<datasets::Dataset> LoadDatasetOrReport(const std::string& dir,
                                                      const datasets::LoadOptions& load,
                                                      const std::string& command, std::ostream& err);
+
+// The folders that making `path` (with its missing parents) is about to
+// create, noted before they are made, so that a command refused before it
+// writes anything can remove them again: Remove() removes those still empty,
+// deepest first, and never a folder that existed before.
+class NewFolders {
+ public:
+  explicit NewFolders(const std::filesystem::path& path);
+  void Remove() const;
+
+ private:
+  std::filesystem::path path_;
+  std::filesystem::path top_;  // the highest folder that did not exist; empty when `path` existed
+};
 
 // Whether `path` is `folder` or lies inside it, both resolved first (made
 // absolute; symbolic links, "." and ".." followed as far as the folders

@@ -307,12 +307,17 @@ std::vector<Command> AddGateCommands(CLI::App& app) {
              for (const CLI::Option* option : gate->get_options()) {
                if (option->count() == 0) continue;
                std::string own;
+               bool merge_has_it = false;
                for (const CLI::Option* merge_option : merge_app->get_options()) {
-                 if (merge_option->get_name() != "--help") own += " " + merge_option->get_name();
+                 if (merge_option->get_name() == "--help") continue;
+                 own += " " + merge_option->get_name();
+                 merge_has_it = merge_has_it || merge_option->get_name() == option->get_name();
                }
-               std::cerr << "hdabench gate merge: " << option->get_name()
-                         << " is a flag of gate, not of gate merge (whose arguments, after 'merge', are" << own
-                         << ")\n";
+               std::cerr << "hdabench gate merge: " << option->get_name() << " was given before 'merge'"
+                         << (merge_has_it ? ": give it after 'merge'"
+                                          : " and is a flag of gate, not of gate merge (whose arguments, after "
+                                            "'merge', are" + own + ")")
+                         << "\n";
                return kExitUsage;
              }
              return RunGateMerge(*merge, std::cout, std::cerr);

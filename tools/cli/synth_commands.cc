@@ -67,7 +67,7 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
   }
   if (!options.camera_model_file.empty()) {
     try {
-      calib::CameraModel::Load(options.camera_model_file);
+      synth_options.camera_model.emplace(calib::CameraModel::Load(options.camera_model_file));
     } catch (const InputError& e) {
       err << "hdabench synth: --camera-model: " << e.what() << "\n";
       return kExitInput;
@@ -102,7 +102,7 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
   synth::SynthSummary summary;
   std::optional<datasets::Dataset> generated;
   try {
-    // Its InputErrors are the options': the camera model file loaded above.
+    // Its InputErrors are the options': the camera model was read above.
     generated.emplace(synth::GenerateSynthDataset(synth_options, terrain, options.seed, progress, &summary));
   } catch (const InputError& e) {
     err << "hdabench synth: " << e.what() << "\n";

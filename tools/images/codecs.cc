@@ -1,5 +1,8 @@
 #include "tools/images/codecs.h"
 
+#include <filesystem>
+#include <system_error>
+
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
@@ -8,6 +11,8 @@
 #include "tools/util/shared_library.h"
 
 namespace hdabench::images {
+
+namespace fs = std::filesystem;
 
 namespace {
 
@@ -87,7 +92,12 @@ bool CheckJpegComplete(const std::string& bytes, std::string* error) {
     if ((code >= 0xD0 && code <= 0xD7) || code == 0x01 || code == 0x00) continue;  // no segment
     if (size - at < 2) return truncated("the file ends inside the segment at byte " + std::to_string(marker_at));
     const size_t length = (static_cast<size_t>(byte(at)) << 8) | byte(at + 1);
-    if (length < 2 || size - at < length) {
+    if (length < 2) {
+      *error = "is corrupt: the segment at byte " + std::to_string(marker_at) + " gives a length of " +
+               std::to_string(length) + " bytes (at least 2)";
+      return false;
+    }
+    if (size - at < length) {
       return truncated("the segment at byte " + std::to_string(marker_at) + " needs " + std::to_string(length + 2) +
                        " bytes but the file ends after " + std::to_string(size - marker_at));
     }
@@ -112,11 +122,17 @@ bool CheckJpegComplete(const std::string& bytes, std::string* error) {
 }
 
 cv::Mat ReadWholeImage(const std::string& path, int flags, std::string* error) {
+  // OpenCV opens the file again after the check: a pipe would be empty then.
+  std::error_code ec;
+  if (fs::is_fifo(path, ec)) {
+    *error = "is a pipe; expected an image file";
+    return cv::Mat();
+  }
   std::string bytes;
   if (!util::ReadFileBytes(path, &bytes, error)) return cv::Mat();
   if (HasPngSignature(bytes)) {
     PngHeader header;
-    if (!CheckPngChunks(bytes, &header, error)) return cv::Mat();
+    if (!CheckPngChunks(bytes, &header, error, /*allow_bytes_after_iend=*/true)) return cv::Mat();
   } else if (bytes.size() >= 2 && static_cast<unsigned char>(bytes[0]) == 0xFF &&
              static_cast<unsigned char>(bytes[1]) == 0xD8) {
     if (!CheckJpegComplete(bytes, error)) return cv::Mat();

@@ -23,7 +23,7 @@ cv::Mat Read(const std::string& path, int flags);
 // cv::imread of a file checked first to be whole, since OpenCV decodes a
 // truncated JPEG or PNG into a partly grey image with only a warning on
 // stderr. An empty Mat, with `error` saying why without the path, when the
-// file is missing or a folder ("file not found"), a PNG whose chunks are
+// file is missing, a folder or a pipe ("file not found", ...), a PNG whose chunks are
 // damaged (CheckPngChunks), a JPEG whose data ends before its end-of-image
 // marker (CheckJpegComplete), or anything OpenCV cannot decode. Other formats
 // are not checked beyond OpenCV's decoding.

@@ -269,7 +269,7 @@ std::string PngChunkName(const std::string& bytes, size_t offset) {
 
 }  // namespace
 
-bool CheckPngChunks(const std::string& bytes, PngHeader* header, std::string* error) {
+bool CheckPngChunks(const std::string& bytes, PngHeader* header, std::string* error, bool allow_bytes_after_iend) {
   if (!HasPngSignature(bytes)) {
     *error = "is not a PNG file (no PNG signature)";
     return false;
@@ -336,7 +336,7 @@ bool CheckPngChunks(const std::string& bytes, PngHeader* header, std::string* er
         *error = "is corrupt: no IDAT (image data) chunk before IEND";
         return false;
       }
-      if (offset != size) {
+      if (offset != size && !allow_bytes_after_iend) {
         *error = "has " + std::to_string(size - offset) +
                  " bytes after the IEND chunk; expected the file to end there";
         return false;

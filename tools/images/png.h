@@ -44,10 +44,12 @@ struct PngHeader {
 
 // Checks the container of a PNG: its signature, every
 // chunk's length and CRC, IHDR first (once, with a valid size), at least one
-// IDAT, IEND last with nothing after it. Fills `header` from IHDR. Returns
-// false with `error` saying what is wrong, without the file name ("is
-// truncated: chunk 'IDAT' at byte 33 needs ...").
-bool CheckPngChunks(const std::string& bytes, PngHeader* header, std::string* error);
+// IDAT, IEND last with nothing after it (unless `allow_bytes_after_iend`:
+// libpng stops reading at IEND). Fills `header` from IHDR. Returns false with
+// `error` saying what is wrong, without the file name ("is truncated: chunk
+// 'IDAT' at byte 33 needs ...").
+bool CheckPngChunks(const std::string& bytes, PngHeader* header, std::string* error,
+                    bool allow_bytes_after_iend = false);
 
 // True when `bytes` begin with the 8 bytes of the PNG signature.
 bool HasPngSignature(const std::string& bytes);

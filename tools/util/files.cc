@@ -23,12 +23,19 @@ namespace fs = std::filesystem;
 bool IsReadableFile(const fs::path& path, std::string* error) {
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) {
-    *error = "file not found";
+  if (!fs::exists(status)) {
+    *error = !ec || ec == std::errc::no_such_file_or_directory ? std::string("file not found")
+                                                               : "cannot be read (" + ec.message() + ")";
     return false;
   }
   if (fs::is_directory(status)) {
     *error = "is a directory; expected a file";
+    return false;
+  }
+  // A device or socket would block, or never end; a pipe (a FIFO, or the
+  // shell's <(...)) is read to its end.
+  if (!fs::is_regular_file(status) && !fs::is_fifo(status)) {
+    *error = "is a device or socket; expected a file";
     return false;
   }
   return true;

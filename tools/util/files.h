@@ -8,13 +8,15 @@
 
 namespace hdabench::util {
 
-// False with `error` set to "file not found" or "is a directory; expected a
-// file" when `path` is missing or a folder; true otherwise.
+// False with `error` set to "file not found", "is a directory; expected a
+// file", "is a device or socket; expected a file" or "cannot be read (why)"
+// when `path` is missing, a folder, a device or socket, or cannot be looked
+// at; true for a regular file or a pipe (or a link to one).
 bool IsReadableFile(const std::filesystem::path& path, std::string* error);
 
 // Reads a whole file. On failure returns false and sets `error` to a message
-// without the path: "file not found", "is a directory; expected a file",
-// "cannot be read (Permission denied)".
+// without the path: IsReadableFile's, or "cannot be opened (Permission
+// denied)".
 bool ReadFileBytes(const std::filesystem::path& path, std::string* bytes, std::string* error);
 
 // Reads at most the first `max_bytes` of a file, and its size into

@@ -148,7 +148,7 @@ TEST(GenerateSynthDataset, BadParametersGiveClearErrors) {
   ExpectInputError(sky, terrain, "the camera sees no terrain");
   SynthOptions no_camera = options;
   no_camera.camera_model_file = (FreshTestDir() / "absent.cameramodel").string();
-  ExpectInputError(no_camera, terrain, "absent.cameramodel: cannot open the camera model file");
+  ExpectInputError(no_camera, terrain, "absent.cameramodel: camera model file: file not found");
   EXPECT_THROW(SynthPreset("lander"), InputError);
 }
 

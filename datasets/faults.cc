@@ -215,7 +215,8 @@ void CheckFaultMagnitude(const Fault& fault) {
       if (!(m >= 0.0)) Refuse(fault, "expected a height >= 0 metres");
       return;
     case FaultKind::kImageBlur:
-      if (!(m > 0.0)) Refuse(fault, "expected a sigma > 0 pixels");
+      // Past 100 px nothing is left to match, and the kernel's cost grows with it.
+      if (!(m > 0.0 && m <= 100.0)) Refuse(fault, "expected a sigma > 0 and at most 100 pixels");
       return;
     case FaultKind::kImageSaturated:
     case FaultKind::kImageDark:

@@ -83,6 +83,19 @@ std::vector<std::string> RenderOptions::Validate() const {
       errors.push_back(std::string(name) + ": " + util::ShortestText(value) + "; expected a finite value > 0");
     }
   }
+  bool optics_usable = true;
+  for (const auto& [name, value] : optics) optics_usable = optics_usable && std::isfinite(value) && value > 0.0;
+  if (optics_usable) {
+    // Past a blur of 10 px, as for defocus, an imager's pixels no longer matter,
+    // and the PSF's taps would outgrow the render's margins.
+    const double diffraction_px = DiffractionSigmaPx(wavelength_um, f_number, pixel_pitch_um);
+    if (!(std::isfinite(diffraction_px) && diffraction_px <= 10.0)) {
+      errors.push_back("f_number " + util::ShortestText(f_number) + ", wavelength_um " +
+                       util::ShortestText(wavelength_um) + " and pixel_pitch_um " + util::ShortestText(pixel_pitch_um) +
+                       " give a diffraction blur of sigma " + util::ShortestText(diffraction_px) +
+                       " px; expected at most 10 px");
+    }
+  }
   if (!(std::isfinite(defocus_sigma_px) && defocus_sigma_px >= 0.0 && defocus_sigma_px <= 10.0)) {
     errors.push_back("defocus_sigma_px: " + util::ShortestText(defocus_sigma_px) + "; expected 0 to 10");
   }

@@ -115,6 +115,28 @@ TEST(Cli, UsageErrorsExitTwo) {
   EXPECT_FALSE(fs::exists("somewhere"));
 }
 
+// An empty value (an unset shell variable) is refused for every option that
+// takes one: an empty --out meant the current folder, which export field
+// wrote into, over a dataset's nav.csv when run inside it.
+TEST(Cli, EmptyValuesAreUsageErrors) {
+  const fs::path dir = FreshTestDir();
+  ASSERT_EQ(hdabench::testing_support::RunHdabench({"dataset", "create", (dir / "d").string()}, dir).exit_code, 0);
+  const std::string nav = ReadText(dir / "d" / "nav.csv");
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"export", "field", ".", "--out", ""},
+           {"ingest", "field", "log.json", "--out", ""},
+           {"dataset", "create", ""},
+           {"run", ".", "--out", "r", "--frames", ""},
+           {"gate", "merge", "", "--suite", "s", "--thresholds", "t", "--out", "m"}}) {
+    const CommandResult result = hdabench::testing_support::RunHdabench(args, dir / "d");
+    EXPECT_EQ(result.exit_code, 2) << args[0] << " " << args[1] << ": " << result.err;
+    EXPECT_NE(result.err.find(": an empty value"), std::string::npos) << result.err;
+  }
+  EXPECT_EQ(ReadText(dir / "d" / "nav.csv"), nav);
+  EXPECT_FALSE(fs::exists(dir / "d" / "log.json"));
+  EXPECT_FALSE(fs::exists(dir / "d" / "r"));
+}
+
 TEST(Cli, MissingDatasetFolderExitsThree) {
   const fs::path dir = FreshTestDir() / "absent";
   const CommandResult run = RunHdabench({"dataset", "check", dir.string()});

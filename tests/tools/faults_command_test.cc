@@ -156,9 +156,16 @@ TEST(SynthCommand, FaultsAreAppliedToThePairAndTheDatasetRunsWithThem) {
   args = {"synth", "--out", (dir / "negative").string(), "--fault", "image-blur=-1"};
   const CommandResult negative = RunInOwnFolder(args);
   EXPECT_EQ(negative.exit_code, 2);
-  EXPECT_NE(negative.err.find("--fault image-blur=-1: expected a sigma > 0 pixels"), std::string::npos)
+  EXPECT_NE(negative.err.find("--fault image-blur=-1: expected a sigma > 0 and at most 100 pixels"), std::string::npos)
       << negative.err;
   EXPECT_FALSE(fs::exists(dir / "negative"));
+  // So is one out of the fault's range in faults, before the clean run (1e308 ended in OpenCV's assertion).
+  const CommandResult huge = RunInOwnFolder({"faults", SmallSyntheticDataset().string(), "--out",
+                                             (dir / "huge").string(), "--fault", "image-blur=1e308"});
+  EXPECT_EQ(huge.exit_code, 2) << huge.err;
+  EXPECT_NE(huge.err.find("image-blur=1e+308: expected a sigma > 0 and at most 100 pixels"), std::string::npos)
+      << huge.err;
+  EXPECT_FALSE(fs::exists(dir / "huge"));
   args = {"synth", "--out", (dir / "late").string(), "--fault", "clock-offset=100"};
   args.insert(args.end(), scene.begin(), scene.end());
   const CommandResult late = RunInOwnFolder(args);

@@ -66,6 +66,19 @@ TEST(ObservabilityCommand, ShardsMergedByTheCommandEqualTheWholeStudy) {
       Hdabench({"observability", "merge", (dir / "shard1").string(), "--out", (dir / "partial").string()});
   EXPECT_EQ(partial.exit_code, 3) << partial.err;
   EXPECT_NE(partial.err.find("shard 2/2 is missing"), std::string::npos) << partial.err;
+
+  // Not into a shard being merged, nor over a dataset.
+  const std::string shard1 = ReadText(dir / "shard1" / "study.json");
+  const CommandResult into_shard = Hdabench({"observability", "merge", (dir / "shard1").string(),
+                                             (dir / "shard2").string(), "--out", (dir / "shard1").string()});
+  EXPECT_EQ(into_shard.exit_code, 3) << into_shard.err;
+  EXPECT_NE(into_shard.err.find("is, or is inside, the shard"), std::string::npos) << into_shard.err;
+  EXPECT_EQ(ReadText(dir / "shard1" / "study.json"), shard1);
+  ASSERT_EQ(Hdabench({"dataset", "create", (dir / "ds").string()}).exit_code, 0);
+  const CommandResult into_dataset = Hdabench({"observability", "merge", (dir / "shard1").string(),
+                                               (dir / "shard2").string(), "--out", (dir / "ds").string()});
+  EXPECT_EQ(into_dataset.exit_code, 3) << into_dataset.err;
+  EXPECT_FALSE(fs::exists(dir / "ds" / "study.json"));
 }
 
 TEST(ObservabilityCommand, BadFlagsAreUsageErrors) {

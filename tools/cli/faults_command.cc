@@ -45,7 +45,11 @@ struct FaultsArgs {
 // CLI::ValidationError (exit 2) naming the flag.
 std::vector<datasets::Fault> ParseFaultFlag(const std::string& text) {
   try {
-    return datasets::ParseFaults(text);
+    const std::vector<datasets::Fault> faults = datasets::ParseFaults(text);
+    // A magnitude the fault never takes is the flag's (exit 2), found before
+    // the clean run; one the dataset cannot take is listed as not applied.
+    for (const datasets::Fault& fault : faults) datasets::CheckFaultMagnitude(fault);
+    return faults;
   } catch (const InputError& e) {
     throw CLI::ValidationError("--fault", e.what());
   }

@@ -57,6 +57,7 @@ int RunImageryPair(const ImageryPairArgs& args, std::ostream& out, std::ostream&
     return kExitUsage;
   }
   const std::string out_dir = args.out_dir.empty() ? std::string() : args.out_dir;
+  const NewFolders made_here(out_dir);  // removed again when the pair turns out unusable
   const PairLoad pair = LoadDatasetPair(args.dataset_dir, ParseFramesFlag(args.frames_text), out_dir,
                                         "imagery pair", err, progress, /*read_dem=*/true,
                                         "imagery.json");
@@ -84,6 +85,7 @@ int RunImageryPair(const ImageryPairArgs& args, std::ostream& out, std::ostream&
     matches = synth::MatchErrorsAgainstTruth(dataset, frame1, frame2, points1, points2);
   } catch (const InputError& e) {
     err << "hdabench imagery pair: " << e.what() << "\n";
+    made_here.Remove();
     return kExitInput;
   }
 

@@ -77,6 +77,25 @@ std::string UnknownCommand(CLI::App& app, int argc, char** argv) {
   return "";
 }
 
+// "hdabench ingest field: --out: an empty value" for the first option of the
+// command given as an empty string (an unset shell variable, say): an empty
+// path would mean the current folder, or no file at all. "" when none is.
+std::string EmptyValue(const CLI::App& command) {
+  for (const CLI::Option* option : command.get_options()) {
+    if (option->get_type_size_max() == 0) continue;  // a flag
+    for (const std::string& value : option->results()) {
+      if (!value.empty()) continue;
+      std::string path = command.get_name();
+      for (const CLI::App* parent = command.get_parent(); parent != nullptr && parent->get_parent() != nullptr;
+           parent = parent->get_parent()) {
+        path = parent->get_name() + " " + path;
+      }
+      return "hdabench " + path + ": " + option->get_name() + ": an empty value";
+    }
+  }
+  return "";
+}
+
 // Parses the command line and runs the chosen command; returns the exit code.
 int Main(int argc, char** argv) {
   CLI::App app{"hdabench: test bench for the NOVA-C hazard detection and avoidance method.\n"
@@ -105,7 +124,12 @@ int Main(int argc, char** argv) {
   }
 
   for (const Command& command : commands) {
-    if (command.app->parsed()) return command.run();
+    if (!command.app->parsed()) continue;
+    if (const std::string empty = EmptyValue(*command.app); !empty.empty()) {
+      std::cerr << empty << "\n";
+      return kExitUsage;
+    }
+    return command.run();
   }
   std::cerr << "hdabench: no command given; see hdabench --help\n";
   return kExitUsage;

@@ -175,6 +175,17 @@ int RunObservability(ObservabilityArgs& args) {
 
 int RunObservabilityMerge(const MergeArgs& args) {
   const std::string command = "hdabench observability merge: ";
+  // Not over a dataset, another command's results or a shard being merged.
+  if (const int code = CheckOutputFolder(args.out_dir, "", "study.json", command, std::cerr); code != kExitOk) {
+    return code;
+  }
+  for (const std::string& dir : args.dirs) {
+    if (IsSameOrInsideFolder(args.out_dir, dir)) {
+      std::cerr << command << "--out " << args.out_dir << " is, or is inside, the shard " << dir
+                << " being merged; choose another folder\n";
+      return kExitInput;
+    }
+  }
   return WithExitCodes(command, std::cerr, [&] {
     const reference::MergedStudy merged = reference::MergeStudyFolders(args.dirs);
     const std::vector<std::string> written = reference::WriteStudyFolder(

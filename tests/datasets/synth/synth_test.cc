@@ -187,6 +187,9 @@ TEST(SynthCommand, BadOptionsAreUsageErrorsAndABadCameraModelAnInputError) {
       {{"--set", "image_size_px=2.5"}, "expected a whole number"},
       {{"--set", "altitude_m=-5"}, "altitude_m = -5"},
       {{"--set", "off_nadir_deg=75", "--set", "horizontal_fov_deg=60"}, "the camera sees no terrain"},
+      // Finite, but a blur whose taps outgrow the render's margins (this crashed).
+      {{"--set", "render.f_number=1e308"}, "give a diffraction blur of sigma"},
+      {{"--set", "render.pixel_pitch_um=1e-300"}, "expected at most 10 px"},
   };
   for (const auto& [flags, message] : cases) {
     std::vector<std::string> args = {"synth", "--out", out.string(), "--image-size", "64", "--quiet"};

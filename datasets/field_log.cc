@@ -26,6 +26,11 @@ namespace hdabench::datasets {
 
 namespace {
 
+// The largest length a field log may give (positions, heights, offsets,
+// ranges): ten thousand kilometres is beyond any campaign, and keeps every
+// product and difference of them far from overflow.
+constexpr double kMaxLengthM = 1e7;
+
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 
@@ -84,6 +89,14 @@ class Fields {
       out.push_back(v.get<std::string>());
     }
     return out;
+  }
+  // Vector3 of lengths, each within kMaxLengthM.
+  Eigen::Vector3d Lengths(const std::string& key) const {
+    const Eigen::Vector3d v = Vector3(key);
+    if (v.cwiseAbs().maxCoeff() > kMaxLengthM) {
+      throw InputError(Where(key) + ": expected lengths within +-" + util::ShortestText(kMaxLengthM) + " m");
+    }
+    return v;
   }
   Eigen::Vector3d Vector3(const std::string& key) const {
     if (!j_.contains(key) || !j_.at(key).is_array() || j_.at(key).size() != 3) {
@@ -368,7 +381,7 @@ Mount ReadMount(const Fields& top) {
   }
   Mount out;
   out.body_from_cam = ProjectToRotation(body_from_cam);
-  if (mount.Has("position_in_body_m")) out.cam_in_body = mount.Vector3("position_in_body_m");
+  if (mount.Has("position_in_body_m")) out.cam_in_body = mount.Lengths("position_in_body_m");
   return out;
 }
 
@@ -427,6 +440,12 @@ NavLog ReadNavigation(const Fields& top, const fs::path& base) {
                   util::ShortestText(n.position[1]) + " deg out of range");
       continue;
     }
+    const double length = convention.position_frame == "wgs84" ? std::abs(n.position[2]) : n.position.cwiseAbs().maxCoeff();
+    if (length > kMaxLengthM) {
+      reader.Fail("position " + util::ShortestText(length) + " m from the frame's origin; expected within " +
+                  util::ShortestText(kMaxLengthM) + " m");
+      continue;
+    }
     if (convention.attitude_kind == "euler_zyx_deg") {
       n.frame_from_body = FrameFromBodyZyx(a[0], a[1], a[2]);
     } else {
@@ -469,6 +488,11 @@ void PlaceNavigation(const Fields& top, const NavLog& log, FieldIngestReport* re
       const Fields o = top.Object("origin");
       o.OnlyKeys({"lat_deg", "lon_deg", "height_m"});
       origin = {o.Number("lat_deg"), o.Number("lon_deg"), o.Number("height_m")};
+      if (std::abs(origin.lat_deg) > 90.0) throw InputError(o.Where("lat_deg") + ": expected -90 to 90 degrees");
+      if (std::abs(origin.lon_deg) > 360.0) throw InputError(o.Where("lon_deg") + ": expected -360 to 360 degrees");
+      if (std::abs(origin.height_m) > kMaxLengthM) {
+        throw InputError(o.Where("height_m") + ": expected within +-" + util::ShortestText(kMaxLengthM) + " m");
+      }
     } else {
       const Eigen::Vector3d& first = log.rows.front().position;
       origin = {first[0], first[1], first[2]};
@@ -487,7 +511,7 @@ void PlaceNavigation(const Fields& top, const NavLog& log, FieldIngestReport* re
   }
   if (top.Has("gravity_mps2")) {
     gravity = top.Number("gravity_mps2");
-    if (!(gravity > 0)) throw InputError(top.Where("gravity_mps2") + ": expected > 0");
+    if (!(gravity > 0 && gravity <= 100)) throw InputError(top.Where("gravity_mps2") + ": expected > 0 and at most 100");
     gravity_why = "given: " + util::ShortestText(gravity) + " m/s^2";
   }
   report->lines.push_back("gravity: " + gravity_why);
@@ -527,11 +551,12 @@ void ReadLrf(const Fields& top, const fs::path& base, const Mount& mount, FieldI
   Eigen::Vector3d beam = mount.body_from_cam * Eigen::Vector3d::UnitZ();
   if (lrf_fields.Has("beam_in_body")) {
     beam = lrf_fields.Vector3("beam_in_body");
-    if (!(beam.norm() > 0)) throw InputError(lrf_fields.Where("beam_in_body") + ": a zero vector");
+    if (!(beam.cwiseAbs().maxCoeff() > 0)) throw InputError(lrf_fields.Where("beam_in_body") + ": a zero vector");
+    beam /= beam.cwiseAbs().maxCoeff();  // a direction: scaled first, so that its norm cannot overflow
     beam.normalize();
   }
   dataset->lrf_origin_in_body_m =
-      lrf_fields.Has("origin_in_body_m") ? lrf_fields.Vector3("origin_in_body_m") : mount.cam_in_body;
+      lrf_fields.Has("origin_in_body_m") ? lrf_fields.Lengths("origin_in_body_m") : mount.cam_in_body;
   const Table table = ReadTable(path, {time_column, range_column});
   std::vector<Problem> problems;
   std::vector<int> lines;
@@ -543,8 +568,9 @@ void ReadLrf(const Fields& top, const fs::path& base, const Mount& mount, FieldI
     s.range_m = reader.Double(range_column);
     s.boresight_in_body = beam;
     if (!reader.ok()) continue;
-    if (!(s.range_m > 0)) {
-      reader.Fail("range " + util::ShortestText(s.range_m) + " m; expected > 0");
+    if (!(s.range_m > 0 && s.range_m <= kMaxLengthM)) {
+      reader.Fail("range " + util::ShortestText(s.range_m) + " m; expected > 0 and at most " +
+                  util::ShortestText(kMaxLengthM) + " m");
       continue;
     }
     dataset->lrf.push_back(s);
@@ -751,7 +777,7 @@ Dataset IngestFieldLog(const std::string& config_path, FieldIngestReport* report
   dataset.description = top.Has("description") ? top.String("description") : "field log " + config_path;
   dataset.cam_from_body = Rigid3d(mount.body_from_cam, mount.cam_in_body).Inverse();
   PlaceNavigation(top, nav, report, &dataset);
-  dataset.ils_in_local_m = top.Has("ils_in_local_m") ? top.Vector3("ils_in_local_m") : Eigen::Vector3d::Zero();
+  dataset.ils_in_local_m = top.Has("ils_in_local_m") ? top.Lengths("ils_in_local_m") : Eigen::Vector3d::Zero();
   if (top.Has("lrf")) {
     ReadLrf(top, base, mount, report, &dataset);
   } else {

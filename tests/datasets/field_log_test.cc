@@ -308,6 +308,26 @@ TEST(FieldLog, MalformedLogsAreNamedByFileAndLine) {
     log->Write();
     WriteText(log->dir / "lrf.csv", "t_ms,range_m\n0,850\n50,-3\n2000,870\n");
   }, {"lrf.csv:3", "range -3 m; expected > 0"});
+  // Finite but absurd: a range, a height, gravity (they ended in infinite
+  // baselines or an internal error).
+  expect([](FieldLog* log) {
+    log->Write();
+    WriteText(log->dir / "lrf.csv", "t_ms,range_m\n0,850\n50,1e300\n2000,870\n");
+  }, {"lrf.csv:3", "expected > 0 and at most 1e+07 m"});
+  expect([](FieldLog* log) {
+    log->Write([](std::vector<std::string>* rows) {
+      std::string& row = (*rows)[2];
+      size_t at = 0;
+      for (int comma = 0; comma < 3; ++comma) at = row.find(',', at) + 1;
+      row.replace(at, row.find(',', at) - at, "1e200");
+    });
+  }, {"nav.csv:4", "position 1e+200 m from the frame's origin"});
+  expect([](FieldLog* log) {
+    log->Write();
+    std::string config = ReadText(log->dir / "log.json");
+    config.replace(config.find('{'), 1, R"({"gravity_mps2": 1e300, )");
+    WriteText(log->dir / "log.json", config);
+  }, {"gravity_mps2", "expected > 0 and at most 100"});
 }
 
 TEST(FieldLog, CommandWritesADatasetThatChecksOrNothing) {
@@ -366,6 +386,15 @@ TEST(FieldLog, SyntheticScenesThroughAFieldLogGiveTheSameFlightResults) {
     ASSERT_TRUE(fs::is_regular_file(synth / "manifest.json"));
     const fs::path log = dir / (preset + "-log");
     const fs::path ingested = dir / (preset + "-ingested");
+    // An origin whose height the WGS84 round trip cannot carry, or with an
+    // empty item, is refused (1e308 had lost every altitude).
+    for (const char* origin : {"32.38,-106.48,1e308", "32.38,-106.48,-6.4e6", "32.38,-106.48,1200,"}) {
+      const testing_support::CommandResult refused =
+          RunHdabench({"export", "field", synth.string(), "--out", log.string(), "--origin", origin}, dir);
+      EXPECT_EQ(refused.exit_code, 2) << origin << ": " << refused.err;
+      EXPECT_NE(refused.err.find("expected LAT,LON,HEIGHT"), std::string::npos) << refused.err;
+      EXPECT_FALSE(fs::exists(log));
+    }
     const testing_support::CommandResult exported =
         RunHdabench({"export", "field", synth.string(), "--out", log.string(), "--origin", "32.38,-106.48,1200",
                      "--clock-offset-s", "0.03"},

@@ -165,18 +165,22 @@ int RunExportField(const ExportFieldOptions& options, std::ostream& out, std::os
   const std::string command = "hdabench export field: ";
   datasets::Geodetic origin;
   {
+    // Every comma splits, so an empty item (a trailing comma) is refused too.
     std::vector<double> values;
-    std::stringstream text(options.origin_text);
-    std::string item;
-    while (std::getline(text, item, ',')) {
+    for (size_t begin = 0;;) {
+      const size_t end = options.origin_text.find(',', begin);
       double v = 0.0;
-      if (util::ParseDouble(item, &v) != util::ParseStatus::kOk) values.push_back(std::nan(""));
-      else values.push_back(v);
+      const std::string item = options.origin_text.substr(begin, end == std::string::npos ? end : end - begin);
+      values.push_back(util::ParseDouble(item, &v) == util::ParseStatus::kOk ? v : std::nan(""));
+      if (end == std::string::npos) break;
+      begin = end + 1;
     }
+    // Heights from 100 km below the ellipsoid to 10,000 km above it: beyond
+    // them the local frame's round trip through WGS84 loses the positions.
     if (values.size() != 3 || !std::isfinite(values[0]) || !std::isfinite(values[1]) || !std::isfinite(values[2]) ||
-        std::abs(values[0]) > 90.0 || std::abs(values[1]) > 180.0) {
+        std::abs(values[0]) > 90.0 || std::abs(values[1]) > 180.0 || values[2] < -1e5 || values[2] > 1e7) {
       err << command << "--origin '" << options.origin_text
-          << "': expected LAT,LON,HEIGHT (degrees in [-90, 90] and [-180, 180], metres)\n";
+          << "': expected LAT,LON,HEIGHT (degrees in [-90, 90] and [-180, 180], metres in [-1e5, 1e7])\n";
       return kExitUsage;
     }
     origin = {values[0], values[1], values[2]};

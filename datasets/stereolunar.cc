@@ -327,7 +327,20 @@ void CheckCamera(const StereoLunarCamera& camera, const std::string& where) {
     throw InputError(where + ": K of " + camera.key +
                      " is not [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (no skew)");
   }
+  // A focal length under a pixel or over ten million, or a principal point a
+  // million pixels out, is no camera; positions beyond 1e7 m are not near the Moon.
+  if (!(k(0, 0) >= 1.0 && k(0, 0) <= 1e7 && k(1, 1) >= 1.0 && k(1, 1) <= 1e7) ||
+      !(std::abs(k(0, 2)) <= 1e6 && std::abs(k(1, 2)) <= 1e6)) {
+    throw InputError(where + ": K of " + camera.key + " has fx " + util::ShortestText(k(0, 0)) + ", fy " +
+                     util::ShortestText(k(1, 1)) + ", cx " + util::ShortestText(k(0, 2)) + ", cy " +
+                     util::ShortestText(k(1, 2)) + "; expected focal lengths of 1 to 1e7 px and a principal point "
+                     "within 1e6 px");
+  }
   const Eigen::Matrix4d& m = camera.cam2world;
+  if (!(m.topRightCorner<3, 1>().cwiseAbs().maxCoeff() <= 1e7)) {
+    throw InputError(where + ": cam2world of " + camera.key + " places the camera " +
+                     util::ShortestText(m.topRightCorner<3, 1>().norm()) + " m from the origin; expected within 1e7 m");
+  }
   if (m(3, 0) != 0.0 || m(3, 1) != 0.0 || m(3, 2) != 0.0 || m(3, 3) != 1.0) {
     throw InputError(where + ": cam2world of " + camera.key + " has last row (" + util::ShortestText(m(3, 0)) +
                      " " + util::ShortestText(m(3, 1)) + " " + util::ShortestText(m(3, 2)) + " " + util::ShortestText(m(3, 3)) +

@@ -274,6 +274,12 @@ TEST(StereoLunar, BadSourcesGiveErrorsNamingTheFile) {
   WriteText(cameras, testing_support::JoinLines(bad));
   ExpectInputError([&] { ConvertStereoLunarPair(pair.string(), cameras, 0); },
                    {cameras + ":3:", "'618.0x8696' is not a finite number"});
+  // A focal length no camera has (1e-300 px ended in infinite ranges and exit 70).
+  bad = lines;
+  bad[2].replace(bad[2].find(" 618.038696 0 256"), 11, " 1e-300");
+  WriteText(cameras, testing_support::JoinLines(bad));
+  ExpectInputError([&] { ConvertStereoLunarPair(pair.string(), cameras, 0); },
+                   {cameras, "has fx 1e-300", "expected focal lengths of 1 to 1e7 px"});
   bad = lines;
   bad[3] = bad[3].substr(0, bad[3].rfind(' '));
   WriteText(cameras, testing_support::JoinLines(bad));

@@ -1283,18 +1283,19 @@ class TruthLoader {
     } else {
       ok = false;
     }
-    const auto read_positive = [&](const std::string& key, bool zero_allowed, double* value) {
+    // From 0 to `max` (a finite value beyond it gave sums that overflow).
+    const auto read_positive = [&](const std::string& key, double max, double* value) {
       const std::string field = "truth.imaging." + key;
       const json* member = fields_.Member(*imaging, key, field, "a number", true);
       if (member == nullptr || !fields_.ReadNumber(*member, field, value)) return false;
-      if (*value < 0.0 || (!zero_allowed && *value == 0.0)) {
-        problems_->AddField(field, "is " + util::ShortestText(*value) + (zero_allowed ? "; expected >= 0" : "; expected > 0"));
+      if (!(*value >= 0.0 && *value <= max)) {
+        problems_->AddField(field, "is " + util::ShortestText(*value) + "; expected 0 to " + util::ShortestText(max));
         return false;
       }
       return true;
     };
-    ok = read_positive("gain_electrons_per_dn", true, &result.gain_electrons_per_dn) && ok;
-    ok = read_positive("read_noise_dn", true, &result.read_noise_dn) && ok;
+    ok = read_positive("gain_electrons_per_dn", 1e6, &result.gain_electrons_per_dn) && ok;
+    ok = read_positive("read_noise_dn", 65535.0, &result.read_noise_dn) && ok;  // a 16-bit pixel's full scale
     if (ok) context_->dataset.truth.imaging = result;
   }
 

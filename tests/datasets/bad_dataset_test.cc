@@ -601,7 +601,15 @@ std::vector<Defect> Catalogue() {
            m["truth"]["imaging"] = {{"sun_in_local", {0.0, 0.6, 0.8}}, {"gain_electrons_per_dn", 40.0},
                                     {"read_noise_dn", -1.0}};
          });
-         return Problem{Manifest("truth.imaging.read_noise_dn"), "is -1; expected >= 0"};
+         return Problem{Manifest("truth.imaging.read_noise_dn"), "is -1; expected 0 to 65535"};
+       }},
+      {"ImagingAbsurdReadNoise",  // finite, but imagery pair wrote null from it
+       [](const fs::path& dir) {
+         EditManifest(dir, [](json& m) {
+           m["truth"]["imaging"] = {{"sun_in_local", {0.0, 0.6, 0.8}}, {"gain_electrons_per_dn", 40.0},
+                                    {"read_noise_dn", 1e308}};
+         });
+         return Problem{Manifest("truth.imaging.read_noise_dn"), "is 1e+308; expected 0 to 65535"};
        }},
       {"DemNanHeight",
        [](const fs::path& dir) {

@@ -228,6 +228,21 @@ TEST(RunCommand, AFrameOutsideTheDatasetIsNamed) {
   EXPECT_TRUE(fs::is_directory(parent / "kept"));
 }
 
+// truth's --roi: a box the image cannot hold, or one too thin for a plane (a
+// strip a pixel wide gave a slope near 90 deg), is the flag's problem.
+TEST(TruthCommand, AnRoiOutsideTheImageOrTooThinIsAUsageError) {
+  const std::string dataset = SmallSyntheticDataset().string();
+  for (const char* roi : {"0,0,1,40", "5,5,40,2", "2147483000,2147483000,2000,2000", "-1,0,10,10"}) {
+    const CommandResult result = RunInOwnFolder({"truth", dataset, "--roi", roi});
+    EXPECT_EQ(result.exit_code, 2) << roi << ": " << result.err;
+    EXPECT_NE(result.err.find("hdabench truth: --roi "), std::string::npos) << result.err;
+    EXPECT_NE(result.err.find("expected a box of at least 3 x 3 px inside the"), std::string::npos) << result.err;
+  }
+  const CommandResult fine = RunInOwnFolder({"truth", dataset, "--roi", "10,10,8,8", "--json"});
+  ASSERT_EQ(fine.exit_code, 0) << fine.err;
+  EXPECT_EQ(nlohmann::json::parse(fine.out).at("num_points"), 64);
+}
+
 TEST(RunCommand, AMissingDatasetIsAnInputErrorNamingIt) {
   const fs::path dir = FreshTestDir();
   const fs::path absent = dir / "absent";

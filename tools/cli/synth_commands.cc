@@ -149,7 +149,22 @@ int RunTruth(const TruthCommandOptions& options, std::ostream& out, std::ostream
     return kExitUsage;
   }
   const synth::PixelRoi roi{options.roi[0], options.roi[1], options.roi[2], options.roi[3]};
-  const synth::RoiTruth truth = synth::ComputeRoiTruth(dataset, options.frame, roi);
+  // The flag's own problems first (exit 2): a box the image cannot hold, or
+  // one too thin for a plane (a strip a pixel wide gave a slope near 90 deg).
+  const int width = dataset.camera.WidthPx(), height = dataset.camera.HeightPx();
+  if (roi.width < 3 || roi.height < 3 || roi.x < 0 || roi.y < 0 || roi.x > width - roi.width ||
+      roi.y > height - roi.height) {
+    err << "hdabench truth: --roi " << roi.x << "," << roi.y << "," << roi.width << "," << roi.height
+        << ": expected a box of at least 3 x 3 px inside the " << width << " x " << height << " px image\n";
+    return kExitUsage;
+  }
+  synth::RoiTruth truth;
+  try {
+    truth = synth::ComputeRoiTruth(dataset, options.frame, roi);
+  } catch (const InputError& e) {
+    err << "hdabench truth: " << e.what() << "\n";
+    return kExitInput;
+  }
   if (options.json) {
     nlohmann::ordered_json j;
     j["frame"] = options.frame;

@@ -265,6 +265,7 @@ std::vector<ImageFile> ImagesFromCsv(const fs::path& folder, const std::string& 
   std::vector<int> lines;
   std::vector<double> times;
   std::set<std::string> listed;
+  std::map<std::string, int> line_of_file;  // by the file's resolved path: one image, one frame
   for (const internal::CsvRow& row : table.csv.rows) {
     internal::CsvRowReader reader(csv_path, table.csv, row, &problems);
     const std::string file = reader.Text(file_column);
@@ -274,6 +275,13 @@ std::vector<ImageFile> ImagesFromCsv(const fs::path& folder, const std::string& 
     const fs::path path = folder / file;
     if (!fs::is_regular_file(path, ec)) {
       reader.Fail("image '" + file + "' not found in " + folder.string());
+      continue;
+    }
+    const fs::path resolved = fs::weakly_canonical(path, ec);
+    const auto [first, inserted] = line_of_file.emplace(ec ? path.string() : resolved.string(), row.line);
+    if (!inserted) {
+      reader.Fail("image '" + file + "' is listed already at line " + std::to_string(first->second) +
+                  ": one image is one frame");
       continue;
     }
     listed.insert(fs::path(file).filename().string());

@@ -303,6 +303,21 @@ TEST(FieldLog, MalformedLogsAreNamedByFileAndLine) {
                    R"("times_csv": "frames.csv", "file_column": "file", "time_column": "t")");
     WriteText(log->dir / "log.json", config);
   }, {"cam_950.png", "image without a time: not listed in"});
+  // One image listed twice, under two names: two frames of the same pixels.
+  expect([](FieldLog* log) {
+    log->Write();
+    std::string table = "file,t\n";
+    for (const char* name : {"cam_150", "cam_550", "cam_950"}) {
+      table += std::string(name) + ".png," + std::string(name).substr(4, 3) + "e-3\n";
+    }
+    table += "./cam_950.png,1.2\n";
+    WriteText(log->dir / "frames.csv", table);
+    std::string config = ReadText(log->dir / "log.json");
+    const std::string pattern = R"("pattern": "cam_{time_ms}.png")";
+    config.replace(config.find(pattern), pattern.size(),
+                   R"("times_csv": "frames.csv", "file_column": "file", "time_column": "t")");
+    WriteText(log->dir / "log.json", config);
+  }, {"frames.csv:5", "image './cam_950.png' is listed already at line 4"});
   // A bad LRF range.
   expect([](FieldLog* log) {
     log->Write();

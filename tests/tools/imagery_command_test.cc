@@ -78,6 +78,14 @@ TEST(ImageryCommand, EdgePassesForTheCameraModelAndFailsForPointSampling) {
   const CommandResult point = RunInOwnFolder({"imagery", "edge", "--set", "render.anti_aliasing=quincunx"});
   EXPECT_EQ(point.exit_code, 1) << point.out << point.err;
   EXPECT_NE(point.out.find("FAIL"), std::string::npos) << point.out;
+  // A profile wider than the check's window, or an imager that records
+  // nothing, fails as not measurable (it printed nan and PASS).
+  for (const char* set : {"render.defocus_sigma_px=5", "render.fill_factor=1e-300"}) {
+    const CommandResult unmeasurable = RunInOwnFolder({"imagery", "edge", "--set", set});
+    EXPECT_EQ(unmeasurable.exit_code, 1) << set << ": " << unmeasurable.out << unmeasurable.err;
+    EXPECT_NE(unmeasurable.out.find("not measurable"), std::string::npos) << unmeasurable.out;
+    EXPECT_EQ(unmeasurable.out.find("PASS"), std::string::npos) << unmeasurable.out;
+  }
   const CommandResult other = RunInOwnFolder({"imagery", "edge", "--set", "sun_elevation_deg=3"});
   EXPECT_EQ(other.exit_code, 2) << other.err;
   EXPECT_NE(other.err.find("render.key=value"), std::string::npos) << other.err;

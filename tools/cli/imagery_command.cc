@@ -205,6 +205,18 @@ int RunImageryEdge(const ImageryEdgeArgs& args, std::ostream& out, std::ostream&
       << util::FixedText(std::sqrt(options.render.fill_factor), 3) << " px, PSF sigma "
       << util::FixedText(options.render.PsfSigmaPx(), 3) << " px):\n";
   out << util::FormatTextTable(table, {false, false, false, false, false});
+  // A profile the check cannot measure (a blur wider than its +-3 px window,
+  // an imager that records nothing) fails: it never passes on NaN.
+  bool measurable = std::isfinite(check.width_10_90_px) && std::isfinite(check.expected_width_10_90_px);
+  for (const synth::EdgeSpreadBin& bin : check.bins) {
+    measurable = measurable && std::isfinite(bin.measured) && std::isfinite(bin.expected);
+  }
+  if (!measurable) {
+    out << "10-90 % width not measurable within the +-3 px of the profile (measured "
+        << util::ShortestText(check.width_10_90_px) << " px, expected " << util::ShortestText(check.expected_width_10_90_px)
+        << " px): FAIL; the check needs a response narrower than that and an image with signal\n";
+    return kExitCheckFailed;
+  }
   const bool passed = check.max_error <= args.max_error;
   out << "10-90 % width " << util::FixedText(check.width_10_90_px, 3) << " px (expected "
       << util::FixedText(check.expected_width_10_90_px, 3) << "); largest difference "

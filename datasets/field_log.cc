@@ -19,6 +19,7 @@
 #include "tools/images/codecs.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
+#include "tools/util/files.h"
 #include "tools/util/text.h"
 #include "datasets/internal/csv.h"
 
@@ -44,11 +45,10 @@ constexpr int kMaxListedProblems = 20;
 // The description file
 
 std::string Text(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot be read");
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
+  std::string bytes;
+  std::string error;
+  if (!util::ReadFileBytes(path, &bytes, &error)) throw InputError(path + ": " + error);
+  return bytes;
 }
 
 // Field access that names the path of the field: "log.json: navigation.position.frame".
@@ -206,7 +206,9 @@ std::vector<ImageFile> ImagesFromPattern(const fs::path& folder, const std::stri
   for (const auto& [name, s] : units) {
     const size_t found = pattern.find(name);
     if (found == std::string::npos) continue;
-    if (at != std::string::npos) throw InputError(where + ": '" + pattern + "' has more than one time placeholder");
+    if (at != std::string::npos || pattern.find(name, found + 1) != std::string::npos) {
+      throw InputError(where + ": '" + pattern + "' has more than one time placeholder");
+    }
     at = found;
     placeholder = name;
     scale = s;
@@ -770,13 +772,7 @@ Dataset IngestFieldLog(const std::string& config_path, FieldIngestReport* report
   const fs::path base = fs::path(config_path).parent_path();
 
   const std::string model_path = Resolve(base, top.String("camera_model"));
-  calib::CameraModel camera = [&] {
-    try {
-      return calib::CameraModel::Load(model_path);
-    } catch (const std::exception& e) {
-      throw InputError(model_path + ": " + e.what());
-    }
-  }();
+  const calib::CameraModel camera = calib::CameraModel::Load(model_path);  // its errors name the path
   const Mount mount = ReadMount(top);
   const NavLog nav = ReadNavigation(top, base);
 

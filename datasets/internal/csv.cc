@@ -53,7 +53,10 @@ bool ParseCsv(const std::string& file, const std::string& text, const CsvSchema&
   *table = CsvTable();
   // Lines; a final "\n" ends the last line rather than starting an empty one.
   std::vector<std::string_view> lines;
-  const std::string_view all(text);
+  std::string_view all(text);
+  // The byte-order mark spreadsheet programs put before UTF-8 text is not
+  // part of the first column's name.
+  if (all.substr(0, 3) == "\xEF\xBB\xBF") all.remove_prefix(3);
   size_t begin = 0;
   while (begin < all.size()) {
     size_t end = all.find('\n', begin);

@@ -318,6 +318,19 @@ TEST(FieldLog, MalformedLogsAreNamedByFileAndLine) {
                    R"("times_csv": "frames.csv", "file_column": "file", "time_column": "t")");
     WriteText(log->dir / "log.json", config);
   }, {"frames.csv:5", "image './cam_950.png' is listed already at line 4"});
+  // The same placeholder twice.
+  expect([](FieldLog* log) {
+    log->Write();
+    std::string config = ReadText(log->dir / "log.json");
+    config.replace(config.find("{time_ms}"), 9, "{time_ms}{time_ms}");
+    WriteText(log->dir / "log.json", config);
+  }, {"'cam_{time_ms}{time_ms}.png' has more than one time placeholder"});
+  // A folder where the navigation table should be.
+  expect([](FieldLog* log) {
+    log->Write();
+    fs::remove(log->dir / "nav.csv");
+    fs::create_directories(log->dir / "nav.csv");
+  }, {"nav.csv: is a directory; expected a file"});
   // A bad LRF range.
   expect([](FieldLog* log) {
     log->Write();
@@ -343,6 +356,19 @@ TEST(FieldLog, MalformedLogsAreNamedByFileAndLine) {
     config.replace(config.find('{'), 1, R"({"gravity_mps2": 1e300, )");
     WriteText(log->dir / "log.json", config);
   }, {"gravity_mps2", "expected > 0 and at most 100"});
+}
+
+// Spreadsheet programs put a byte-order mark before UTF-8 text: the first
+// column keeps its name.
+TEST(FieldLog, ATableWithAByteOrderMarkReads) {
+  FieldLog log;
+  log.dir = FreshTestDir() / "log";
+  log.Write();
+  const Dataset plain = IngestFieldLog((log.dir / "log.json").string(), nullptr);
+  WriteText(log.dir / "nav.csv", "\xEF\xBB\xBF" + ReadText(log.dir / "nav.csv"));
+  const Dataset marked = IngestFieldLog((log.dir / "log.json").string(), nullptr);
+  ASSERT_EQ(marked.nav.size(), plain.nav.size());
+  EXPECT_EQ(marked.nav.front().time_s, plain.nav.front().time_s);
 }
 
 TEST(FieldLog, CommandWritesADatasetThatChecksOrNothing) {

@@ -209,10 +209,10 @@ void CheckFaultMagnitude(const Fault& fault) {
       if (!(m >= 0.0)) Refuse(fault, "expected >= 0 seconds");
       return;
     case FaultKind::kLrfNoise:
-      if (!(m >= 0.0)) Refuse(fault, "expected a sigma >= 0 metres");
+      if (!(m >= 0.0 && m <= 1e7)) Refuse(fault, "expected a sigma >= 0 and at most 1e7 metres");
       return;
     case FaultKind::kLrfRock:
-      if (!(m >= 0.0)) Refuse(fault, "expected a height >= 0 metres");
+      if (!(m >= 0.0 && m <= 1e7)) Refuse(fault, "expected a height >= 0 and at most 1e7 metres");
       return;
     case FaultKind::kImageBlur:
       // Past 100 px nothing is left to match, and the kernel's cost grows with it.
@@ -220,10 +220,30 @@ void CheckFaultMagnitude(const Fault& fault) {
       return;
     case FaultKind::kImageSaturated:
     case FaultKind::kImageDark:
-      if (!(m > 1.0)) Refuse(fault, "expected a factor > 1");
+      if (!(m > 1.0 && m <= 1e6)) Refuse(fault, "expected a factor > 1 and at most 1e6");
+      return;
+    // The rest: a bias, an offset or a scale, within what a sensor could be
+    // off by (beyond, the arithmetic of the frames overflows before the method
+    // sees anything).
+    case FaultKind::kLrfScale:
+      if (!(m > -1.0 && m <= 100.0)) Refuse(fault, "expected a fraction > -1 (a range stays > 0) and at most 100");
+      return;
+    case FaultKind::kLrfOffset:
+    case FaultKind::kNavPositionBias:
+      if (!(std::abs(m) <= 1e7)) Refuse(fault, "expected at most 1e7 metres either way");
+      return;
+    case FaultKind::kNavDrift:
+      if (!(std::abs(m) <= 1e4)) Refuse(fault, "expected at most 1e4 m/s either way");
+      return;
+    case FaultKind::kAttitudeBias:
+    case FaultKind::kAttitudeJump:
+      if (!(std::abs(m) <= 180.0)) Refuse(fault, "expected at most 180 degrees either way");
+      return;
+    case FaultKind::kClockOffset:
+      if (!(std::abs(m) <= 1e6)) Refuse(fault, "expected at most 1e6 seconds either way");
       return;
     default:
-      return;  // any finite magnitude (a bias, an offset, a scale), or none
+      return;  // no magnitude
   }
 }
 

@@ -202,11 +202,18 @@ TEST(ApplyFault, ADroppedImageTwoIsTakenByTheNextFrameWithItsTimeAndTruth) {
 
 TEST(ApplyFault, MagnitudesOutsideTheirDomainAreNamed) {
   Dataset dataset = Example();
-  EXPECT_NE(InputErrorOf([&] { ApplyFault({FaultKind::kLrfScale, -1.0}, kFrame1, kFrame2, 1, &dataset); })
-                .find("fault lrf-scale=-1: it makes the LRF range"),
-            std::string::npos);
+  EXPECT_EQ(InputErrorOf([&] { ApplyFault({FaultKind::kLrfScale, -1.0}, kFrame1, kFrame2, 1, &dataset); }),
+            "fault lrf-scale=-1: expected a fraction > -1 (a range stays > 0) and at most 100");
   EXPECT_EQ(InputErrorOf([&] { ApplyFault({FaultKind::kImageDark, 0.5}, kFrame1, kFrame2, 1, &dataset); }),
-            "fault image-dark=0.5: expected a factor > 1");
+            "fault image-dark=0.5: expected a factor > 1 and at most 1e6");
+  // Finite but beyond what a sensor could be off by (nav-drift=1e308 failed
+  // inside the flight method, naming an internal function).
+  EXPECT_EQ(InputErrorOf([&] { ApplyFault({FaultKind::kNavDrift, 1e308}, kFrame1, kFrame2, 1, &dataset); }),
+            "fault nav-drift=1e+308: expected at most 1e4 m/s either way");
+  EXPECT_EQ(InputErrorOf([&] { ApplyFault({FaultKind::kAttitudeBias, -200.0}, kFrame1, kFrame2, 1, &dataset); }),
+            "fault attitude-bias=-200: expected at most 180 degrees either way");
+  EXPECT_EQ(InputErrorOf([&] { ApplyFault({FaultKind::kLrfOffset, 2e7}, kFrame1, kFrame2, 1, &dataset); }),
+            "fault lrf-offset=2e+07: expected at most 1e7 metres either way");
   EXPECT_EQ(InputErrorOf([&] { ApplyFault({FaultKind::kImageBlur, std::nan("")}, kFrame1, kFrame2, 1, &dataset); }),
             "fault image-blur=nan: the magnitude is not finite");
   EXPECT_NE(InputErrorOf([&] { ApplyFault({FaultKind::kClockOffset, 100.0}, kFrame1, kFrame2, 1, &dataset); })

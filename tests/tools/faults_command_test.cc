@@ -166,6 +166,11 @@ TEST(SynthCommand, FaultsAreAppliedToThePairAndTheDatasetRunsWithThem) {
   EXPECT_NE(huge.err.find("image-blur=1e+308: expected a sigma > 0 and at most 100 pixels"), std::string::npos)
       << huge.err;
   EXPECT_FALSE(fs::exists(dir / "huge"));
+  const CommandResult twice = RunInOwnFolder({"faults", SmallSyntheticDataset().string(), "--out",
+                                              (dir / "twice").string(), "--fault", "lrf-offset=5,5"});
+  EXPECT_EQ(twice.exit_code, 2) << twice.err;
+  EXPECT_NE(twice.err.find("--fault lrf-offset=5 is given twice"), std::string::npos) << twice.err;
+  EXPECT_FALSE(fs::exists(dir / "twice"));
   args = {"synth", "--out", (dir / "late").string(), "--fault", "clock-offset=100"};
   args.insert(args.end(), scene.begin(), scene.end());
   const CommandResult late = RunInOwnFolder(args);

@@ -90,6 +90,15 @@ int RunFaults(const FaultsArgs& args, std::ostream& out, std::ostream& err) {
     const std::vector<datasets::Fault> some = ParseFaultFlag(text);
     faults.insert(faults.end(), some.begin(), some.end());
   }
+  // One case per fault and magnitude: a repeat would only run again.
+  for (size_t i = 0; i < faults.size(); ++i) {
+    for (size_t j = 0; j < i; ++j) {
+      if (datasets::FaultLabel(faults[i]) == datasets::FaultLabel(faults[j])) {
+        err << "hdabench faults: --fault " << datasets::FaultLabel(faults[i]) << " is given twice\n";
+        return kExitUsage;
+      }
+    }
+  }
   if (faults.empty()) faults = reference::DefaultFaultSweep();
   reference::HdaSettings settings;
   const int settings_code = BuildHdaSettings(args.params_file, {}, args.hda_sets, "faults", err, &settings);

@@ -32,7 +32,10 @@ std::string CsvNumber(double value) { return std::isfinite(value) ? nlohmann::js
 
 std::string FixedText(double value, int digits) {
   char buffer[512];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", digits, value);
+  // Beyond 1e15 fixed point would print every digit of the number (309 of
+  // them for 1e308), none meaningful: an exponent instead.
+  std::snprintf(buffer, sizeof(buffer), std::abs(value) >= 1e15 && std::isfinite(value) ? "%.*e" : "%.*f", digits,
+                value);
   return buffer;
 }
 

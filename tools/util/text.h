@@ -40,7 +40,8 @@ std::string FixedCell(double value, int digits);
 std::string SignedCell(double value, int digits);
 
 // Fixed-point text with `digits` decimals ("%.*f"), for messages: "nan",
-// "inf" and "-inf" as they are.
+// "inf" and "-inf" as they are, and from 1e15 on with an exponent ("%.*e":
+// 1.00e+308, not 309 digits).
 std::string FixedText(double value, int digits);
 
 // Columns aligned to their widest cell; `left` columns are left-aligned, the

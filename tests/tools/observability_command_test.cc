@@ -88,6 +88,8 @@ TEST(ObservabilityCommand, BadFlagsAreUsageErrors) {
                                              {"--shard", "3/2"},
                                              {"--baseline", "10:5:1"},
                                              {"--pixel-noise", "0.1,x"},
+                                             {"--baseline", "10,10"},
+                                             {"--baseline", "10,20,"},
                                              {"--points", "2"},
                                              {"--trials", "0"},
                                              {"--trials", "20000000"},

@@ -1,6 +1,7 @@
 // `hdabench observability`: the paper's observability study (a Monte Carlo of
 // the slope error against the baseline, reference/observability), whole or
 // one shard; `hdabench observability merge`: shards into the whole study.
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -87,9 +88,18 @@ std::vector<double> ParseNumberList(const std::string& text, const std::string& 
     for (int i = 0; i <= static_cast<int>(count); ++i) values.push_back(start + i * step);
     return values;
   }
+  // Every comma splits, so an empty item (a trailing comma) is refused too;
+  // a value given twice would only be studied twice.
   std::vector<double> values;
-  while (std::getline(in, item, ',')) values.push_back(number(item));
-  if (values.empty()) throw CLI::ValidationError(flag, "expected at least one number");
+  for (size_t begin = 0;;) {
+    const size_t end = text.find(',', begin);
+    values.push_back(number(text.substr(begin, end == std::string::npos ? end : end - begin)));
+    if (std::find(values.begin(), values.end() - 1, values.back()) != values.end() - 1) {
+      throw CLI::ValidationError(flag, "'" + text + "' gives " + util::ShortestText(values.back()) + " twice");
+    }
+    if (end == std::string::npos) break;
+    begin = end + 1;
+  }
   return values;
 }
 

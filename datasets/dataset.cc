@@ -1294,8 +1294,8 @@ class TruthLoader {
       }
       return true;
     };
-    ok = read_positive("gain_electrons_per_dn", 1e6, &result.gain_electrons_per_dn) && ok;
-    ok = read_positive("read_noise_dn", 65535.0, &result.read_noise_dn) && ok;  // a 16-bit pixel's full scale
+    ok = read_positive("gain_electrons_per_dn", kMaxGainElectronsPerDn, &result.gain_electrons_per_dn) && ok;
+    ok = read_positive("read_noise_dn", kMaxReadNoiseDn, &result.read_noise_dn) && ok;
     if (ok) context_->dataset.truth.imaging = result;
   }
 

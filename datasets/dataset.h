@@ -76,6 +76,12 @@ struct TruthImaging {
   double read_noise_dn = 0.0;           // >= 0: read noise, DN (1 sigma)
 };
 
+// The largest sensor gain and read noise a dataset may state (and the
+// renderer take): a read noise beyond a 16-bit pixel's full scale, or a gain
+// beyond a million electrons per DN, describes no imager.
+constexpr double kMaxGainElectronsPerDn = 1e6;
+constexpr double kMaxReadNoiseDn = 65535.0;
+
 struct Truth {
   std::vector<TruthPoints> points;  // any subset of the frames, at most one each
   std::optional<TruthDem> dem;

@@ -6,6 +6,7 @@
 #include <limits>
 
 #include "tools/util/error.h"
+#include "datasets/dataset.h"
 #include "datasets/synth/noise.h"
 #include "datasets/synth/optics.h"
 #include "datasets/synth/render_internal.h"
@@ -106,16 +107,17 @@ std::vector<std::string> RenderOptions::Validate() const {
   if (!(std::isfinite(target_mean_dn) && target_mean_dn > 0.0)) {
     errors.push_back("target_mean_dn: " + util::ShortestText(target_mean_dn) + "; expected a finite value > 0");
   }
-  if (!(std::isfinite(gain_electrons_per_dn) && gain_electrons_per_dn > 0.0)) {
+  if (!(gain_electrons_per_dn > 0.0 && gain_electrons_per_dn <= kMaxGainElectronsPerDn)) {
     errors.push_back("gain_electrons_per_dn: " + util::ShortestText(gain_electrons_per_dn) +
-                     "; expected a finite value > 0");
+                     "; expected > 0 and at most " + util::ShortestText(kMaxGainElectronsPerDn));
   }
   if (!(std::isfinite(full_well_electrons) && full_well_electrons > 0.0)) {
     errors.push_back("full_well_electrons: " + util::ShortestText(full_well_electrons) +
                      "; expected a finite value > 0");
   }
-  if (!(std::isfinite(read_noise_dn) && read_noise_dn >= 0.0)) {
-    errors.push_back("read_noise_dn: " + util::ShortestText(read_noise_dn) + "; expected a finite value >= 0");
+  if (!(read_noise_dn >= 0.0 && read_noise_dn <= kMaxReadNoiseDn)) {
+    errors.push_back("read_noise_dn: " + util::ShortestText(read_noise_dn) + "; expected 0 to " +
+                     util::ShortestText(kMaxReadNoiseDn));
   }
   if (bit_depth != 8 && bit_depth != 16) {
     errors.push_back("bit_depth: " + std::to_string(bit_depth) + "; expected 8 or 16");

@@ -175,12 +175,13 @@ int RunExportField(const ExportFieldOptions& options, std::ostream& out, std::os
       if (end == std::string::npos) break;
       begin = end + 1;
     }
-    // Heights from 100 km below the ellipsoid to 10,000 km above it: beyond
-    // them the local frame's round trip through WGS84 loses the positions.
+    // Heights from 100 km below the ellipsoid to 1000 km above it: beyond
+    // them the local frame's round trip through WGS84 loses the positions, or
+    // the log's heights pass the 1e7 m that ingest field takes.
     if (values.size() != 3 || !std::isfinite(values[0]) || !std::isfinite(values[1]) || !std::isfinite(values[2]) ||
-        std::abs(values[0]) > 90.0 || std::abs(values[1]) > 180.0 || values[2] < -1e5 || values[2] > 1e7) {
+        std::abs(values[0]) > 90.0 || std::abs(values[1]) > 180.0 || values[2] < -1e5 || values[2] > 1e6) {
       err << command << "--origin '" << options.origin_text
-          << "': expected LAT,LON,HEIGHT (degrees in [-90, 90] and [-180, 180], metres in [-1e5, 1e7])\n";
+          << "': expected LAT,LON,HEIGHT (degrees in [-90, 90] and [-180, 180], metres in [-1e5, 1e6])\n";
       return kExitUsage;
     }
     origin = {values[0], values[1], values[2]};

@@ -82,7 +82,7 @@ std::string UnknownCommand(CLI::App& app, int argc, char** argv) {
 // path would mean the current folder, or no file at all. "" when none is.
 std::string EmptyValue(const CLI::App& command) {
   for (const CLI::Option* option : command.get_options()) {
-    if (option->get_type_size_max() == 0) continue;  // a flag
+    if (option->get_expected_max() == 0) continue;  // a flag
     for (const std::string& value : option->results()) {
       if (!value.empty()) continue;
       std::string path = command.get_name();

@@ -651,7 +651,13 @@ TEST(RenderOptions, BadValuesGiveExactMessages) {
   options.samples_per_pixel_axis = 0;
   options.read_noise_dn = -1.0;
   EXPECT_EQ(options.Validate(), (std::vector<std::string>{"samples_per_pixel_axis: 0; expected 1 to 16",
-                                                          "read_noise_dn: -1; expected a finite value >= 0"}));
+                                                          "read_noise_dn: -1; expected 0 to 65535"}));
+  // The sensor noise a dataset may state: synth never writes one its loader refuses.
+  options = RenderOptions();
+  options.read_noise_dn = 70000.0;
+  options.gain_electrons_per_dn = 2e6;
+  EXPECT_EQ(options.Validate(), (std::vector<std::string>{"gain_electrons_per_dn: 2e+06; expected > 0 and at most 1e+06",
+                                                          "read_noise_dn: 70000; expected 0 to 65535"}));
 
   // RenderFrame refuses them with every message.
   const Scene scene = MakeScene(3, 3, 1.0, 0.0, 2.0, [](double, double) { return 0.0; });

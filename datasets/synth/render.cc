@@ -79,13 +79,13 @@ std::vector<std::string> RenderOptions::Validate() const {
   }
   const std::pair<const char*, double> optics[] = {
       {"f_number", f_number}, {"wavelength_um", wavelength_um}, {"pixel_pitch_um", pixel_pitch_um}};
+  bool optics_usable = true;
   for (const auto& [name, value] : optics) {
     if (!(std::isfinite(value) && value > 0.0)) {
       errors.push_back(std::string(name) + ": " + util::ShortestText(value) + "; expected a finite value > 0");
+      optics_usable = false;
     }
   }
-  bool optics_usable = true;
-  for (const auto& [name, value] : optics) optics_usable = optics_usable && std::isfinite(value) && value > 0.0;
   if (optics_usable) {
     // Past a blur of 10 px, as for defocus, an imager's pixels no longer matter,
     // and the PSF's taps would outgrow the render's margins.

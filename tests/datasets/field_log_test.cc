@@ -293,30 +293,22 @@ TEST(FieldLog, MalformedLogsAreNamedByFileAndLine) {
   // An unknown angle convention.
   expect([](FieldLog* log) { log->Write(nullptr, "euler_xyz_deg"); },
          {"log.json: navigation.attitude.kind", "'euler_xyz_deg' is not a known convention", "euler_zyx_deg"});
-  // An image without a time: a times table that misses one image.
-  expect([](FieldLog* log) {
+  // The images' times from a table, frames.csv, instead of their names.
+  const auto times_from_table = [](FieldLog* log, const std::string& table) {
     log->Write();
-    WriteText(log->dir / "frames.csv", "file,t\ncam_150.png,0.15\ncam_550.png,0.55\n");
-    std::string config = ReadText(log->dir / "log.json");
-    const std::string pattern = R"("pattern": "cam_{time_ms}.png")";
-    config.replace(config.find(pattern), pattern.size(),
-                   R"("times_csv": "frames.csv", "file_column": "file", "time_column": "t")");
-    WriteText(log->dir / "log.json", config);
-  }, {"cam_950.png", "image without a time: not listed in"});
-  // One image listed twice, under two names: two frames of the same pixels.
-  expect([](FieldLog* log) {
-    log->Write();
-    std::string table = "file,t\n";
-    for (const char* name : {"cam_150", "cam_550", "cam_950"}) {
-      table += std::string(name) + ".png," + std::string(name).substr(4, 3) + "e-3\n";
-    }
-    table += "./cam_950.png,1.2\n";
     WriteText(log->dir / "frames.csv", table);
     std::string config = ReadText(log->dir / "log.json");
     const std::string pattern = R"("pattern": "cam_{time_ms}.png")";
     config.replace(config.find(pattern), pattern.size(),
                    R"("times_csv": "frames.csv", "file_column": "file", "time_column": "t")");
     WriteText(log->dir / "log.json", config);
+  };
+  // An image without a time: a times table that misses one image.
+  expect([&](FieldLog* log) { times_from_table(log, "file,t\ncam_150.png,0.15\ncam_550.png,0.55\n"); },
+         {"cam_950.png", "image without a time: not listed in"});
+  // One image listed twice, under two names: two frames of the same pixels.
+  expect([&](FieldLog* log) {
+    times_from_table(log, "file,t\ncam_150.png,0.15\ncam_550.png,0.55\ncam_950.png,0.95\n./cam_950.png,1.2\n");
   }, {"frames.csv:5", "image './cam_950.png' is listed already at line 4"});
   // The same placeholder twice.
   expect([](FieldLog* log) {

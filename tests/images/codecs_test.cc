@@ -66,6 +66,25 @@ TEST(ReadWholeImage, ReadsWhatOpenCvReadsAndRefusesACutFileSilently) {
   ASSERT_FALSE(whole.empty()) << error;
   EXPECT_EQ(cv::norm(whole, Read(kBoard.string(), cv::IMREAD_GRAYSCALE), cv::NORM_INF), 0.0);
 
+  // The EXIF orientation is applied as cv::imread applies it (the bytes are
+  // decoded from memory): an APP1 segment saying "rotate 90 degrees" (6).
+  const std::string exif("\xff\xe1\x00\x22"
+                         "Exif\x00\x00"
+                         "MM\x00\x2a\x00\x00\x00\x08"
+                         "\x00\x01"
+                         "\x01\x12\x00\x03\x00\x00\x00\x01\x00\x06\x00\x00"
+                         "\x00\x00\x00\x00",
+                         36);
+  const std::string small = SmallJpeg(false);
+  WriteText(dir / "turned.jpg", small.substr(0, 2) + exif + small.substr(2));
+  for (const int flags : {cv::IMREAD_GRAYSCALE, cv::IMREAD_COLOR, cv::IMREAD_UNCHANGED}) {
+    const cv::Mat read = Read((dir / "turned.jpg").string(), flags);
+    const cv::Mat checked = ReadWholeImage((dir / "turned.jpg").string(), flags, &error);
+    ASSERT_EQ(checked.size(), read.size()) << flags << ": " << error;
+    EXPECT_EQ(cv::norm(checked, read, cv::NORM_INF), 0.0) << flags;
+  }
+  EXPECT_EQ(Read((dir / "turned.jpg").string(), cv::IMREAD_GRAYSCALE).size(), cv::Size(48, 64));  // turned
+
   // OpenCV would decode these into partly grey images, with a warning on stderr.
   const std::string jpeg = ReadText(kBoard);
   WriteText(dir / "cut.jpg", jpeg.substr(0, jpeg.size() / 2));

@@ -22,19 +22,13 @@ namespace fs = std::filesystem;
 std::vector<int> ParseIntList(const std::string& text, std::size_t count, const std::string& flag,
                               const std::string& form) {
   std::vector<int> values;
-  // Every item between the commas, the last included: "1,2," has an empty
-  // third item, which is refused.
-  for (std::size_t start = 0; !text.empty();) {
-    const std::size_t comma = text.find(',', start);
-    const std::string_view item =
-        std::string_view(text).substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+  // "1,2," has an empty third item, which is refused.
+  for (const std::string_view item : util::SplitAtCommas(text)) {
     int value = 0;
     if (util::ParseInt(item, &value) != util::ParseStatus::kOk) {
       throw CLI::ValidationError(flag, "expected " + form + " (whole numbers), got '" + text + "'");
     }
     values.push_back(value);
-    if (comma == std::string::npos) break;
-    start = comma + 1;
   }
   if (values.size() != count) {
     throw CLI::ValidationError(flag, "expected " + form + ", got '" + text + "'");

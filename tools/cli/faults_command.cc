@@ -6,6 +6,7 @@
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -91,12 +92,11 @@ int RunFaults(const FaultsArgs& args, std::ostream& out, std::ostream& err) {
     faults.insert(faults.end(), some.begin(), some.end());
   }
   // One case per fault and magnitude: a repeat would only run again.
-  for (size_t i = 0; i < faults.size(); ++i) {
-    for (size_t j = 0; j < i; ++j) {
-      if (datasets::FaultLabel(faults[i]) == datasets::FaultLabel(faults[j])) {
-        err << "hdabench faults: --fault " << datasets::FaultLabel(faults[i]) << " is given twice\n";
-        return kExitUsage;
-      }
+  std::set<std::string> labels;
+  for (const datasets::Fault& fault : faults) {
+    if (!labels.insert(datasets::FaultLabel(fault)).second) {
+      err << "hdabench faults: --fault " << datasets::FaultLabel(fault) << " is given twice\n";
+      return kExitUsage;
     }
   }
   if (faults.empty()) faults = reference::DefaultFaultSweep();

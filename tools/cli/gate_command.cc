@@ -259,6 +259,30 @@ int RunGateMerge(const GateMergeOptions& options, std::ostream& out, std::ostrea
   return WriteVerdict(verdict, outcomes, progress, out, err, command);
 }
 
+namespace {
+
+// What is wrong when one of gate's own flags was given before 'merge' (`gate
+// --jobs 2 merge ...` would otherwise drop --jobs without a word); "" when none was.
+std::string GateFlagBeforeMerge(const CLI::App& gate, const CLI::App& merge) {
+  for (const CLI::Option* option : gate.get_options()) {
+    if (option->count() == 0) continue;
+    std::string own;
+    bool merge_has_it = false;
+    for (const CLI::Option* merge_option : merge.get_options()) {
+      if (merge_option->get_name() == "--help") continue;
+      own += " " + merge_option->get_name();
+      merge_has_it = merge_has_it || merge_option->get_name() == option->get_name();
+    }
+    return option->get_name() + " was given before 'merge'" +
+           (merge_has_it ? ": give it after 'merge'"
+                         : " and is a flag of gate, not of gate merge (whose arguments, after 'merge', are" + own +
+                               ")");
+  }
+  return "";
+}
+
+}  // namespace
+
 // gate: the suite, thresholds, baseline, --out and the comparison's options.
 std::vector<Command> AddGateCommands(CLI::App& app) {
   const auto options = std::make_shared<GateCommandOptions>();
@@ -303,21 +327,8 @@ std::vector<Command> AddGateCommands(CLI::App& app) {
   gate->require_subcommand(0, 1);
   return {{merge_app,
            [merge, gate, merge_app] {
-             // `gate --jobs 2 merge ...` would otherwise drop --jobs without a word.
-             for (const CLI::Option* option : gate->get_options()) {
-               if (option->count() == 0) continue;
-               std::string own;
-               bool merge_has_it = false;
-               for (const CLI::Option* merge_option : merge_app->get_options()) {
-                 if (merge_option->get_name() == "--help") continue;
-                 own += " " + merge_option->get_name();
-                 merge_has_it = merge_has_it || merge_option->get_name() == option->get_name();
-               }
-               std::cerr << "hdabench gate merge: " << option->get_name() << " was given before 'merge'"
-                         << (merge_has_it ? ": give it after 'merge'"
-                                          : " and is a flag of gate, not of gate merge (whose arguments, after "
-                                            "'merge', are" + own + ")")
-                         << "\n";
+             if (const std::string given = GateFlagBeforeMerge(*gate, *merge_app); !given.empty()) {
+               std::cerr << "hdabench gate merge: " << given << "\n";
                return kExitUsage;
              }
              return RunGateMerge(*merge, std::cout, std::cerr);

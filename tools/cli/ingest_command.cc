@@ -165,15 +165,11 @@ int RunExportField(const ExportFieldOptions& options, std::ostream& out, std::os
   const std::string command = "hdabench export field: ";
   datasets::Geodetic origin;
   {
-    // Every comma splits, so an empty item (a trailing comma) is refused too.
+    // An empty item (a trailing comma) is refused as any other.
     std::vector<double> values;
-    for (size_t begin = 0;;) {
-      const size_t end = options.origin_text.find(',', begin);
+    for (const std::string_view item : util::SplitAtCommas(options.origin_text)) {
       double v = 0.0;
-      const std::string item = options.origin_text.substr(begin, end == std::string::npos ? end : end - begin);
       values.push_back(util::ParseDouble(item, &v) == util::ParseStatus::kOk ? v : std::nan(""));
-      if (end == std::string::npos) break;
-      begin = end + 1;
     }
     // Heights from 100 km below the ellipsoid to 1000 km above it: beyond
     // them the local frame's round trip through WGS84 loses the positions, or

@@ -88,18 +88,16 @@ std::vector<double> ParseNumberList(const std::string& text, const std::string& 
     for (int i = 0; i <= static_cast<int>(count); ++i) values.push_back(start + i * step);
     return values;
   }
-  // Every comma splits, so an empty item (a trailing comma) is refused too;
-  // a value given twice would only be studied twice.
+  // An empty item (a trailing comma) is refused as any other; a value given
+  // twice would only be studied twice.
   std::vector<double> values;
-  for (size_t begin = 0;;) {
-    const size_t end = text.find(',', begin);
-    values.push_back(number(text.substr(begin, end == std::string::npos ? end : end - begin)));
+  for (const std::string_view part : util::SplitAtCommas(text)) {
+    values.push_back(number(std::string(part)));
     if (std::find(values.begin(), values.end() - 1, values.back()) != values.end() - 1) {
       throw CLI::ValidationError(flag, "'" + text + "' gives " + util::ShortestText(values.back()) + " twice");
     }
-    if (end == std::string::npos) break;
-    begin = end + 1;
   }
+  if (values.empty()) throw CLI::ValidationError(flag, "expected at least one number");
   return values;
 }
 

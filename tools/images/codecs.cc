@@ -122,7 +122,7 @@ bool CheckJpegComplete(const std::string& bytes, std::string* error) {
 }
 
 cv::Mat ReadWholeImage(const std::string& path, int flags, std::string* error) {
-  // OpenCV opens the file again after the check: a pipe would be empty then.
+  // An image comes from a file: a pipe is refused rather than waited on.
   std::error_code ec;
   if (fs::is_fifo(path, ec)) {
     *error = "is a pipe; expected an image file";
@@ -137,7 +137,9 @@ cv::Mat ReadWholeImage(const std::string& path, int flags, std::string* error) {
              static_cast<unsigned char>(bytes[1]) == 0xD8) {
     if (!CheckJpegComplete(bytes, error)) return cv::Mat();
   }
-  cv::Mat image = Read(path, flags);
+  // The bytes checked are the bytes decoded (cv::imdecode applies the EXIF
+  // orientation as cv::imread does): the file is read once.
+  cv::Mat image = Decode(bytes, flags);
   if (image.empty()) *error = bytes.empty() ? "is empty (0 bytes)" : "is not an image OpenCV can read";
   return image;
 }

@@ -20,7 +20,7 @@ namespace hdabench::images {
 cv::Mat Read(const std::string& path, int flags);
 
 // Read of an image from outside the bench (a camera's JPEG or PNG):
-// cv::imread of a file checked first to be whole, since OpenCV decodes a
+// cv::imread's result, decoded from the file's bytes once they are checked to be whole, since OpenCV decodes a
 // truncated JPEG or PNG into a partly grey image with only a warning on
 // stderr. An empty Mat, with `error` saying why without the path, when the
 // file is missing, a folder or a pipe ("file not found", ...), a PNG whose chunks are

@@ -39,6 +39,17 @@ std::string FixedText(double value, int digits) {
   return buffer;
 }
 
+std::vector<std::string_view> SplitAtCommas(std::string_view text) {
+  std::vector<std::string_view> items;
+  for (size_t begin = 0; !text.empty();) {
+    const size_t comma = text.find(',', begin);
+    items.push_back(text.substr(begin, comma == std::string_view::npos ? std::string_view::npos : comma - begin));
+    if (comma == std::string_view::npos) break;
+    begin = comma + 1;
+  }
+  return items;
+}
+
 std::string FixedCell(double value, int digits) {
   return std::isfinite(value) ? FixedText(value, digits) : "-";
 }

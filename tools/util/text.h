@@ -72,6 +72,11 @@ ParseStatus ParseInt(std::string_view text, int* value);
 // Removes leading and trailing spaces and tabs.
 std::string_view Trim(std::string_view text);
 
+// The items between the commas of `text`, the last included: "1,2," gives
+// "1", "2" and "" (so a caller refuses an empty item as any other); "" gives
+// none. The views point into `text`.
+std::vector<std::string_view> SplitAtCommas(std::string_view text);
+
 // A JSON library error's what() without its "[json.exception.parse_error.101] "
 // tag: "parse error at line 1, column 1: ...", for a message about a file.
 std::string JsonErrorText(const std::string& what);

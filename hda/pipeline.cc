@@ -261,6 +261,48 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
   }
 }
 
+// The largest parallax a ground point of the ROI can show under the nav pose:
+// at the box's centre and pixel-edge corners, on the level ground brought
+// nearer by the relief the depth test allows (max_relief_m along the
+// vertical), degrees. +infinity when a ray cannot be placed that way (it
+// misses the ground, or the relief reaches the camera): the ROI is then not
+// judged by it.
+double LargestPredictedParallaxDeg(const Context& ctx, const cv::Rect& box) {
+  const double x0 = box.x - 0.5, y0 = box.y - 0.5;
+  const double x1 = box.x + box.width - 0.5, y1 = box.y + box.height - 0.5;
+  std::vector<Eigen::Vector3d> bearings;
+  std::vector<unsigned char> valid;
+  if (ctx.camera->Unproject({BoxCentre(box), {x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}, &bearings, &valid) != 5) {
+    return kInfinity;
+  }
+  double largest = 0.0;
+  for (const Eigen::Vector3d& b : bearings) {
+    const double depth = ctx.ground.DepthAlong(b);
+    const double incidence = std::abs(ctx.up_in_cam1.dot(b));
+    const double nearest = depth - ctx.options->max_relief_m / incidence;
+    if (!std::isfinite(nearest) || !(nearest > 0.0)) return kInfinity;
+    const Eigen::Vector3d from_cam2 = nearest * b - ctx.c2_in_cam1;
+    largest = std::max(largest, std::atan2(b.cross(from_cam2).norm(), b.dot(from_cam2)) / kDegToRad);
+  }
+  return largest;
+}
+
+// Depth not observable on this ROI: no ground point of it can reach the
+// parallax triangulation needs under the nav pose (a zero or short baseline
+// across the line of sight, or motion along it). Marks the ROI degenerate,
+// with the figures, and returns true; its matching is not run.
+bool MarkUnobservableDepth(const Context& ctx, RoiResult* roi) {
+  const double min_parallax_deg = ctx.options->triangulation.min_parallax_deg;
+  const double largest_deg = LargestPredictedParallaxDeg(ctx, roi->box1_px);
+  if (!(largest_deg < min_parallax_deg)) return false;
+  roi->status = RoiStatus::kDegenerate;
+  roi->reason = "depth not observable: the nav pose (baseline " + util::FixedText(ctx.c2_in_cam1.norm(), 3) +
+                " m) gives this ROI's ground at most " + util::FixedText(largest_deg, 3) +
+                " deg of parallax, under the " + util::FixedText(min_parallax_deg, 3) +
+                " deg triangulation needs";
+  return true;
+}
+
 // Fewer points than a plane fit needs: says where the matches were lost.
 void MarkTooFewPoints(size_t n, const HdaOptions& options, RoiResult* roi) {
   roi->status = RoiStatus::kTooFewPoints;
@@ -657,6 +699,7 @@ void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, St
     return;
   }
   roi.box2_px = predicted.box_px;
+  if (MarkUnobservableDepth(ctx, &roi)) return;
   const RoiMatches matches = MatchRoi(ctx, roi, placement.centres[i]);
   timer->Lap(&result->times.matching_s);
   roi.matching_status = matches.status;
@@ -746,6 +789,7 @@ RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& c
   roi.matching_status = MatchingStatus::kOk;
   roi.counts.matches = static_cast<int>(points1_px.size());
   roi.counts.ransac_inliers = roi.counts.matches;
+  if (MarkUnobservableDepth(ctx, &roi)) return roi;
   std::vector<Eigen::Vector3d> bearings1, bearings2, points_in_cam1;
   std::vector<double> parallaxes_deg;
   RejectAndTriangulate(ctx, matches, placement.range_m.front(), &roi, &bearings1, &bearings2, &points_in_cam1,

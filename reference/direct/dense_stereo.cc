@@ -374,12 +374,21 @@ bool SetUpRectification(const calib::CameraModel& camera, const Rigid3d& cam2_fr
   rect.baseline_m = centre2.norm();
   Eigen::Vector3d view = Eigen::Vector3d::UnitZ();
   rect.focal_px = CentreFocalPx(camera, &view);
-  if (!(rect.baseline_m > 0.0) || !std::isfinite(rect.baseline_m)) {
-    result->reason = "no baseline: camera 2's centre is camera 1's";
-    return false;
-  }
   if (!(rect.focal_px > 0.0)) {
     result->reason = "the camera cannot unproject around its image centre";
+    return false;
+  }
+  // A baseline that gives the level ground less disparity than SGBM's step
+  // (1 / kDisparityScale px) is none: the matcher cannot tell it from zero,
+  // and a baseline of rounding errors has no direction to rectify along.
+  const double ground_distance_m = 1.0 / rect.level_plane_in_cam1.norm();
+  const double disparity_px = rect.focal_px * rect.baseline_m / ground_distance_m;
+  if (!std::isfinite(rect.baseline_m) || !(disparity_px >= 1.0 / kDisparityScale)) {
+    std::ostringstream reason;
+    reason << "no baseline: camera 2's centre is " << rect.baseline_m << " m from camera 1's, about "
+           << disparity_px << " px of disparity on the level ground " << ground_distance_m
+           << " m away, under the matcher's 1/" << kDisparityScale << " px step";
+    result->reason = reason.str();
     return false;
   }
   const Eigen::Vector3d x_axis = centre2 / rect.baseline_m;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Cholesky>
@@ -91,6 +92,29 @@ bool CornersInImage2(const RoiPixels& roi, const calib::CameraModel& camera, con
   std::vector<unsigned char> valid;
   camera.Project(points, corners, &valid);
   return std::all_of(valid.begin(), valid.end(), [](unsigned char v) { return v != 0; });
+}
+
+// The parallax of the ROI: how far each corner moves in image 2 between
+// plane p and the plane at infinity (its ray's direction alone), pixels, the
+// largest of the four. +infinity when a corner cannot be projected either
+// way (the ROI is then not judged by it).
+double CornerParallaxPx(const RoiPixels& roi, const calib::CameraModel& camera, const Rigid3d& cam2_from_cam1,
+                        const Eigen::Vector3d& p) {
+  std::vector<Eigen::Vector3d> points;
+  for (const Eigen::Vector3d& b : roi.corner_bearings) {
+    const double pb = p.dot(b);
+    if (!(pb > 0.0)) return std::numeric_limits<double>::infinity();
+    points.push_back(cam2_from_cam1 * (b / pb));
+    points.push_back(cam2_from_cam1.rotation * b);
+  }
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<unsigned char> valid;
+  if (camera.Project(points, &pixels, &valid) != static_cast<int>(points.size())) {
+    return std::numeric_limits<double>::infinity();
+  }
+  double largest = 0.0;
+  for (size_t k = 0; k + 1 < pixels.size(); k += 2) largest = std::max(largest, (pixels[k] - pixels[k + 1]).norm());
+  return largest;
 }
 
 // One linearisation of the problem at plane p (parameterised as p = scale *
@@ -481,6 +505,8 @@ const char* ToString(DirectPlaneStatus status) {
       return "no texture";
     case DirectPlaneStatus::kDiverged:
       return "diverged";
+    case DirectPlaneStatus::kLowParallax:
+      return "low parallax";
   }
   return "?";
 }
@@ -519,6 +545,19 @@ DirectPlaneResult FitPlaneDirect(const DirectPlaneImages& images, const calib::C
                         initial_plane_in_cam1.norm()};
   if (!initial_plane_in_cam1.allFinite() || !(problem.scale > 0.0) || problem.roi.corner_bearings.size() != 4) {
     result.reason = "no usable starting plane or box corners";
+    return result;
+  }
+  // The plane is seen through parallax only: with none (no baseline across
+  // the ROI's lines of sight) every plane maps the ROI alike.
+  const double parallax_px = CornerParallaxPx(problem.roi, camera, cam2_from_cam1, initial_plane_in_cam1);
+  if (!(parallax_px >= options.convergence_px)) {
+    result.status = DirectPlaneStatus::kLowParallax;
+    std::ostringstream reason;
+    reason << "the pose (baseline " << cam2_from_cam1.Inverse().translation.norm()
+           << " m) moves the ROI's corners by at most " << parallax_px
+           << " px between its starting plane and infinity, under convergence_px (" << options.convergence_px
+           << "): the plane is not observable";
+    result.reason = reason.str();
     return result;
   }
   result.search_scale = SearchScale(images, camera, problem.roi, cam2_from_cam1, initial_plane_in_cam1, options);

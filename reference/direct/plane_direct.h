@@ -70,6 +70,9 @@ enum class DirectPlaneStatus {
   kNoTexture,       // "no texture": the pixels do not constrain the plane
   kDiverged,        // "diverged": the plane went behind a camera, the solve was singular, or it
                     // did not converge within max_iterations
+  kLowParallax,     // "low parallax": the pose moves no corner of the ROI by convergence_px
+                    // between the starting plane and infinity (no baseline across its lines of
+                    // sight): every plane maps the ROI alike
 };
 const char* ToString(DirectPlaneStatus status);
 

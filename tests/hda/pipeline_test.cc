@@ -227,6 +227,44 @@ TEST(RunHda, MotionAlongTheBoresightIsFlaggedDegenerateNotGivenAConfidentSlope) 
       << result.Summary();
 }
 
+// A pair whose nav pose has no baseline (or one too short across the line of
+// sight) cannot give depth anywhere: each ROI is reported degenerate with the
+// geometry's figures, and its matching is not run. The limit follows the
+// geometry: at 200 m, 0.5 deg of parallax needs about 1.75 m across the line
+// of sight (1.3 m with the 50 m relief the depth test allows).
+TEST(RunHda, APairWithoutParallaxIsDegenerateOnEveryRoiNotShortOfPoints) {
+  for (const double baseline_m : {0.0, 1.0}) {
+    SCOPED_TRACE(baseline_m);
+    const Scene scene = MakeScene(6.0, Eigen::Vector3d(baseline_m, 0.0, 0.0), CurrentTestSeed());
+    const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
+    ASSERT_GE(result.rois.size(), 16u) << result.quadtree.Summary();
+    for (const RoiResult& roi : result.rois) {
+      EXPECT_EQ(roi.status, RoiStatus::kDegenerate) << "ROI " << roi.id << ": " << roi.reason;
+      EXPECT_NE(roi.reason.find("depth not observable"), std::string::npos) << roi.reason;
+      EXPECT_NE(roi.reason.find("under the 0.500 deg triangulation needs"), std::string::npos) << roi.reason;
+      EXPECT_EQ(roi.counts.keypoints1, 0) << "ROI " << roi.id;
+      EXPECT_FALSE(roi.has_fit);
+    }
+    EXPECT_TRUE(result.ranking.empty());
+  }
+  // 2.5 m gives about 0.7 deg on the level ground: no ROI is refused for it.
+  const Scene scene = MakeScene(6.0, Eigen::Vector3d(2.5, 0.0, 0.0), CurrentTestSeed());
+  const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
+  for (const RoiResult& roi : result.rois) {
+    EXPECT_EQ(roi.reason.find("depth not observable"), std::string::npos) << "ROI " << roi.id << ": " << roi.reason;
+    EXPECT_GT(roi.counts.keypoints1, 0) << "ROI " << roi.id;
+  }
+  // Given matches are judged the same way.
+  HdaInput without_images = MakeScene(6.0, Eigen::Vector3d::Zero(), CurrentTestSeed()).input;
+  without_images.image1 = cv::Mat();
+  without_images.image2 = cv::Mat();
+  const std::vector<cv::Point2d> points(20, cv::Point2d(240, 240));
+  const RoiResult site = EvaluateMatchedSite(without_images, Camera(), AmpleBudgetOptions(),
+                                             cv::Rect(224, 224, 64, 64), points, points);
+  EXPECT_EQ(site.status, RoiStatus::kDegenerate) << site.reason;
+  EXPECT_NE(site.reason.find("baseline 0.000 m"), std::string::npos) << site.reason;
+}
+
 TEST(RunHda, AWrongNavigationPoseRejectsTheMatches) {
   Scene scene = MakeScene(6.0, Lateral(), CurrentTestSeed());
   // The IMU says the camera also pitched by 0.5 deg: 8.7 px of epipolar error.

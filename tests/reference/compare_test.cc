@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <unistd.h>
 #include <filesystem>
+#include <fstream>
 #include <random>
 #include <regex>
 #include <string>
@@ -481,6 +482,53 @@ TEST_F(CompareOnSyntheticScene, BadFlagsAreUsageErrors) {
   EXPECT_NE(result.err.find("frame 99"), std::string::npos) << result.err;
   result = RunHdabench({"compare", (out / "missing").string(), "--out", (out / "c").string()}, out);
   EXPECT_EQ(result.exit_code, 3) << result.err;
+}
+
+// A real pair whose navigation gives both frames one pose (a cameras.txt
+// that repeats the first frame's line for the second) has no parallax
+// anywhere: each method says so on every ROI, in its own terms, and none
+// calls it too few points, a divergence or an epipole. COLMAP aborts on it
+// (exit 4), and its failure names the cause.
+TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
+  const fs::path out = FreshTestDir();
+  const fs::path source = fs::path(HDABENCH_SOURCE_DIR) / "tests" / "data" / "stereolunar-nadir";
+  std::string cameras = testing_support::ReadText(source / "cameras.txt");
+  const auto line_of = [&](const std::string& frame) {
+    const size_t start = cameras.find("\n" + frame + " ") + 1;
+    return std::make_pair(start, cameras.find('\n', start) - start);
+  };
+  const auto [first, first_length] = line_of("paire1/im_00594");
+  const auto [second, second_length] = line_of("paire1/im_00595");
+  const std::string pose = cameras.substr(first + 16, first_length - 16);
+  ASSERT_EQ(cameras.substr(second, 16), "paire1/im_00595 ");
+  cameras.replace(second + 16, second_length - 16, pose);
+  std::ofstream(out / "cameras.txt") << cameras;
+  CommandResult result = RunHdabench({"ingest", "stereolunar", (source / "paire1").string(), "--cameras",
+                                      (out / "cameras.txt").string(), "--out", (out / "pair").string()},
+                                     out);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_NE(result.out.find("baseline 0 m"), std::string::npos) << result.out;
+  result = RunHdabench({"compare", (out / "pair").string(), "--methods", "flight,colmap-nav,dense-nav,plane-nav",
+                        "--out", (out / "cmp").string(), "--no-figures", "--no-report"},
+                       out);
+  EXPECT_EQ(result.exit_code, 4) << result.err;
+  const nlohmann::json json = nlohmann::json::parse(testing_support::ReadText(out / "cmp" / "compare.json"));
+  EXPECT_NE(json["methods"][1]["failure"].get<std::string>().find("nav baseline 0.000 m"), std::string::npos)
+      << json["methods"][1]["failure"];
+  ASSERT_GE(json["rois"].size(), 10u);
+  for (const auto& roi : json["rois"]) {
+    const auto& methods = roi["methods"];
+    EXPECT_EQ(methods["flight"]["status"], "degenerate") << roi["id"];
+    EXPECT_NE(methods["flight"]["reason"].get<std::string>().find("depth not observable"), std::string::npos);
+    EXPECT_EQ(methods["colmap-nav"]["status"], "low parallax") << roi["id"];
+    EXPECT_NE(methods["colmap-nav"]["reason"].get<std::string>().find("under COLMAP's 1.50 deg triangulation angle"),
+              std::string::npos)
+        << methods["colmap-nav"]["reason"];
+    EXPECT_EQ(methods["dense-nav"]["status"], "not rectifiable") << roi["id"];
+    EXPECT_NE(methods["dense-nav"]["reason"].get<std::string>().find("no baseline"), std::string::npos)
+        << methods["dense-nav"]["reason"];
+    EXPECT_EQ(methods["plane-nav"]["status"], "low parallax") << roi["id"] << ": " << methods["plane-nav"]["reason"];
+  }
 }
 
 }  // namespace

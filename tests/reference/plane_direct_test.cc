@@ -98,6 +98,24 @@ TEST(FitPlaneDirect, AFitThatDoesNotSettleIsDiverged) {
   EXPECT_TRUE(fit.points_in_cam1.empty());
 }
 
+// Without a baseline every plane maps the ROI alike: the plane is not
+// observable, which is said as such (it was "diverged" or "no texture", by
+// how the singular solve ended). Rounding errors of a pose are no baseline.
+TEST(FitPlaneDirect, APairWithoutBaselineIsLowParallaxNotDivergedOrUntextured) {
+  const Scene scene;
+  const DirectPlaneImages images = ExactImages(scene);
+  for (const Eigen::Vector3d& t : {Eigen::Vector3d::Zero().eval(), Eigen::Vector3d(2e-12, -1e-12, 3e-12)}) {
+    const Rigid3d still(scene.cam2_from_cam1.rotation, t);
+    const DirectPlaneResult fit = FitPlaneDirect(images, Camera(), cv::Rect(104, 104, 48, 48), still, scene.plane,
+                                                 scene.up, DirectPlaneOptions());
+    EXPECT_EQ(fit.status, DirectPlaneStatus::kLowParallax) << fit.reason;
+    EXPECT_STREQ(ToString(fit.status), "low parallax");
+    EXPECT_NE(fit.reason.find("the plane is not observable"), std::string::npos) << fit.reason;
+    EXPECT_TRUE(fit.points_in_cam1.empty());
+    EXPECT_TRUE(std::isfinite(fit.slope_deg));
+  }
+}
+
 TEST(FitPlaneDirect, BadInputsAreInputErrors) {
   const Scene scene;
   const DirectPlaneImages images = ExactImages(scene);

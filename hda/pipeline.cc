@@ -192,6 +192,39 @@ void ExpectOnGround(const Context& ctx, const std::vector<cv::Point2d>& pixels1,
   for (size_t i = 0; i < pixels.size(); ++i) (*pixels2)[i] = cv::Point2d(projected[i].x(), projected[i].y());
 }
 
+// The nav-based tests' tolerances for an ROI whose centre's ground point is
+// roi_range_m away: the assumed matching noise as an angle, and the epipolar
+// test's limit (k sigmas of matching noise in both images, nav attitude and
+// nav direction).
+struct NavTolerances {
+  double sigma_angle = 0.0;
+  double epipolar_limit_rad = 0.0;
+};
+double AssumedSigmaAngle(const Context& ctx) { return ctx.options->assumed_pixel_sigma_px / ctx.focal_px; }
+NavTolerances NavTolerancesAt(const Context& ctx, double roi_range_m) {
+  const PredictionOptions& nav = ctx.options->prediction;
+  NavTolerances t;
+  t.sigma_angle = AssumedSigmaAngle(ctx);
+  const double sigma_attitude = nav.nav_attitude_sigma_deg * kDegToRad;
+  const double sigma_direction = nav.nav_position_sigma_m / roi_range_m;
+  t.epipolar_limit_rad = nav.sigma_multiplier * std::sqrt(2.0 * t.sigma_angle * t.sigma_angle +
+                                                          sigma_attitude * sigma_attitude +
+                                                          sigma_direction * sigma_direction);
+  return t;
+}
+
+// The depth test's half-width around the level ground for a point `depth`
+// along `bearing` (unit, cam1): the relief allowed, and k sigmas of range
+// and of the point's own depth (infinite without a baseline across the ray).
+double DepthWindowM(const Context& ctx, const Eigen::Vector3d& bearing, double depth, double sigma_angle) {
+  const HdaOptions& options = *ctx.options;
+  const double baseline_perp = ctx.c2_in_cam1.cross(bearing).norm();
+  const double depth_sigma = baseline_perp > 0.0 ? depth * depth * sigma_angle / baseline_perp : kInfinity;
+  const double incidence = std::abs(ctx.up_in_cam1.dot(bearing));
+  return options.max_relief_m / incidence +
+         options.prediction.sigma_multiplier * (options.prediction.range_sigma_m + depth_sigma);
+}
+
 // Nav-based rejection and triangulation of one ROI's matches. Fills counts,
 // points, the pixel lists of the survivors, their bearings and parallaxes.
 void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double roi_range_m,
@@ -200,7 +233,6 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
                           std::vector<Eigen::Vector3d>* points_in_cam1,
                           std::vector<double>* parallaxes_deg) {
   const HdaOptions& options = *ctx.options;
-  const PredictionOptions& nav = options.prediction;
   const size_t n = matches.points1_px.size();
   // The bearings matching computed for RANSAC, where it gave them; a side
   // whose points were moved since (or given without) is unprojected here.
@@ -220,16 +252,10 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
   bearings_of(matches.points1_px, matches.bearings1, &b1, &valid1);
   bearings_of(matches.points2_px, matches.bearings2, &b2, &valid2);
 
-  const double k = nav.sigma_multiplier;
-  const double sigma_angle = options.assumed_pixel_sigma_px / ctx.focal_px;
-  const double sigma_attitude = nav.nav_attitude_sigma_deg * kDegToRad;
-  const double sigma_direction = nav.nav_position_sigma_m / roi_range_m;
-  const double epipolar_limit_rad =
-      k * std::sqrt(2.0 * sigma_angle * sigma_angle + sigma_attitude * sigma_attitude +
-                    sigma_direction * sigma_direction);
+  const NavTolerances tolerances = NavTolerancesAt(ctx, roi_range_m);
   for (size_t i = 0; i < n; ++i) {
     if (!valid1[i] || !valid2[i]) continue;
-    if (!(EpipolarAngleRad(b1[i], b2[i], ctx.cam2_from_cam1) <= epipolar_limit_rad)) continue;
+    if (!(EpipolarAngleRad(b1[i], b2[i], ctx.cam2_from_cam1) <= tolerances.epipolar_limit_rad)) continue;
     ++roi->counts.epipolar_inliers;
     Eigen::Vector3d point;
     double parallax_deg = 0.0;
@@ -241,15 +267,9 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
     // Depth along ray 1 against the level ground through the LRF spot.
     const double depth = point.dot(b1[i]);
     const double ground_depth = ctx.ground.DepthAlong(b1[i]);
-    if (std::isfinite(ground_depth)) {
-      const double baseline_perp = ctx.c2_in_cam1.cross(b1[i]).norm();
-      const double depth_sigma = baseline_perp > 0.0
-                                     ? depth * depth * sigma_angle / baseline_perp
-                                     : kInfinity;
-      const double incidence = std::abs(ctx.up_in_cam1.dot(b1[i]));
-      const double limit =
-          options.max_relief_m / incidence + k * (nav.range_sigma_m + depth_sigma);
-      if (!(std::abs(depth - ground_depth) <= limit)) continue;
+    if (std::isfinite(ground_depth) &&
+        !(std::abs(depth - ground_depth) <= DepthWindowM(ctx, b1[i], depth, tolerances.sigma_angle))) {
+      continue;
     }
     ++roi->counts.depth_inliers;
     roi->points1_px.push_back(matches.points1_px[i]);
@@ -261,45 +281,59 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
   }
 }
 
-// The largest parallax a ground point of the ROI can show under the nav pose:
-// at the box's centre and pixel-edge corners, on the level ground brought
-// nearer by the relief the depth test allows (max_relief_m along the
-// vertical), degrees. +infinity when a ray cannot be placed that way (it
-// misses the ground, or the relief reaches the camera): the ROI is then not
-// judged by it.
-double LargestPredictedParallaxDeg(const Context& ctx, const cv::Rect& box) {
+// Whether the nav pose leaves the ROI's depth unobservable: no point of it
+// can pass both the triangulation's parallax test and the depth test. Two
+// rays, from camera 1 along unit bearing b and from camera 2's centre c2,
+// that meet at an angle of at least min_parallax_deg meet at most
+//   t_max = c2 . b + |c2 x b| / tan(min_parallax_deg)
+// along b (at most 0: not in front of camera 1); the depth test admits no
+// point nearer than the level ground's depth g less its window at t_max
+// (DepthWindowM, which grows with depth). Unobservable at b when
+// t_max < g - window(t_max), judged at the box's centre, corners and edge
+// middles; false (not judged) where a ray misses the ground or cannot be
+// unprojected. `figures` gets t_max, g - window and g at the centre.
+struct DepthReach {
+  double farthest_m = 0.0;  // t_max
+  double nearest_m = 0.0;   // g - window(t_max)
+  double ground_m = 0.0;    // g
+};
+bool DepthUnobservable(const Context& ctx, const cv::Rect& box, DepthReach* figures) {
   const double x0 = box.x - 0.5, y0 = box.y - 0.5;
   const double x1 = box.x + box.width - 0.5, y1 = box.y + box.height - 0.5;
+  const double xm = 0.5 * (x0 + x1), ym = 0.5 * (y0 + y1);
+  const std::vector<Eigen::Vector2d> samples = {{xm, ym}, {x0, y0}, {xm, y0}, {x1, y0}, {x1, ym},
+                                                {x1, y1}, {xm, y1}, {x0, y1}, {x0, ym}};
   std::vector<Eigen::Vector3d> bearings;
   std::vector<unsigned char> valid;
-  if (ctx.camera->Unproject({BoxCentre(box), {x0, y0}, {x1, y0}, {x1, y1}, {x0, y1}}, &bearings, &valid) != 5) {
-    return kInfinity;
+  if (ctx.camera->Unproject(samples, &bearings, &valid) != static_cast<int>(samples.size())) return false;
+  const double sigma_angle = AssumedSigmaAngle(ctx);
+  const double tan_min = std::tan(ctx.options->triangulation.min_parallax_deg * kDegToRad);
+  for (size_t i = 0; i < bearings.size(); ++i) {
+    const Eigen::Vector3d& b = bearings[i];
+    const double ground = ctx.ground.DepthAlong(b);
+    if (!std::isfinite(ground)) return false;
+    const double farthest = ctx.c2_in_cam1.dot(b) + ctx.c2_in_cam1.cross(b).norm() / tan_min;
+    const double nearest = farthest > 0.0 ? ground - DepthWindowM(ctx, b, farthest, sigma_angle) : ground;
+    if (i == 0) *figures = {std::max(0.0, farthest), nearest, ground};
+    if (!(farthest <= 0.0 || farthest < nearest)) return false;
   }
-  double largest = 0.0;
-  for (const Eigen::Vector3d& b : bearings) {
-    const double depth = ctx.ground.DepthAlong(b);
-    const double incidence = std::abs(ctx.up_in_cam1.dot(b));
-    const double nearest = depth - ctx.options->max_relief_m / incidence;
-    if (!std::isfinite(nearest) || !(nearest > 0.0)) return kInfinity;
-    const Eigen::Vector3d from_cam2 = nearest * b - ctx.c2_in_cam1;
-    largest = std::max(largest, std::atan2(b.cross(from_cam2).norm(), b.dot(from_cam2)) / kDegToRad);
-  }
-  return largest;
+  return true;
 }
 
-// Depth not observable on this ROI: no ground point of it can reach the
-// parallax triangulation needs under the nav pose (a zero or short baseline
-// across the line of sight, or motion along it). Marks the ROI degenerate,
-// with the figures, and returns true; its matching is not run.
+// Depth not observable on this ROI (DepthUnobservable: a zero or short
+// baseline across the line of sight, or motion along it): marks the ROI
+// degenerate, with the figures at its centre, and returns true; its matching
+// is not run.
 bool MarkUnobservableDepth(const Context& ctx, RoiResult* roi) {
-  const double min_parallax_deg = ctx.options->triangulation.min_parallax_deg;
-  const double largest_deg = LargestPredictedParallaxDeg(ctx, roi->box1_px);
-  if (!(largest_deg < min_parallax_deg)) return false;
+  DepthReach reach;
+  if (!DepthUnobservable(ctx, roi->box1_px, &reach)) return false;
   roi->status = RoiStatus::kDegenerate;
-  roi->reason = "depth not observable: the nav pose (baseline " + util::FixedText(ctx.c2_in_cam1.norm(), 3) +
-                " m) gives this ROI's ground at most " + util::FixedText(largest_deg, 3) +
-                " deg of parallax, under the " + util::FixedText(min_parallax_deg, 3) +
-                " deg triangulation needs";
+  roi->reason = "depth not observable: under the nav pose (baseline " +
+                util::FixedText(ctx.c2_in_cam1.norm(), 3) + " m) a point with the " +
+                util::FixedText(ctx.options->triangulation.min_parallax_deg, 3) +
+                " deg of parallax triangulation needs lies within " + util::FixedText(reach.farthest_m, 3) +
+                " m along this ROI's centre ray, short of the " + util::FixedText(reach.nearest_m, 3) +
+                " m the depth test admits (level ground at " + util::FixedText(reach.ground_m, 3) + " m)";
   return true;
 }
 
@@ -702,6 +736,7 @@ void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, St
   if (MarkUnobservableDepth(ctx, &roi)) return;
   const RoiMatches matches = MatchRoi(ctx, roi, placement.centres[i]);
   timer->Lap(&result->times.matching_s);
+  roi.matched = true;
   roi.matching_status = matches.status;
   roi.counts.keypoints1 = matches.keypoints1;
   roi.counts.keypoints2 = matches.keypoints2;
@@ -721,7 +756,7 @@ void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, St
 // stop when the next ROI, at the mean cost so far, would not fit in what is
 // left of the budget; the rest are marked not evaluated.
 void EvaluateRois(const Context& ctx, const RoiPlacement& placement, const Clock& clock,
-                  double start, StageTimer* timer, HdaResult* result) {
+                  double start, const RoiProgress& progress, StageTimer* timer, HdaResult* result) {
   double roi_seconds_total = 0.0;
   int rois_done = 0;
   for (size_t rank = 0; rank < placement.order.size(); ++rank) {
@@ -741,6 +776,7 @@ void EvaluateRois(const Context& ctx, const RoiPlacement& placement, const Clock
     roi.wall_s = clock() - roi_start;
     roi_seconds_total += roi.wall_s;
     ++rois_done;
+    if (progress) progress(rois_done, static_cast<int>(placement.order.size()));
   }
 }
 
@@ -786,6 +822,7 @@ RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& c
   matches.status = MatchingStatus::kOk;
   matches.points1_px = points1_px;
   matches.points2_px = points2_px;
+  roi.matched = true;
   roi.matching_status = MatchingStatus::kOk;
   roi.counts.matches = static_cast<int>(points1_px.size());
   roi.counts.ransac_inliers = roi.counts.matches;
@@ -819,7 +856,7 @@ std::vector<cv::Rect> PredictSearchBoxes(const HdaInput& input, const calib::Cam
 }
 
 HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options,
-                 const Clock& clock) {
+                 const Clock& clock, const RoiProgress& progress) {
   const double start = clock();
   StageTimer timer(clock, start);
   CheckInput(input, camera, options);
@@ -853,7 +890,7 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
   }
 
   const RoiPlacement placement = PlaceRois(ctx, input.ils_in_local_m, spot_in_cam1, &result);
-  EvaluateRois(ctx, placement, clock, start, &timer, &result);
+  EvaluateRois(ctx, placement, clock, start, progress, &timer, &result);
   RankSafeSites(options, &result);
   timer.Lap(&result.times.ranking_s);
   result.times.total_s = clock() - start;

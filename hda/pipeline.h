@@ -88,6 +88,7 @@ struct RoiResult {
   int order = 0;                       // 1-based position in processing order (nearest ILS first)
   double ils_distance_m = 0.0;         // horizontal distance of the ROI centre's ground point to the ILS
   RoiCounts counts;
+  bool matched = false;                // matching ran (or the matches were given): matching_status holds
   MatchingStatus matching_status = MatchingStatus::kTooFewMatches;
 
   // The surviving matches (image 1 and image 2 pixels) and their points, in
@@ -148,6 +149,10 @@ struct HdaResult {
 using Clock = std::function<double()>;
 double SteadySeconds();
 
+// Told after each ROI the method evaluated: how many it has evaluated, of how
+// many ROIs (for progress lines on long runs; it does not change the result).
+using RoiProgress = std::function<void(int evaluated, int rois)>;
+
 // Runs the method. Images of another type or size, non-finite poses, a
 // non-positive LRF range, zero gravity or invalid options throw InputError
 // naming the input. An empty image (no pixels) or one with no usable block
@@ -157,13 +162,14 @@ double SteadySeconds();
 // bytes, unless the budget runs out (then which ROIs were evaluated depends on
 // the machine's speed; the order in which they are tried does not).
 HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options,
-                 const Clock& clock = SteadySeconds);
+                 const Clock& clock = SteadySeconds, const RoiProgress& progress = {});
 
 // The method's steps after matching, on one site whose matches are given
 // (the observability study draws them; RunHda runs the same steps on each
-// ROI's matches): nav epipolar test, triangulation with the nav pose, depth
-// test against the level ground through the LRF spot, plane fit, predicted
-// slope sigma and status. `input`'s images are not used (they may be empty);
+// ROI's matches): the site degenerate when the nav pose leaves its depth
+// unobservable (as RunHda decides before matching), else nav epipolar test,
+// triangulation with the nav pose, depth test against the level ground
+// through the LRF spot, plane fit, predicted slope sigma and status. `input`'s images are not used (they may be empty);
 // box1_px places the site (its centre's range sets the nav tests) and gives
 // its footprint. The result's counts start at the matches (matches =
 // ransac_inliers = points1_px.size()); id 1, order 1. Throws InputError as

@@ -950,25 +950,6 @@ ConfigurationReport PairConfiguration(const PairMatches& pair_matches, const Con
   return ClassifyConfiguration(b1, b2, ctx.input.cam2_from_cam1, ctx.focal_px, options.opengv);
 }
 
-// Why no ground point can be triangulated at min_angle_deg under the nav
-// pose, or "" when one may be: the baseline B subtends at a point P at most
-// asin(B / |P|), and every ground point is at least the level ground's
-// distance, less the relief the flight method allows, from camera 1.
-std::string NavParallaxShortfall(const Context& ctx, double max_relief_m, double min_angle_deg) {
-  const hda::HdaInput& in = ctx.input;
-  const double baseline_m = in.cam2_from_cam1.Inverse().translation.norm();
-  const Eigen::Vector3d up_in_cam1 = ctx.local_from_cam1.rotation.inverse() * (-in.gravity_in_local_mps2.normalized());
-  const Eigen::Vector3d spot_in_cam1 = in.lrf_origin_in_cam1_m + in.lrf_range_m * in.lrf_beam_in_cam1.normalized();
-  const double nearest_m = std::abs(up_in_cam1.dot(spot_in_cam1)) - max_relief_m;
-  if (!std::isfinite(baseline_m) || !(nearest_m > baseline_m)) return "";
-  const double largest_deg = std::asin(baseline_m / nearest_m) / util::kDegToRad;
-  if (!(largest_deg < min_angle_deg)) return "";
-  return "nav baseline " + util::FixedText(baseline_m, 3) + " m: the ground, at least " +
-         util::FixedText(nearest_m, 1) + " m away, sees at most " + util::FixedText(largest_deg, 3) +
-         " deg of parallax, under COLMAP's " + util::FixedText(min_angle_deg, 2) +
-         " deg triangulation angle; nothing to triangulate";
-}
-
 // The methods that reconstruct the whole pair at once (flight-refined,
 // colmap-nav, colmap-free), each with its name.
 struct WholePairMethods {
@@ -1000,21 +981,6 @@ void FillWholePairMethod(const std::string& method, const PairReconstruction& re
     // With every frame of the window the views are no longer two:
     // a plane's two-fold ambiguity is resolved, and the ROIs keep their fits.
     if (!options.colmap.use_all_frames) WithholdIllConditioned(pair_configuration, rois);
-  }
-  // A pair whose nav pose cannot give COLMAP's triangulation angle anywhere:
-  // its ROIs say so, and so does a failure (COLMAP's own names its bundle
-  // adjustment).
-  if (method == kMethodColmapNav) {
-    const std::string shortfall =
-        NavParallaxShortfall(ctx, run.flight.options.max_relief_m, options.colmap.min_tri_angle_deg);
-    if (!shortfall.empty()) {
-      for (MethodRoi& roi : *rois) {
-        if (roi.status == MethodRoiStatus::kOk) continue;
-        roi.status = MethodRoiStatus::kLowParallax;
-        roi.reason = shortfall;
-      }
-      if (!summary->failure.empty()) summary->failure += "; " + shortfall;
-    }
   }
   PoseErrorAgainstTruth(recon, ctx, summary);
 }

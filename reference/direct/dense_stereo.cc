@@ -383,11 +383,19 @@ bool SetUpRectification(const calib::CameraModel& camera, const Rigid3d& cam2_fr
   // and a baseline of rounding errors has no direction to rectify along.
   const double ground_distance_m = 1.0 / rect.level_plane_in_cam1.norm();
   const double disparity_px = rect.focal_px * rect.baseline_m / ground_distance_m;
-  if (!std::isfinite(rect.baseline_m) || !(disparity_px >= 1.0 / kDisparityScale)) {
+  if (!std::isfinite(rect.baseline_m)) {
+    result->reason = "the baseline is not finite";
+    return false;
+  }
+  if (!(rect.baseline_m > 0.0)) {
+    result->reason = "no baseline: camera 2's centre is camera 1's";
+    return false;
+  }
+  if (!(disparity_px >= 1.0 / kDisparityScale)) {
     std::ostringstream reason;
-    reason << "no baseline: camera 2's centre is " << rect.baseline_m << " m from camera 1's, about "
-           << disparity_px << " px of disparity on the level ground " << ground_distance_m
-           << " m away, under the matcher's 1/" << kDisparityScale << " px step";
+    reason << "baseline too short: camera 2's centre is " << rect.baseline_m << " m from camera 1's, about "
+           << disparity_px << " px of disparity on the level ground (" << ground_distance_m
+           << " m away along its normal), under the matcher's 1/" << kDisparityScale << " px step";
     result->reason = reason.str();
     return false;
   }

@@ -169,6 +169,25 @@ TEST(RunHda, RecoversTheSlopeOfATiltedPlaneWithinItsPredictedSigma) {
   }
 }
 
+// The progress hook is told once per evaluated ROI, counting up, with the
+// number of ROIs; it does not change the result.
+TEST(RunHda, ProgressIsToldAfterEachEvaluatedRoi) {
+  const Scene scene = MakeScene(6.0, Lateral(), CurrentTestSeed());
+  std::vector<std::pair<int, int>> calls;
+  const HdaResult told = RunHda(scene.input, Camera(), ExactImageOptions(), SteadySeconds,
+                                [&](int evaluated, int rois) { calls.emplace_back(evaluated, rois); });
+  const HdaResult plain = RunHda(scene.input, Camera(), ExactImageOptions());
+  ASSERT_EQ(calls.size(), told.rois.size());
+  for (size_t i = 0; i < calls.size(); ++i) {
+    EXPECT_EQ(calls[i], std::make_pair(static_cast<int>(i) + 1, static_cast<int>(told.rois.size())));
+  }
+  ASSERT_EQ(told.rois.size(), plain.rois.size());
+  for (size_t i = 0; i < told.rois.size(); ++i) {
+    EXPECT_EQ(told.rois[i].status, plain.rois[i].status);
+    EXPECT_EQ(told.rois[i].slope_deg, plain.rois[i].slope_deg);
+  }
+}
+
 // The steps after matching on given matches are RunHda's own: each fitted
 // ROI's surviving matches, given back, pass again and give the same plane,
 // sigma and status to the last bit.
@@ -230,8 +249,10 @@ TEST(RunHda, MotionAlongTheBoresightIsFlaggedDegenerateNotGivenAConfidentSlope) 
 // A pair whose nav pose has no baseline (or one too short across the line of
 // sight) cannot give depth anywhere: each ROI is reported degenerate with the
 // geometry's figures, and its matching is not run. The limit follows the
-// geometry: at 200 m, 0.5 deg of parallax needs about 1.75 m across the line
-// of sight (1.3 m with the 50 m relief the depth test allows).
+// geometry and the depth test: with 1 m a point of 0.5 deg parallax lies
+// within 115 m, and the depth test (50 m of relief, 3 sigmas of range and
+// depth) admits none nearer than 127 m of the 200 m ground; with 1.2 m they
+// are 137.5 and 123.4 m (173 m without the relief): the ROIs are matched.
 TEST(RunHda, APairWithoutParallaxIsDegenerateOnEveryRoiNotShortOfPoints) {
   for (const double baseline_m : {0.0, 1.0}) {
     SCOPED_TRACE(baseline_m);
@@ -241,18 +262,22 @@ TEST(RunHda, APairWithoutParallaxIsDegenerateOnEveryRoiNotShortOfPoints) {
     for (const RoiResult& roi : result.rois) {
       EXPECT_EQ(roi.status, RoiStatus::kDegenerate) << "ROI " << roi.id << ": " << roi.reason;
       EXPECT_NE(roi.reason.find("depth not observable"), std::string::npos) << roi.reason;
-      EXPECT_NE(roi.reason.find("under the 0.500 deg triangulation needs"), std::string::npos) << roi.reason;
+      EXPECT_NE(roi.reason.find("the 0.500 deg of parallax triangulation needs"), std::string::npos) << roi.reason;
       EXPECT_EQ(roi.counts.keypoints1, 0) << "ROI " << roi.id;
+      EXPECT_FALSE(roi.matched) << "ROI " << roi.id;
       EXPECT_FALSE(roi.has_fit);
     }
     EXPECT_TRUE(result.ranking.empty());
   }
-  // 2.5 m gives about 0.7 deg on the level ground: no ROI is refused for it.
-  const Scene scene = MakeScene(6.0, Eigen::Vector3d(2.5, 0.0, 0.0), CurrentTestSeed());
-  const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
-  for (const RoiResult& roi : result.rois) {
-    EXPECT_EQ(roi.reason.find("depth not observable"), std::string::npos) << "ROI " << roi.id << ": " << roi.reason;
-    EXPECT_GT(roi.counts.keypoints1, 0) << "ROI " << roi.id;
+  for (const double baseline_m : {1.2, 2.5}) {
+    SCOPED_TRACE(baseline_m);
+    const Scene scene = MakeScene(6.0, Eigen::Vector3d(baseline_m, 0.0, 0.0), CurrentTestSeed());
+    const HdaResult result = RunHda(scene.input, Camera(), AmpleBudgetOptions());
+    for (const RoiResult& roi : result.rois) {
+      EXPECT_EQ(roi.reason.find("depth not observable"), std::string::npos) << "ROI " << roi.id << ": " << roi.reason;
+      EXPECT_GT(roi.counts.keypoints1, 0) << "ROI " << roi.id;
+      EXPECT_TRUE(roi.matched) << "ROI " << roi.id;
+    }
   }
   // Given matches are judged the same way.
   HdaInput without_images = MakeScene(6.0, Eigen::Vector3d::Zero(), CurrentTestSeed()).input;

@@ -149,8 +149,8 @@ TEST(RunDenseStereo, AnUntexturedPairHasNoDisparitiesNeverANumber) {
 // Motion along the boresight puts the epipole at the image centre; 5 deg off
 // it, the epipole is still in the image (whose half-width is 9 deg) and no
 // pixel is within 60 deg of a view perpendicular to the baseline. No motion
-// at all, or so little that the level ground's disparity is under SGBM's
-// step, has no baseline. Each is a status with its reason.
+// at all has no baseline, and one so short that the level ground's disparity
+// is under SGBM's step is too short. Each is a status with its reason.
 TEST(RunDenseStereo, MotionAlongTheBoresightOrNoneIsNotRectifiable) {
   const Scene scene;
   const Rigid3d forward(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.0, 0.0, -5.0));
@@ -172,7 +172,7 @@ TEST(RunDenseStereo, MotionAlongTheBoresightOrNoneIsNotRectifiable) {
   const DenseStereoResult rounded = Dense(scene, 0.0, Rigid3d(Eigen::Quaterniond::Identity(),
                                                               Eigen::Vector3d(1e-13, 0.0, -3e-12)));
   EXPECT_EQ(rounded.status, DenseStereoStatus::kNotRectifiable);
-  EXPECT_NE(rounded.reason.find("no baseline"), std::string::npos) << rounded.reason;
+  EXPECT_NE(rounded.reason.find("baseline too short"), std::string::npos) << rounded.reason;
   EXPECT_NE(rounded.reason.find("under the matcher's 1/16 px step"), std::string::npos) << rounded.reason;
 }
 

@@ -53,6 +53,7 @@ hda::RoiResult EvaluatedRoi() {
   roi.counts.epipolar_inliers = 25;
   roi.counts.triangulated = 25;
   roi.counts.depth_inliers = 25;
+  roi.matched = true;
   roi.matching_status = hda::MatchingStatus::kOk;
   for (int i = 0; i < 25; ++i) {
     const double u = 5.0 + (i % 5) * 3.0;
@@ -97,6 +98,7 @@ hda::RoiResult DegenerateRoi() {
   roi.counts.matches = 3;
   roi.counts.ransac_inliers = 3;
   roi.counts.depth_inliers = 3;
+  roi.matched = true;
   roi.matching_status = hda::MatchingStatus::kOk;
   roi.points1_px = {{41.0, 5.0}, {50.0, 9.0}, {45.0, 17.0}};
   roi.points2_px = {{31.0, 2.0}, {40.0, 6.0}, {35.0, 14.0}};

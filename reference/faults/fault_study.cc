@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <memory>
 #include <sstream>
 #include <tuple>
 
@@ -23,6 +24,8 @@ namespace {
 using Json = nlohmann::ordered_json;
 
 constexpr int kFormatVersion = 1;
+// Seconds between two progress lines inside one case.
+constexpr double kRoiProgressEveryS = 10.0;
 
 // The box of an ROI in image 1 as a key.
 std::tuple<int, int, int, int> BoxKey(const hda::RoiResult& roi) {
@@ -162,11 +165,25 @@ FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame
              " deg, p90 " + util::FixedText(c.stats.p90_abs_deg, 2) + " deg over " + std::to_string(c.stats.count));
   };
 
+  // Inside a case, a line at most every kRoiProgressEveryS: with the budget
+  // unlimited, a fault can make a case take minutes (a range so short that
+  // every ROI's search box is the whole of image 2).
+  const auto roi_progress = [&progress](const std::string& label) -> hda::RoiProgress {
+    if (!progress) return {};
+    auto last = std::make_shared<double>(hda::SteadySeconds());
+    return [&progress, label, last](int evaluated, int rois) {
+      const double now = hda::SteadySeconds();
+      if (now - *last < kRoiProgressEveryS) return;
+      *last = now;
+      progress(label + ": " + std::to_string(evaluated) + " of " + std::to_string(rois) + " ROIs evaluated");
+    };
+  };
+
   FaultCase clean_case;
   clean_case.label = "clean";
   FlightRun clean;
   try {
-    clean = RunFlight(dataset, frame1, frame2, study_settings);
+    clean = RunFlight(dataset, frame1, frame2, study_settings, {}, roi_progress(clean_case.label));
   } catch (const InputError& e) {
     throw InputError(std::string("the clean run failed, so no fault can be judged: ") + e.what());
   }
@@ -190,7 +207,7 @@ FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame
       continue;
     }
     try {
-      const FlightRun run = RunFlight(faulted, frame1, frame2, study_settings);
+      const FlightRun run = RunFlight(faulted, frame1, frame2, study_settings, {}, roi_progress(c.label));
       c.ran = true;
       Measure(run, &clean, &c);
     } catch (const InputError& e) {

@@ -170,7 +170,8 @@ std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int fra
 }
 
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
-                    const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px) {
+                    const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px,
+                    const hda::RoiProgress& progress) {
   FlightRun run;
   hda::HdaInput input = MakeHdaInput(dataset, frame1, frame2, &run.range_source);
   input.given_rois_px = given_rois_px;
@@ -184,16 +185,17 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   run.lrf_range_m = input.lrf_range_m;
   run.options = options;
   run.given_rois = !given_rois_px.empty();
-  run.result = hda::RunHda(input, dataset.camera, options);
+  run.result = hda::RunHda(input, dataset.camera, options, hda::SteadySeconds, progress);
   run.truths = TruthOfRois(dataset, frame1, run.result);
   return run;
 }
 
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
-                    const HdaSettings& settings, const std::vector<cv::Rect>& given_rois_px) {
+                    const HdaSettings& settings, const std::vector<cv::Rect>& given_rois_px,
+                    const hda::RoiProgress& progress) {
   const int n = static_cast<int>(dataset.frames.size());
   if (frame1 < 0 || frame1 >= n || frame2 < 0 || frame2 >= n) {
-    return RunFlight(dataset, frame1, frame2, settings.options, given_rois_px);  // MakeHdaInput names the frame
+    return RunFlight(dataset, frame1, frame2, settings.options, given_rois_px, progress);  // MakeHdaInput names the frame
   }
   PairGeometry geometry;
   geometry.lrf_range_m = RangeAtFrame(dataset, frame1).range_m;
@@ -209,7 +211,7 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   ThrowIfInvalid("flight-method parameters for frames " + std::to_string(frame1) + "," +
                      std::to_string(frame2) + ": ",
                  options.Validate());
-  FlightRun run = RunFlight(dataset, frame1, frame2, options, given_rois_px);
+  FlightRun run = RunFlight(dataset, frame1, frame2, options, given_rois_px, progress);
   run.derived_options = std::move(derived);
   return run;
 }

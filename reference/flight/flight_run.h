@@ -105,14 +105,17 @@ struct FlightRun {
 // MakeHdaInput and RunHda do.
 // `given_rois_px`, when not empty, are the ROIs instead of the quadtree's
 // (hda::HdaInput::given_rois_px).
+// `progress` is told after each ROI the method evaluates (hda::RunHda).
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
-                    const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px = {});
+                    const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px = {},
+                    const hda::RoiProgress& progress = {});
 
 // The same with the options resolved for this pair (ResolveHdaOptions: the
 // keys not given follow the LRF range at frame 1 and the navigation
 // baseline), recorded in FlightRun::derived_options. Throws InputError also
 // when the resolved options are unusable.
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
-                    const HdaSettings& settings, const std::vector<cv::Rect>& given_rois_px = {});
+                    const HdaSettings& settings, const std::vector<cv::Rect>& given_rois_px = {},
+                    const hda::RoiProgress& progress = {});
 
 }  // namespace hdabench::reference

@@ -24,6 +24,11 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 
+// A scaled site's side is within this of its target, pixels (the quadtree
+// takes whole pixels), after at most kSiteRescalings rescalings.
+constexpr double kSiteTolerancePx = 0.5;
+constexpr int kSiteRescalings = 20;
+
 // Calls visit(key, field) for every field of HdaOptions, in result.json's
 // order; `Options` is HdaOptions or const HdaOptions. The one list of keys.
 template <class Options, class Visit>
@@ -307,11 +312,28 @@ hda::HdaOptions ResolveHdaOptions(const HdaSettings& settings, const calib::Came
     const double target_px = std::min(std::max(lander_px, lo_px), hi_px);
     if (target_px != lander_px) {
       site = lander_m * target_px / lander_px;
+      // The side is linear in the site only while the lens model projects
+      // the site's edges as it does near the axis: a lander's site seen from
+      // a few metres reaches far outside the calibrated field, where a
+      // distortion polynomial can put it a million pixels wide. Rescaled
+      // until the site's own side is the target.
+      double side_px = target_px;
+      for (int i = 0; i <= kSiteRescalings; ++i) {
+        side_px = hda::ProjectedSiteSidePx(camera, range, site, "flight-method site size from the geometry");
+        if (!(side_px > 0.0) || !std::isfinite(side_px) || std::abs(side_px - target_px) <= kSiteTolerancePx ||
+            i == kSiteRescalings) {
+          break;
+        }
+        site *= target_px / side_px;
+      }
       const bool up = target_px > lander_px;
       why = "the lander's " + Format(lander_m) + " m site is " + Format(lander_px) + " px at " +
             Format(range) + " m, " + (up ? "under " + lo_why : "over " + hi_why) +
             (lo_px > hi_px ? " (" + lo_why + " is " + Format(lo_px) + " px, over " + hi_why + ")" : "") +
             ": the site scaled to " + Format(target_px) + " px";
+      if (!(std::abs(side_px - target_px) <= kSiteTolerancePx)) {
+        why += " (its side is " + Format(side_px) + " px: the lens model does not project it in proportion)";
+      }
     }
     o.quadtree.site_size_m = site;
     out.push_back({"quadtree.site_size_m", site, why});

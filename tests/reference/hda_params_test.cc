@@ -186,6 +186,25 @@ TEST(ResolveHdaOptions, CloseByTheSiteIsAQuarterOfTheImage) {
   EXPECT_NE(derived[0].rule.find("quarter of the image"), std::string::npos) << derived[0].rule;
 }
 
+// With a distorted lens the side is not proportional to the site far off the
+// axis: the truck camera's 10 m site at 2.8 m or 0.57 m reaches 60-83 deg off
+// it, where the distortion polynomial puts its edges thousands to a million
+// pixels out. The scaled site is the one whose own side is the quarter image
+// (a proportional scaling gave 259 px at 2.8 m and 8 px at 0.57 m: 6929 ROIs).
+TEST(ResolveHdaOptions, WithADistortedLensTheScaledSiteHasTheTargetSide) {
+  const calib::CameraModel camera("LENSMODEL_OPENCV8",
+                                  {1910.81, 1910.81, 511.5, 511.5, -0.02, 0.005, 1e-5, -1e-5, 0, 0, 0, 0}, 1024,
+                                  1024);
+  for (const double range_m : {2.8, 0.57}) {
+    SCOPED_TRACE(range_m);
+    std::vector<DerivedParam> derived;
+    const hda::HdaOptions o = ResolveHdaOptions(HdaSettings(), camera, Geometry(range_m, 0.15, 92.0), &derived);
+    EXPECT_NEAR(hda::ProjectedSiteSidePx(camera, range_m, o.quadtree.site_size_m, "test"), 256.0, 0.5);
+    EXPECT_NE(derived[0].rule.find("the site scaled to 256 px"), std::string::npos) << derived[0].rule;
+    EXPECT_EQ(derived[0].rule.find("in proportion"), std::string::npos) << derived[0].rule;
+  }
+}
+
 // An image too small for the lower bounds (96 px: a quarter is 24 px, under
 // one ORB patch) still gets sites of a quarter of its side.
 TEST(ResolveHdaOptions, TheQuarterImageBoundWins) {

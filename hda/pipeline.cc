@@ -281,7 +281,7 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
   }
 }
 
-// Whether the nav pose leaves the ROI's depth unobservable: no point of it
+// Whether the nav pose leaves the ROI's depth unobservable: no match of it
 // can pass both the triangulation's parallax test and the depth test. Two
 // rays, from camera 1 along unit bearing b and from camera 2's centre c2,
 // that meet at an angle of at least min_parallax_deg meet at most
@@ -289,9 +289,15 @@ void RejectAndTriangulate(const Context& ctx, const RoiMatches& matches, double 
 // along b (at most 0: not in front of camera 1); the depth test admits no
 // point nearer than the level ground's depth g less its window at t_max
 // (DepthWindowM, which grows with depth). Unobservable at b when
-// t_max < g - window(t_max), judged at the box's centre, corners and edge
-// middles; false (not judged) where a ray misses the ground or cannot be
-// unprojected. `figures` gets t_max, g - window and g at the centre.
+// t_max < g - window(t_max) (exact for midpoint triangulation, skew rays and
+// any nav rotation: the midpoint's depth along b is the closest point's),
+// judged at the box's centre, corners and edge middles; false (not judged)
+// where a ray misses the ground or cannot be unprojected. Between those nine
+// bearings a sliver can remain where a match of exactly the minimum parallax
+// would pass (t_max peaks 90 deg - min_parallax_deg from c2, and the window
+// is infinite at the epipole): a few hundredths of a pixel to a pixel wide
+// at the critical baseline, too few matches for a fit. `figures` gets t_max,
+// g - window and g at the centre.
 struct DepthReach {
   double farthest_m = 0.0;  // t_max
   double nearest_m = 0.0;   // g - window(t_max)

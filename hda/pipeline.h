@@ -54,8 +54,9 @@ enum class RoiStatus {
   kUnsafeRoughness,  // noise-corrected roughness over the limit
   kDegenerate,       // low parallax or near-boresight motion: the slope is not observable
                      // enough (predicted sigma over max_slope_sigma_deg); not a confident slope.
-                     // Also, before matching, an ROI whose ground cannot reach the parallax
-                     // triangulation needs under the nav pose (depth not observable; no fit)
+                     // Also, before matching, an ROI where under the nav pose no match could
+                     // pass both the triangulation's parallax test and the depth test
+                     // (depth not observable; no fit)
   kTooFewPoints,     // fewer than min_points triangulated points survived
   kNotInImage2,      // the predicted box does not overlap image 2 (or a ground point is behind a camera)
   kNotEvaluated,     // the time budget ran out before this ROI

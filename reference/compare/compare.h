@@ -145,8 +145,8 @@ enum class MethodRoiStatus {
                     // (dense-nav: or in the rectified field)
   kNoTexture,       // "no texture": plane-nav: the ROI's pixels do not constrain its plane;
                     // dense-nav: too few of them have a disparity
-  kNotRectifiable,  // "not rectifiable": dense-nav: the pair has no baseline, or its epipole leaves no
-                    // part of image 1 to rectify
+  kNotRectifiable,  // "not rectifiable": dense-nav: the pair has no baseline, one too short for the
+                    // matcher's disparity step, or its epipole leaves no part of image 1 to rectify
   kDiverged,        // "diverged": plane-nav: the photometric fit did not give a plane
   kFlight,        // the flight method: its own status, MethodRoi::flight_status
 };

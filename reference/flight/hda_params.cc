@@ -28,6 +28,10 @@ using Json = nlohmann::ordered_json;
 // takes whole pixels), after at most kSiteRescalings rescalings.
 constexpr double kSiteTolerancePx = 0.5;
 constexpr int kSiteRescalings = 20;
+constexpr double kInfinitePx = std::numeric_limits<double>::infinity();
+// The small site that measures the side near the axis, as a fraction of the
+// range (1 mm at 1 m: its edges 0.03 deg off the axis).
+constexpr double kSiteProbeFraction = 1e-3;
 
 // Calls visit(key, field) for every field of HdaOptions, in result.json's
 // order; `Options` is HdaOptions or const HdaOptions. The one list of keys.
@@ -288,8 +292,21 @@ hda::HdaOptions ResolveHdaOptions(const HdaSettings& settings, const calib::Came
     // or larger than a quarter of the image's smaller side (the quadtree
     // could place too few sites); the last bound over the others.
     const double lander_m = defaults.quadtree.site_size_m;
-    const double lander_px =
+    double lander_px =
         hda::ProjectedSiteSidePx(camera, range, lander_m, "flight-method site size from the geometry");
+    // Near the axis a site's side is in proportion to it. A site that, so
+    // measured, is wider than the image has its edges where the lens model
+    // is extrapolated (a distortion polynomial can blow up or fold back
+    // there): the near-axis side chooses the bound.
+    const double probe_m = kSiteProbeFraction * range;
+    const double near_axis_px =
+        lander_m / probe_m *
+        hda::ProjectedSiteSidePx(camera, range, probe_m, "flight-method site size from the geometry");
+    std::string lander_how;
+    if (near_axis_px > std::max(camera.WidthPx(), camera.HeightPx())) {
+      lander_px = near_axis_px;
+      lander_how = " (a small site's side scaled up: wider than the image)";
+    }
     double lo_px = o.matching.orb_patch_size_px;
     std::string lo_why = "one ORB patch";
     const double density = geometry.keypoints_per_px;
@@ -317,17 +334,23 @@ hda::HdaOptions ResolveHdaOptions(const HdaSettings& settings, const calib::Came
       // a few metres reaches far outside the calibrated field, where a
       // distortion polynomial can put it a million pixels wide. Rescaled
       // until the site's own side is the target.
-      double side_px = target_px;
+      // The closest of the tries is kept.
+      double best_site = site, best_px = kInfinitePx;
       for (int i = 0; i <= kSiteRescalings; ++i) {
-        side_px = hda::ProjectedSiteSidePx(camera, range, site, "flight-method site size from the geometry");
-        if (!(side_px > 0.0) || !std::isfinite(side_px) || std::abs(side_px - target_px) <= kSiteTolerancePx ||
-            i == kSiteRescalings) {
-          break;
+        const double side_px =
+            hda::ProjectedSiteSidePx(camera, range, site, "flight-method site size from the geometry");
+        if (!(side_px > 0.0) || !std::isfinite(side_px)) break;
+        if (std::abs(side_px - target_px) < std::abs(best_px - target_px)) {
+          best_site = site;
+          best_px = side_px;
         }
+        if (std::abs(side_px - target_px) <= kSiteTolerancePx) break;
         site *= target_px / side_px;
       }
+      site = best_site;
+      const double side_px = best_px;
       const bool up = target_px > lander_px;
-      why = "the lander's " + Format(lander_m) + " m site is " + Format(lander_px) + " px at " +
+      why = "the lander's " + Format(lander_m) + " m site is " + Format(lander_px) + " px" + lander_how + " at " +
             Format(range) + " m, " + (up ? "under " + lo_why : "over " + hi_why) +
             (lo_px > hi_px ? " (" + lo_why + " is " + Format(lo_px) + " px, over " + hi_why + ")" : "") +
             ": the site scaled to " + Format(target_px) + " px";

@@ -167,7 +167,7 @@ TEST(RunDenseStereo, MotionAlongTheBoresightOrNoneIsNotRectifiable) {
   const DenseStereoResult still = Dense(scene, 0.0, Rigid3d());
   EXPECT_EQ(still.status, DenseStereoStatus::kNotRectifiable);
   EXPECT_NE(still.reason.find("no baseline"), std::string::npos) << still.reason;
-  // Rounding errors of a pose composition are no baseline either, whatever
+  // Rounding errors of a pose composition are a baseline too short, whatever
   // their direction (it was "the epipole is the image centre").
   const DenseStereoResult rounded = Dense(scene, 0.0, Rigid3d(Eigen::Quaterniond::Identity(),
                                                               Eigen::Vector3d(1e-13, 0.0, -3e-12)));

@@ -191,11 +191,17 @@ TEST(ResolveHdaOptions, CloseByTheSiteIsAQuarterOfTheImage) {
 // it, where the distortion polynomial puts its edges thousands to a million
 // pixels out. The scaled site is the one whose own side is the quarter image
 // (a proportional scaling gave 259 px at 2.8 m and 8 px at 0.57 m: 6929 ROIs).
+// A barrel polynomial (k1 = -0.3) folds back out there: the 10 m site at
+// 2.76 m measured 107 px, and was kept as "within [31, 256] px".
 TEST(ResolveHdaOptions, WithADistortedLensTheScaledSiteHasTheTargetSide) {
-  const calib::CameraModel camera("LENSMODEL_OPENCV8",
-                                  {1910.81, 1910.81, 511.5, 511.5, -0.02, 0.005, 1e-5, -1e-5, 0, 0, 0, 0}, 1024,
-                                  1024);
-  for (const double range_m : {2.8, 0.57}) {
+  const calib::CameraModel truck("LENSMODEL_OPENCV8",
+                                 {1910.81, 1910.81, 511.5, 511.5, -0.02, 0.005, 1e-5, -1e-5, 0, 0, 0, 0}, 1024,
+                                 1024);
+  const calib::CameraModel barrel("LENSMODEL_OPENCV8",
+                                  {1910.81, 1910.81, 511.5, 511.5, -0.3, 0, 0, 0, 0, 0, 0, 0}, 1024, 1024);
+  for (const auto& [camera, range_m] : {std::make_pair(truck, 2.8), std::make_pair(truck, 0.57),
+                                        std::make_pair(barrel, 2.74), std::make_pair(barrel, 2.76)}) {
+    SCOPED_TRACE(camera.Intrinsics()[4]);
     SCOPED_TRACE(range_m);
     std::vector<DerivedParam> derived;
     const hda::HdaOptions o = ResolveHdaOptions(HdaSettings(), camera, Geometry(range_m, 0.15, 92.0), &derived);

@@ -36,8 +36,9 @@ struct HdaOptions {
   // (k = prediction.sigma_multiplier, sigma_px = assumed_pixel_sigma_px), or
   // when its triangulated depth along the ray differs from the depth of a level
   // ground plane through the LRF spot by more than
-  //   max_relief_m + k * (range sigma + depth sigma of the match),
-  // with the depth sigma range^2 sigma_px / (f baseline_perp).
+  //   max_relief_m / incidence + k * (range sigma + depth sigma of the match),
+  // with incidence the cosine of the ray to the vertical and the depth sigma
+  // depth^2 sigma_px / (f baseline_perp).
   double assumed_pixel_sigma_px = 0.5;  // matching noise before it is measured, pixels
   double max_relief_m = 50.0;           // terrain height range tolerated around the LRF spot's level, metres
 

@@ -739,7 +739,10 @@ void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, St
     return;
   }
   roi.box2_px = predicted.box_px;
-  if (MarkUnobservableDepth(ctx, &roi)) return;
+  if (MarkUnobservableDepth(ctx, &roi)) {
+    timer->Lap(&result->times.rejection_s);
+    return;
+  }
   const RoiMatches matches = MatchRoi(ctx, roi, placement.centres[i]);
   timer->Lap(&result->times.matching_s);
   roi.matched = true;

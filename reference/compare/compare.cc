@@ -514,6 +514,13 @@ std::vector<MethodRoi> PlaneNavRois(const FlightRun& flight, const CompareOption
   summary->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary->note = std::to_string(fitted) + " planes, " + std::to_string(converged) + " converged within " +
                   std::to_string(options.direct_plane.max_iterations) + " iterations";
+  const auto low_parallax = std::count_if(rois.begin(), rois.end(), [](const MethodRoi& roi) {
+    return roi.status == MethodRoiStatus::kLowParallax;
+  });
+  if (low_parallax > 0) {
+    summary->note += "; " + std::to_string(low_parallax) + " ROIs not fitted: low parallax (the nav pose moves them " +
+                     "alike for every plane)";
+  }
   return rois;
 }
 

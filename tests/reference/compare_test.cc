@@ -515,6 +515,11 @@ TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
   EXPECT_EQ(result.exit_code, 0) << result.err;
   const nlohmann::json json = nlohmann::json::parse(testing_support::ReadText(out / "cmp" / "compare.json"));
   ASSERT_GE(json["rois"].size(), 10u);
+  const std::string summary = testing_support::ReadText(out / "cmp" / "compare.md");
+  EXPECT_NE(summary.find("- plane-nav: 0 planes, 0 converged within 30 iterations; " +
+                         std::to_string(json["rois"].size()) + " ROIs not fitted: low parallax"),
+            std::string::npos)
+      << summary;
   for (const auto& roi : json["rois"]) {
     const auto& methods = roi["methods"];
     EXPECT_EQ(methods["flight"]["status"], "degenerate") << roi["id"];

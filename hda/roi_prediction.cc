@@ -66,6 +66,13 @@ const char* PredictionStatusName(PredictionStatus status) {
   return "unknown";
 }
 
+std::vector<Eigen::Vector2d> BoxOutlinePx(const cv::Rect& box) {
+  const double u0 = box.x - 0.5, v0 = box.y - 0.5;
+  const double u1 = u0 + box.width, v1 = v0 + box.height;
+  const double um = 0.5 * (u0 + u1), vm = 0.5 * (v0 + v1);
+  return {{um, vm}, {u0, v0}, {um, v0}, {u1, v0}, {u1, vm}, {u1, v1}, {um, v1}, {u0, v1}, {u0, vm}};
+}
+
 PredictedRoi PredictRoi(const Roi& roi, const calib::CameraModel& camera, const Rigid3d& cam2_from_cam1,
                         double ground_distance_m, const PredictionOptions& options) {
   ThrowIfInvalid("PredictRoi: invalid PredictionOptions: ", options.Validate());
@@ -78,12 +85,7 @@ PredictedRoi PredictRoi(const Roi& roi, const calib::CameraModel& camera, const 
   PredictedRoi predicted;
   predicted.id = roi.id;
 
-  // Outline in pixel-edge coordinates; the centre comes first.
-  const double u0 = roi.box_px.x - 0.5, v0 = roi.box_px.y - 0.5;
-  const double u1 = u0 + roi.box_px.width, v1 = v0 + roi.box_px.height;
-  const double um = 0.5 * (u0 + u1), vm = 0.5 * (v0 + v1);
-  const std::vector<Eigen::Vector2d> outline_px = {
-      {um, vm}, {u0, v0}, {um, v0}, {u1, v0}, {u1, vm}, {u1, v1}, {um, v1}, {u0, v1}, {u0, vm}};
+  const std::vector<Eigen::Vector2d> outline_px = BoxOutlinePx(roi.box_px);  // the centre first
   std::vector<Eigen::Vector3d> bearings;
   std::vector<unsigned char> valid;
   if (camera.Unproject(outline_px, &bearings, &valid) != static_cast<int>(outline_px.size())) {

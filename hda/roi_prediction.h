@@ -51,6 +51,12 @@ struct PredictedRoi {
   double margin_px = 0;                        // margin added on every side, pixels
 };
 
+// The outline of `box` in pixel-edge coordinates, the points where the flight
+// method samples an ROI's rays: the centre first, then the corners and edge
+// middles clockwise from the top-left corner (x - 0.5, y - 0.5); the corners
+// are elements 1, 3, 5 and 7.
+std::vector<Eigen::Vector2d> BoxOutlinePx(const cv::Rect& box);
+
 // Predicts `roi` (image 1) into image 2 of the same camera.
 // Ground model: the plane perpendicular to camera 1's optical axis at
 // z_cam1 = ground_distance_m (the LRF range, co-boresighted). The ROI outline

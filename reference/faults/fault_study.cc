@@ -165,9 +165,9 @@ FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame
              " deg, p90 " + util::FixedText(c.stats.p90_abs_deg, 2) + " deg over " + std::to_string(c.stats.count));
   };
 
-  // Inside a case, a line at most every kRoiProgressEveryS: with the budget
-  // unlimited, a fault can make a case take minutes (a range so short that
-  // every ROI's search box is the whole of image 2).
+  // Inside a case, a line at most every kRoiProgressEveryS: the budget is
+  // unlimited, so a case whose fault makes many ROIs or slow ones runs as
+  // long as they take.
   const auto roi_progress = [&progress](const std::string& label) -> hda::RoiProgress {
     if (!progress) return {};
     auto last = std::make_shared<double>(hda::SteadySeconds());

@@ -972,12 +972,18 @@ void ReconstructWithNav(const ColmapRun& run, const fs::path& database, Clock::t
   ColmapModel result;
   if (!run.steps->Run("point_triangulator", args, &failure)) {
     // COLMAP 3.8 aborts (CHECK) in its bundle adjustment when it
-    // triangulated nothing: say so instead of "signal 6".
+    // triangulated nothing: say so instead of "signal 6", with the nav
+    // baseline and the angle each point needs (no baseline, no points).
     if (ReadLog(run.steps->LastLog()).find("bundle_adjuster.Solve") != std::string::npos) {
-      failure =
-          "colmap point_triangulator: no points triangulated (COLMAP aborted in its "
-          "bundle adjustment; log: " +
-          run.steps->LastLog() + ")";
+      const double baseline_m =
+          (run.input.local_from_cam[1].translation - run.input.local_from_cam[0].translation).norm();
+      std::ostringstream reason;
+      reason << "colmap point_triangulator: no points triangulated (COLMAP aborted in its bundle adjustment; "
+             << "the nav poses put the camera centres " << baseline_m
+             << " m apart, and a point needs a triangulation angle of "
+             << util::ShortestText(run.options.min_tri_angle_deg) << " deg; log: " << run.steps->LastLog()
+             << ")";
+      failure = reason.str();
     }
     Fail(&nav_result, failure);
   } else if (!ReadModel(nav_model, "point_triangulator", run.steps->LastLog(), &result, &failure)) {

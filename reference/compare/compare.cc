@@ -965,6 +965,21 @@ struct WholePairMethods {
   std::string colmap_note;  // COLMAP's extraction (ColmapResults::extraction_note)
 };
 
+// flight-refined refits the flight method's own points, so an ROI the flight
+// method did not fit has none: its reason passes on the flight method's, and
+// an ROI the flight method refused before matching because the nav pose
+// leaves its depth unobservable is low parallax here too.
+void PassOnFlightReasons(const hda::HdaResult& flight, std::vector<MethodRoi>* rois) {
+  for (size_t i = 0; i < rois->size(); ++i) {
+    const hda::RoiResult& r = flight.rois[i];
+    MethodRoi& roi = (*rois)[i];
+    if (r.has_fit || roi.num_points > 0) continue;
+    if (r.status == hda::RoiStatus::kDegenerate && !r.matched) roi.status = MethodRoiStatus::kLowParallax;
+    roi.reason = "no points: the flight method fitted none here (" + std::string(hda::ToString(r.status)) +
+                 (r.reason.empty() ? "" : ": " + r.reason) + ")";
+  }
+}
+
 // A whole-pair method's ROIs and summary from its reconstruction.
 void FillWholePairMethod(const std::string& method, const PairReconstruction& recon,
                          const WholePairMethods& whole, const CompareRun& run,
@@ -977,7 +992,10 @@ void FillWholePairMethod(const std::string& method, const PairReconstruction& re
   summary->ok = recon.ok;
   summary->failure = recon.failure;
   summary->wall_s = recon.wall_s;
-  if (method == kMethodFlightRefined) summary->note = whole.refine_note;
+  if (method == kMethodFlightRefined) {
+    summary->note = whole.refine_note;
+    if (recon.ok) PassOnFlightReasons(run.flight.result, rois);
+  }
   if (!recon.log_dir.empty()) summary->note = "logs: " + recon.log_dir;
   if ((method == kMethodColmapNav || method == kMethodColmapFree) && !whole.colmap_note.empty()) {
     summary->note += std::string(summary->note.empty() ? "" : "; ") + whole.colmap_note;

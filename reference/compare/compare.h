@@ -139,7 +139,8 @@ enum class MethodRoiStatus {
   kNoSearchBox,   // "no search box": the ROI was not predicted in image 2
   kPlanar,        // "planar": OpenGV for the ROI, colmap-free for the pair: the
                   // configuration cannot give a confident free relative pose, so no slope
-  kLowParallax,   // "low parallax": likewise; plane-nav: the pose gives the ROI no parallax
+  kLowParallax,   // "low parallax": likewise; plane-nav: the pose gives the ROI no parallax;
+                  // flight-refined: the flight method refused the ROI before matching for that
   kPoseFailed,    // "pose failed": OpenGV found no pose
   kOutsideOverlap,  // "outside overlap": plane-nav, dense-nav: too few of the ROI's pixels are seen in image 2
                     // (dense-nav: or in the rectified field)

@@ -488,8 +488,9 @@ TEST_F(CompareOnSyntheticScene, BadFlagsAreUsageErrors) {
 // that repeats the first frame's line for the second) has no parallax
 // anywhere: each method with the nav pose says so on every ROI, in its own
 // terms, and none calls it too few points, a divergence or an epipole.
-// (colmap-nav is left out: COLMAP aborts on such a pair in its bundle
-// adjustment, and the method's failure says so.)
+// flight-refined, which refits the flight method's points, passes on its
+// reason; colmap-nav, which COLMAP aborts on such a pair in its bundle
+// adjustment, fails with the nav baseline in its reason.
 TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
   const fs::path out = FreshTestDir();
   const fs::path source = fs::path(HDABENCH_SOURCE_DIR) / "tests" / "data" / "stereolunar-nadir";
@@ -509,12 +510,28 @@ TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
                                      out);
   ASSERT_EQ(result.exit_code, 0) << result.err;
   EXPECT_NE(result.out.find("baseline 0 m"), std::string::npos) << result.out;
-  result = RunHdabench({"compare", (out / "pair").string(), "--methods", "flight,dense-nav,plane-nav",
+  result = RunHdabench({"compare", (out / "pair").string(), "--methods", "flight,flight-refined,dense-nav,plane-nav,colmap-nav",
                         "--out", (out / "cmp").string(), "--no-figures", "--no-report"},
                        out);
-  EXPECT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.exit_code, 4) << "a failed method's exit code: " << result.err;
+  EXPECT_NE(result.err.find("method colmap-nav failed"), std::string::npos) << result.err;
   const nlohmann::json json = nlohmann::json::parse(testing_support::ReadText(out / "cmp" / "compare.json"));
   ASSERT_GE(json["rois"].size(), 10u);
+  ASSERT_EQ(json["methods"].size(), 5u);
+  const auto method_summary = [&json](const std::string& name) {
+    for (const auto& m : json["methods"]) {
+      if (m["name"] == name) return m;
+    }
+    ADD_FAILURE() << "no summary of " << name;
+    return nlohmann::json::object({{"ok", false}, {"failure", ""}});
+  };
+  EXPECT_TRUE(method_summary("flight-refined")["ok"].get<bool>());
+  const std::string colmap_failure = method_summary("colmap-nav")["failure"].get<std::string>();
+  EXPECT_NE(colmap_failure.find("no points triangulated"), std::string::npos) << colmap_failure;
+  const std::string baseline_words = "the nav poses put the camera centres ";
+  const size_t baseline_at = colmap_failure.find(baseline_words);
+  ASSERT_NE(baseline_at, std::string::npos) << colmap_failure;
+  EXPECT_LT(std::stod(colmap_failure.substr(baseline_at + baseline_words.size())), 1e-6) << colmap_failure;
   const std::string summary = testing_support::ReadText(out / "cmp" / "compare.md");
   EXPECT_NE(summary.find("- plane-nav: 0 planes, 0 converged within 30 iterations; " +
                          std::to_string(json["rois"].size()) + " ROIs not fitted: low parallax"),
@@ -528,6 +545,12 @@ TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
     EXPECT_NE(methods["dense-nav"]["reason"].get<std::string>().find("baseline too short"), std::string::npos)
         << methods["dense-nav"]["reason"];
     EXPECT_EQ(methods["plane-nav"]["status"], "low parallax") << roi["id"] << ": " << methods["plane-nav"]["reason"];
+    EXPECT_EQ(methods["flight-refined"]["status"], "low parallax") << roi["id"];
+    EXPECT_NE(methods["flight-refined"]["reason"].get<std::string>().find(
+                  "the flight method fitted none here (degenerate: depth not observable"),
+              std::string::npos)
+        << methods["flight-refined"]["reason"];
+    EXPECT_EQ(methods["colmap-nav"]["status"], "failed") << roi["id"];
   }
   // The flight method's own record: not matched, so no matching status.
   const nlohmann::json flight =

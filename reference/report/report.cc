@@ -243,16 +243,212 @@ const std::vector<std::string>& FlightStatuses() {
   return statuses;
 }
 
+// ---------------------------------------------------------------- record checks
+
+// What the report reads of a record must be of its kind where it is there:
+// an absent or null value shows as "-" (a record written before the key
+// existed, or a value the run did not have), one of another kind is damage,
+// refused with the file, the place in it and the key, before anything is
+// written.
+enum class Kind { kNumber, kInteger, kString, kBool, kObject, kArray };
+
+const char* KindName(Kind kind) {
+  switch (kind) {
+    case Kind::kNumber:
+      return "a finite number";
+    case Kind::kInteger:
+      return "an integer";
+    case Kind::kString:
+      return "a string";
+    case Kind::kBool:
+      return "true or false";
+    case Kind::kObject:
+      return "an object";
+    case Kind::kArray:
+      return "an array";
+  }
+  return "?";
+}
+
+bool OfKind(const Json& value, Kind kind) {
+  switch (kind) {
+    case Kind::kNumber:
+      return value.is_number() && std::isfinite(value.get<double>());
+    case Kind::kInteger:
+      return value.is_number_integer();
+    case Kind::kString:
+      return value.is_string();
+    case Kind::kBool:
+      return value.is_boolean();
+    case Kind::kObject:
+      return value.is_object();
+    case Kind::kArray:
+      return value.is_array();
+  }
+  return false;
+}
+
+std::string Place(const std::string& where, const std::string& key) {
+  return where.empty() ? "key \"" + key + "\"" : where + ", key \"" + key + "\"";
+}
+
+[[noreturn]] void ThrowDamaged(const fs::path& path, const std::string& place, const std::string& expected,
+                               const Json& found) {
+  std::string text = found.dump();
+  if (text.size() > 60) text = text.substr(0, 57) + "...";
+  throw InputError(path.string() + ": " + place + ": expected " + expected + ", found " + text);
+}
+
+// Checks that each key of `object` that is there and not null is of its kind.
+// `object` itself: an object, or absent (null).
+void CheckKinds(const Json& object, const fs::path& path, const std::string& where,
+                std::initializer_list<std::pair<const char*, Kind>> keys) {
+  if (object.is_null()) return;
+  if (!object.is_object()) ThrowDamaged(path, where, "an object", object);
+  for (const auto& [key, kind] : keys) {
+    const Json& value = Member(object, key);
+    if (!value.is_null() && !OfKind(value, kind)) ThrowDamaged(path, Place(where, key), KindName(kind), value);
+  }
+}
+
+// The elements of an array that is there: each of `kind`.
+void CheckElements(const Json& array, const fs::path& path, const std::string& where, Kind kind) {
+  if (!array.is_array()) return;
+  for (size_t i = 0; i < array.size(); ++i) {
+    if (!OfKind(array[i], kind)) {
+      ThrowDamaged(path, where + ", element " + std::to_string(i), KindName(kind), array[i]);
+    }
+  }
+}
+
+// An ROI's status: there, and one of `names`.
+void CheckStatus(const Json& status, const std::vector<std::string>& names, const fs::path& path,
+                 const std::string& where) {
+  if (!status.is_string() || std::find(names.begin(), names.end(), status.get<std::string>()) == names.end()) {
+    std::string expected = "one of";
+    for (size_t i = 0; i < names.size(); ++i) expected += (i == 0 ? " \"" : ", \"") + names[i] + "\"";
+    ThrowDamaged(path, Place(where, "status"), expected, status);
+  }
+}
+
+// "rois[4] (ROI 5)": an element of a record's ROI list.
+std::string RoiPlace(const Json& roi, size_t index) {
+  const Json& id = Member(roi, "id");
+  return "rois[" + std::to_string(index) + "]" + (id.is_number_integer() ? " (ROI " + id.dump() + ")" : "");
+}
+
+void CheckErrorStats(const Json& stats, const fs::path& path, const std::string& where) {
+  CheckKinds(stats, path, where,
+             {{"count", Kind::kInteger}, {"median", Kind::kNumber}, {"p90", Kind::kNumber}, {"max", Kind::kNumber}});
+}
+
+// What FillRunPage and the plots read of a run's result.json.
+void CheckRunRecord(const Json& result, const fs::path& path) {
+  CheckKinds(result, path, "",
+             {{"dataset", Kind::kString}, {"frames", Kind::kArray}, {"inputs", Kind::kObject},
+              {"budget_s", Kind::kNumber}, {"budget_exhausted", Kind::kBool}, {"status_counts", Kind::kObject},
+              {"rois", Kind::kArray}});
+  CheckElements(Member(result, "frames"), path, "key \"frames\"", Kind::kInteger);
+  CheckKinds(Member(result, "inputs"), path, "key \"inputs\"",
+             {{"baseline_m", Kind::kNumber}, {"lrf_range_m", Kind::kNumber}});
+  const Json& counts = Member(result, "status_counts");
+  for (const std::string& status : FlightStatuses()) {
+    CheckKinds(counts, path, "key \"status_counts\"", {{status.c_str(), Kind::kInteger}});
+  }
+  const Json& rois = Member(result, "rois");
+  for (size_t i = 0; i < rois.size(); ++i) {
+    const Json& roi = rois[i];
+    const std::string where = RoiPlace(roi, i);
+    if (!roi.is_object()) ThrowDamaged(path, where, "an object", roi);
+    CheckKinds(roi, path, where,
+               {{"id", Kind::kInteger}, {"reason", Kind::kString}, {"truth", Kind::kObject},
+                {"fit", Kind::kObject}, {"counts", Kind::kObject}, {"score", Kind::kNumber},
+                {"rank", Kind::kInteger}, {"slope_error_deg", Kind::kNumber}, {"tilt_error_deg", Kind::kNumber}});
+    CheckStatus(Member(roi, "status"), FlightStatuses(), path, where);
+    CheckKinds(Member(roi, "truth"), path, where + ", key \"truth\"",
+               {{"available", Kind::kBool}, {"slope_deg", Kind::kNumber}, {"roughness_rms_m", Kind::kNumber}});
+    CheckKinds(Member(roi, "fit"), path, where + ", key \"fit\"",
+               {{"slope_deg", Kind::kNumber}, {"slope_sigma_deg", Kind::kNumber},
+                {"roughness_excess_m", Kind::kNumber}});
+    CheckKinds(Member(roi, "counts"), path, where + ", key \"counts\"", {{"depth_inliers", Kind::kInteger}});
+  }
+}
+
+// The statuses a compare record's ROI can have: a reference method's, or the
+// flight method's own.
+std::vector<std::string> CompareStatuses() {
+  std::vector<std::string> names;
+  for (int s = 0; s < static_cast<int>(MethodRoiStatus::kFlight); ++s) {
+    names.emplace_back(ToString(static_cast<MethodRoiStatus>(s)));
+  }
+  for (const std::string& status : FlightStatuses()) names.push_back(status);
+  return names;
+}
+
+// What FillComparePage and the plots read of a compare.json.
+void CheckCompareRecord(const Json& compare, const fs::path& path) {
+  CheckKinds(compare, path, "",
+             {{"dataset", Kind::kString}, {"frames", Kind::kArray}, {"baseline_m", Kind::kNumber},
+              {"lrf_range_m", Kind::kNumber}, {"truth", Kind::kBool}, {"min_points_for_stats", Kind::kInteger},
+              {"methods", Kind::kArray}, {"rois", Kind::kArray}});
+  CheckElements(Member(compare, "frames"), path, "key \"frames\"", Kind::kInteger);
+  const Json& methods = Member(compare, "methods");
+  std::vector<std::string> names;
+  for (size_t i = 0; i < methods.size(); ++i) {
+    const Json& m = methods[i];
+    const std::string where = "methods[" + std::to_string(i) + "]";
+    if (!m.is_object()) ThrowDamaged(path, where, "an object", m);
+    if (!Member(m, "name").is_string() || Member(m, "name").get<std::string>().empty()) {
+      ThrowDamaged(path, Place(where, "name"), "a method's name", Member(m, "name"));
+    }
+    names.push_back(Member(m, "name").get<std::string>());
+    CheckKinds(m, path, where,
+               {{"ok", Kind::kBool}, {"failure", Kind::kString}, {"point_accuracy", Kind::kObject},
+                {"rois_with_fit", Kind::kInteger}, {"slope_bias_vs_truth_deg", Kind::kNumber},
+                {"rotation_error_deg", Kind::kNumber}, {"translation_direction_error_deg", Kind::kNumber},
+                {"slope_error_vs_truth_deg", Kind::kObject}, {"tilt_error_vs_truth_deg", Kind::kObject},
+                {"roughness_error_vs_truth_m", Kind::kObject},
+                {"slope_difference_vs_colmap_nav_deg", Kind::kObject}});
+    CheckKinds(Member(m, "point_accuracy"), path, where + ", key \"point_accuracy\"",
+               {{"within_0_1_m", Kind::kNumber}, {"within_0_3_m", Kind::kNumber}, {"within_1_m", Kind::kNumber},
+                {"num_points", Kind::kInteger}});
+    for (const char* stats : {"slope_error_vs_truth_deg", "tilt_error_vs_truth_deg", "roughness_error_vs_truth_m",
+                              "slope_difference_vs_colmap_nav_deg"}) {
+      CheckErrorStats(Member(m, stats), path, where + ", key \"" + stats + "\"");
+    }
+  }
+  const std::vector<std::string> statuses = CompareStatuses();
+  const Json& rois = Member(compare, "rois");
+  for (size_t i = 0; i < rois.size(); ++i) {
+    const Json& roi = rois[i];
+    const std::string where = RoiPlace(roi, i);
+    if (!roi.is_object()) ThrowDamaged(path, where, "an object", roi);
+    CheckKinds(roi, path, where, {{"id", Kind::kInteger}, {"truth", Kind::kObject}, {"methods", Kind::kObject}});
+    CheckKinds(Member(roi, "truth"), path, where + ", key \"truth\"", {{"slope_deg", Kind::kNumber}});
+    for (const std::string& name : names) {
+      const Json& v = Member(Member(roi, "methods"), name.c_str());
+      if (v.is_null()) continue;  // shown as "no value"
+      const std::string method_place = where + ", method \"" + name + "\"";
+      CheckKinds(v, path, method_place,
+                 {{"reason", Kind::kString}, {"slope_deg", Kind::kNumber}, {"num_points", Kind::kInteger}});
+      CheckStatus(Member(v, "status"), statuses, path, method_place);
+    }
+  }
+}
+
 // A folder's result.json (kind "run") or compare.json ("compare"), parsed
-// and checked to be of its format.
+// and checked to be of its format, with what the report reads of it of its
+// kind (CheckRunRecord, CheckCompareRecord).
 Json ReadFolderResult(const fs::path& dir, const std::string& kind) {
   const bool compare = kind == "compare";
   const fs::path path = dir / (compare ? "compare.json" : "result.json");
   Json parsed = ParseJsonFile(path);
   if (compare) {
     CheckFormat(parsed, path, kCompareResultFormatName, kCompareResultFormatVersion);
+    CheckCompareRecord(parsed, path);
   } else {
     CheckFormat(parsed, path, kFlightResultFormatName, kFlightResultFormatVersion);
+    CheckRunRecord(parsed, path);
   }
   return parsed;
 }

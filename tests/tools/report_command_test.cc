@@ -512,6 +512,84 @@ TEST(ReportCommand, AFolderThatIsNeitherARunNorACompareFolderIsExitCode3) {
   EXPECT_EQ(no_dataset.exit_code, 3) << no_dataset.err;
 }
 
+// A record whose values the report reads are of another kind than its
+// format's (a string for a slope, an unknown status, an ROI that is no
+// object) is refused with exit code 3, naming the file, the ROI and the key,
+// and no page is written; a key that is absent (a record written before it
+// existed) still gives a page, with "-" for it.
+TEST(ReportCommand, ADamagedRecordIsExitCode3NamingTheRoiAndTheKey) {
+  const fs::path dir = FreshTestDir();
+  CommandResult made = Hdabench(
+      {"run", Dataset().string(), "--out", (dir / "run").string(), "--no-figures", "--no-report", "--quiet"});
+  ASSERT_EQ(made.exit_code, 0) << made.err;
+  made = Hdabench({"compare", Dataset().string(), "--methods", "flight,dense-nav", "--out",
+                   (dir / "compare").string(), "--no-figures", "--no-report", "--quiet"});
+  ASSERT_EQ(made.exit_code, 0) << made.err;
+  const nlohmann::json run = nlohmann::json::parse(ReadText(dir / "run" / "result.json"));
+  const nlohmann::json compare = nlohmann::json::parse(ReadText(dir / "compare" / "compare.json"));
+  ASSERT_GE(run["rois"].size(), 2u);
+  ASSERT_GE(compare["rois"].size(), 2u);
+  const int first_id = run["rois"][1]["id"].get<int>();
+
+  int made_folders = 0;
+  // Writes `record` as `file` into a fresh folder and runs the report on it.
+  const auto report_of = [&](const nlohmann::json& record, const std::string& file) {
+    const fs::path folder = dir / ("case" + std::to_string(made_folders++));
+    fs::create_directories(folder);
+    hdabench::testing_support::WriteText(folder / file, record.dump(1));
+    const CommandResult result = Hdabench({"report", folder.string(), "--dataset", Dataset().string()});
+    return std::make_pair(folder, result);
+  };
+  const auto expect_refused = [&](const nlohmann::json& record, const std::string& file,
+                                  const std::string& message) {
+    const auto [folder, result] = report_of(record, file);
+    EXPECT_EQ(result.exit_code, 3) << message << ": " << result.out << result.err;
+    EXPECT_NE(result.err.find((folder / file).string() + ": " + message), std::string::npos) << result.err;
+    EXPECT_FALSE(fs::exists(folder / "report.html")) << message;
+    EXPECT_FALSE(fs::exists(folder / "report.md")) << message;
+  };
+
+  nlohmann::json damaged = run;
+  damaged["rois"][1]["fit"] = {{"slope_deg", "abc"}};
+  expect_refused(damaged, "result.json",
+                 "rois[1] (ROI " + std::to_string(first_id) + "), key \"fit\", key \"slope_deg\": expected a finite "
+                 "number, found \"abc\"");
+  damaged = run;
+  damaged["rois"][1]["status"] = "bogus";
+  expect_refused(damaged, "result.json",
+                 "rois[1] (ROI " + std::to_string(first_id) + "), key \"status\": expected one of \"evaluated\"");
+  damaged = run;
+  damaged["rois"][0] = 7;
+  expect_refused(damaged, "result.json", "rois[0]: expected an object, found 7");
+  damaged = run;
+  damaged["frames"] = {0, "x"};
+  expect_refused(damaged, "result.json", "key \"frames\", element 1: expected an integer, found \"x\"");
+
+  damaged = compare;
+  damaged["rois"][1]["methods"]["dense-nav"]["num_points"] = 2.5;
+  expect_refused(damaged, "compare.json",
+                 "rois[1] (ROI " + compare["rois"][1]["id"].dump() +
+                     "), method \"dense-nav\", key \"num_points\": expected an integer, found 2.5");
+  damaged = compare;
+  damaged["methods"][0]["slope_error_vs_truth_deg"] = {{"median", "x"}};
+  expect_refused(damaged, "compare.json",
+                 "methods[0], key \"slope_error_vs_truth_deg\", key \"median\": expected a finite number");
+
+  // Absent keys and the undamaged records: pages.
+  nlohmann::json older = run;
+  for (auto& roi : older["rois"]) roi.erase("tilt_error_deg");
+  older["rois"][1].erase("fit");
+  auto [older_folder, older_result] = report_of(older, "result.json");
+  EXPECT_EQ(older_result.exit_code, 0) << older_result.err;
+  EXPECT_TRUE(fs::is_regular_file(older_folder / "report.html"));
+  for (const auto& [record, file] : {std::make_pair(run, std::string("result.json")),
+                                     std::make_pair(compare, std::string("compare.json"))}) {
+    const auto [folder, result] = report_of(record, file);
+    EXPECT_EQ(result.exit_code, 0) << file << ": " << result.err;
+    EXPECT_TRUE(fs::is_regular_file(folder / "report.html")) << file;
+  }
+}
+
 TEST(ReportCommand, WithoutPythonTheReportIsWrittenWithTheReasonAndExitCode4) {
   const fs::path dir = FreshTestDir();
   const fs::path out = dir / "run";

@@ -393,7 +393,6 @@ void CheckCompareRecord(const Json& compare, const fs::path& path) {
               {"methods", Kind::kArray}, {"rois", Kind::kArray}});
   CheckElements(Member(compare, "frames"), path, "key \"frames\"", Kind::kInteger);
   const Json& methods = Member(compare, "methods");
-  std::vector<std::string> names;
   for (size_t i = 0; i < methods.size(); ++i) {
     const Json& m = methods[i];
     const std::string where = "methods[" + std::to_string(i) + "]";
@@ -401,7 +400,6 @@ void CheckCompareRecord(const Json& compare, const fs::path& path) {
     if (!Member(m, "name").is_string() || Member(m, "name").get<std::string>().empty()) {
       ThrowDamaged(path, Place(where, "name"), "a method's name", Member(m, "name"));
     }
-    names.push_back(Member(m, "name").get<std::string>());
     CheckKinds(m, path, where,
                {{"ok", Kind::kBool}, {"failure", Kind::kString}, {"point_accuracy", Kind::kObject},
                 {"rois_with_fit", Kind::kInteger}, {"slope_bias_vs_truth_deg", Kind::kNumber},
@@ -425,10 +423,12 @@ void CheckCompareRecord(const Json& compare, const fs::path& path) {
     if (!roi.is_object()) ThrowDamaged(path, where, "an object", roi);
     CheckKinds(roi, path, where, {{"id", Kind::kInteger}, {"truth", Kind::kObject}, {"methods", Kind::kObject}});
     CheckKinds(Member(roi, "truth"), path, where + ", key \"truth\"", {{"slope_deg", Kind::kNumber}});
-    for (const std::string& name : names) {
-      const Json& v = Member(Member(roi, "methods"), name.c_str());
+    // Every method's value, listed or not: the plots read them all.
+    const Json& values = Member(roi, "methods");
+    for (auto it = values.begin(); values.is_object() && it != values.end(); ++it) {
+      const Json& v = it.value();
       if (v.is_null()) continue;  // shown as "no value"
-      const std::string method_place = where + ", method \"" + name + "\"";
+      const std::string method_place = where + ", method \"" + it.key() + "\"";
       CheckKinds(v, path, method_place,
                  {{"reason", Kind::kString}, {"slope_deg", Kind::kNumber}, {"num_points", Kind::kInteger}});
       CheckStatus(Member(v, "status"), statuses, path, method_place);
@@ -546,6 +546,12 @@ std::string TimingLine(const fs::path& timings_path, std::vector<std::string>* n
   }
   const Json timings = ParseJsonFile(timings_path);
   CheckFormat(timings, timings_path, kFlightTimingsFormatName, kFlightResultFormatVersion);
+  CheckKinds(timings, timings_path, "",
+             {{"stages", Kind::kObject}, {"budget_s", Kind::kNumber}, {"budget_exhausted", Kind::kBool}});
+  const Json& stages = Member(timings, "stages");
+  for (auto it = stages.begin(); stages.is_object() && it != stages.end(); ++it) {
+    CheckKinds(stages, timings_path, "key \"stages\"", {{it.key().c_str(), Kind::kNumber}});
+  }
   const Json& total = Member(Member(timings, "stages"), "total_s");
   const Json& budget = Member(timings, "budget_s");
   std::string line = "Flight method time on this machine: " + Fixed(total, 3) + " s of a " +
@@ -571,7 +577,14 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
   if (fs::is_regular_file(timings_path)) {
     const Json timings = ParseJsonFile(timings_path);
     CheckFormat(timings, timings_path, kCompareTimingsFormatName, kCompareResultFormatVersion);
-    for (const Json& m : Member(timings, "methods")) {
+    CheckKinds(timings, timings_path, "", {{"methods", Kind::kArray}});
+    const Json& timed = Member(timings, "methods");
+    for (size_t i = 0; i < timed.size(); ++i) {
+      const std::string where = "key \"methods\", element " + std::to_string(i);
+      if (!timed[i].is_object()) ThrowDamaged(timings_path, where, "an object", timed[i]);
+      CheckKinds(timed[i], timings_path, where, {{"name", Kind::kString}, {"seconds", Kind::kNumber}});
+    }
+    for (const Json& m : timed) {
       if (IsNumber(Member(m, "seconds"))) seconds[Text(Member(m, "name"))] = Member(m, "seconds").get<double>();
     }
   } else {
@@ -630,7 +643,7 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
   }
   page->summary_lines.push_back(
       "Errors are median / 90th percentile / max (count) over ROIs with a slope and at least " +
-      Text(Member(compare, "min_points_for_stats")) +
+      std::to_string(IntOr(Member(compare, "min_points_for_stats"), kMinPointsForSlopeStats)) +
       " points; the tilt error is the angle between the fitted and the true plane, the slope bias the "
       "mean of slope - truth.");
 

@@ -328,7 +328,9 @@ def main(argv):
     else:
         compare = read_json(os.path.join(run_dir, "compare.json"))
         series = compare_series(compare)
-        min_points = compare.get("min_points_for_stats", 20)
+        min_points = compare.get("min_points_for_stats")
+        if not isinstance(min_points, int):
+            min_points = 20  # a record without it (the bench's kMinPointsForSlopeStats)
         timings = read_json_if_present(os.path.join(run_dir, "flight", "timings.json"))
         compare_timings = read_json_if_present(os.path.join(run_dir, "compare_timings.json"))
     colours = method_colours(list(series.keys()))

@@ -529,7 +529,7 @@ TEST(ReportCommand, ADamagedRecordIsExitCode3NamingTheRoiAndTheKey) {
   const nlohmann::json compare = nlohmann::json::parse(ReadText(dir / "compare" / "compare.json"));
   ASSERT_GE(run["rois"].size(), 2u);
   ASSERT_GE(compare["rois"].size(), 2u);
-  const int first_id = run["rois"][1]["id"].get<int>();
+  const int second_id = run["rois"][1]["id"].get<int>();
 
   int made_folders = 0;
   // Writes `record` as `file` into a fresh folder and runs the report on it.
@@ -552,12 +552,12 @@ TEST(ReportCommand, ADamagedRecordIsExitCode3NamingTheRoiAndTheKey) {
   nlohmann::json damaged = run;
   damaged["rois"][1]["fit"] = {{"slope_deg", "abc"}};
   expect_refused(damaged, "result.json",
-                 "rois[1] (ROI " + std::to_string(first_id) + "), key \"fit\", key \"slope_deg\": expected a finite "
+                 "rois[1] (ROI " + std::to_string(second_id) + "), key \"fit\", key \"slope_deg\": expected a finite "
                  "number, found \"abc\"");
   damaged = run;
   damaged["rois"][1]["status"] = "bogus";
   expect_refused(damaged, "result.json",
-                 "rois[1] (ROI " + std::to_string(first_id) + "), key \"status\": expected one of \"evaluated\"");
+                 "rois[1] (ROI " + std::to_string(second_id) + "), key \"status\": expected one of \"evaluated\"");
   damaged = run;
   damaged["rois"][0] = 7;
   expect_refused(damaged, "result.json", "rois[0]: expected an object, found 7");
@@ -575,13 +575,39 @@ TEST(ReportCommand, ADamagedRecordIsExitCode3NamingTheRoiAndTheKey) {
   expect_refused(damaged, "compare.json",
                  "methods[0], key \"slope_error_vs_truth_deg\", key \"median\": expected a finite number");
 
-  // Absent keys and the undamaged records: pages.
+  damaged = compare;
+  damaged["rois"][0]["methods"]["unlisted"] = {{"status", "ok"}, {"slope_deg", 3.0}, {"num_points", "abc"}};
+  expect_refused(damaged, "compare.json",
+                 "rois[0] (ROI " + compare["rois"][0]["id"].dump() +
+                     "), method \"unlisted\", key \"num_points\": expected an integer, found \"abc\"");
+  {
+    const auto [folder, result] = report_of(compare, "compare.json");
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    hdabench::testing_support::WriteText(folder / "compare_timings.json",
+                                         R"({"format": "hdabench-compare-timings", "format_version": 1, )"
+                                         R"("methods": [{"name": "flight", "seconds": "slow"}]})");
+    fs::remove(folder / "report.html");
+    const CommandResult timed = Hdabench({"report", folder.string(), "--dataset", Dataset().string()});
+    EXPECT_EQ(timed.exit_code, 3) << timed.err;
+    EXPECT_NE(timed.err.find((folder / "compare_timings.json").string() +
+                             ": key \"methods\", element 0, key \"seconds\": expected a finite number"),
+              std::string::npos)
+        << timed.err;
+    EXPECT_FALSE(fs::exists(folder / "report.html"));
+  }
+
+  // Absent and null keys and the undamaged records: pages.
   nlohmann::json older = run;
   for (auto& roi : older["rois"]) roi.erase("tilt_error_deg");
   older["rois"][1].erase("fit");
   auto [older_folder, older_result] = report_of(older, "result.json");
   EXPECT_EQ(older_result.exit_code, 0) << older_result.err;
   EXPECT_TRUE(fs::is_regular_file(older_folder / "report.html"));
+  nlohmann::json without_count = compare;
+  without_count["min_points_for_stats"] = nullptr;
+  auto [count_folder, count_result] = report_of(without_count, "compare.json");
+  EXPECT_EQ(count_result.exit_code, 0) << count_result.err;
+  EXPECT_NE(ReadText(count_folder / "report.md").find("at least 20 points"), std::string::npos);
   for (const auto& [record, file] : {std::make_pair(run, std::string("result.json")),
                                      std::make_pair(compare, std::string("compare.json"))}) {
     const auto [folder, result] = report_of(record, file);

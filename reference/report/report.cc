@@ -1074,23 +1074,39 @@ std::vector<std::string> ReportOptions::Validate() const {
 
 namespace {
 
-ReportResult WriteReportOrThrow(const std::string& run_dir, const ReportOptions& options) {
-  ThrowIfInvalid("", options.Validate());
+// The folder's kind: "compare" (compare.json) or "run" (result.json).
+std::string FolderKind(const std::string& run_dir) {
   std::error_code ec;
   const fs::path dir(run_dir);
   if (!fs::exists(dir, ec)) throw InputError(run_dir + ": no such folder");
   if (!fs::is_directory(dir, ec)) throw InputError(run_dir + ": is not a folder; expected a run or compare folder");
+  if (fs::exists(dir / "compare.json", ec)) return "compare";
+  if (fs::exists(dir / "result.json", ec)) return "run";
+  throw InputError(run_dir +
+                   ": neither a run folder (result.json, from hdabench run) nor a compare "
+                   "folder (compare.json, from hdabench compare)");
+}
 
-  Page page;
-  if (fs::exists(dir / "compare.json", ec)) {
-    page.kind = "compare";
-  } else if (fs::exists(dir / "result.json", ec)) {
-    page.kind = "run";
+// Everything of the page the folder gives but the plots and the maps: its
+// record's tables and lines, the stage times, the flight figures.
+void FillFromFolder(const fs::path& dir, const Json& folder_result, Page* page) {
+  const bool compare = page->kind == "compare";
+  if (compare) {
+    FillComparePage(dir, folder_result, page);
   } else {
-    throw InputError(run_dir +
-                     ": neither a run folder (result.json, from hdabench run) nor a compare "
-                     "folder (compare.json, from hdabench compare)");
+    FillRunPage(dir, folder_result, page);
   }
+  const fs::path flight_dir = compare ? dir / "flight" : dir;
+  const std::string timing = TimingLine(flight_dir / "timings.json", &page->notes);
+  if (!timing.empty()) page->summary_lines.push_back(timing);
+  AddRunFigures(flight_dir / "figures", page);
+}
+
+ReportResult WriteReportOrThrow(const std::string& run_dir, const ReportOptions& options) {
+  ThrowIfInvalid("", options.Validate());
+  const fs::path dir(run_dir);
+  Page page;
+  page.kind = FolderKind(run_dir);
   // A folder whose result is not of its format is refused before anything
   // starts.
   const Json folder_result = ReadFolderResult(dir, page.kind);
@@ -1101,17 +1117,7 @@ ReportResult WriteReportOrThrow(const std::string& run_dir, const ReportOptions&
   // error goes on. Without a thread to spare, they are drawn when asked for.)
   std::future<Plots> plots =
       util::StartBeside("report plots", [dir, kind = page.kind, options] { return DrawPlots(dir, kind, options); });
-  if (page.kind == "compare") {
-    FillComparePage(dir, folder_result, &page);
-    const std::string timing = TimingLine(dir / "flight" / "timings.json", &page.notes);
-    if (!timing.empty()) page.summary_lines.push_back(timing);
-    AddRunFigures(dir / "flight" / "figures", &page);
-  } else {
-    FillRunPage(dir, folder_result, &page);
-    const std::string timing = TimingLine(dir / "timings.json", &page.notes);
-    if (!timing.empty()) page.summary_lines.push_back(timing);
-    AddRunFigures(dir / "figures", &page);
-  }
+  FillFromFolder(dir, folder_result, &page);
 
   const fs::path dataset_dir = FindDataset(dir, page.dataset_name, options.dataset_dir, &page.notes);
   if (!dataset_dir.empty()) AddMaps(dataset_dir, &page);
@@ -1137,17 +1143,32 @@ ReportResult WriteReportOrThrow(const std::string& run_dir, const ReportOptions&
   return result;
 }
 
-}  // namespace
-
-ReportResult WriteReport(const std::string& run_dir, const ReportOptions& options) {
+// `read` on run_dir, with a folder or file of the run that cannot be looked
+// at (a symbolic link loop, no permission) named as every other problem of
+// the folder.
+template <typename Read>
+auto NamingFilesystemErrors(const std::string& run_dir, const Read& read) {
   try {
-    return WriteReportOrThrow(run_dir, options);
+    return read();
   } catch (const fs::filesystem_error& e) {
-    // A folder or file of the run that cannot be looked at (a symbolic link
-    // loop, no permission): named, as every other problem of the folder.
     const std::string where = e.path1().empty() ? run_dir : e.path1().string();
     throw InputError(where + ": cannot be read (" + e.code().message() + ")");
   }
+}
+
+}  // namespace
+
+ReportResult WriteReport(const std::string& run_dir, const ReportOptions& options) {
+  return NamingFilesystemErrors(run_dir, [&] { return WriteReportOrThrow(run_dir, options); });
+}
+
+int CheckReportFolder(const std::string& run_dir) {
+  return NamingFilesystemErrors(run_dir, [&] {
+    Page page;
+    page.kind = FolderKind(run_dir);
+    FillFromFolder(run_dir, ReadFolderResult(run_dir, page.kind), &page);
+    return static_cast<int>(page.rois.rows.size());
+  });
 }
 
 }  // namespace hdabench::reference

@@ -63,6 +63,14 @@ struct ReportResult {
 // ReportResult::plots_ok.
 ReportResult WriteReport(const std::string& run_dir, const ReportOptions& options);
 
+// Reads and checks what WriteReport reads of run_dir (its result.json or
+// compare.json, the timing files, the flight figures) and builds the page's
+// tables, without drawing the plots, looking for the dataset or writing
+// anything; returns the number of rows of the per-ROI table. Throws as
+// WriteReport does for the folder and its files (the fuzzing harness
+// report_records drives it).
+int CheckReportFolder(const std::string& run_dir);
+
 // The text of reference/report/report_plots.py as built into the library.
 const std::string& ReportPlotsScript();
 

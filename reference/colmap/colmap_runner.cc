@@ -979,7 +979,7 @@ void ReconstructWithNav(const ColmapRun& run, const fs::path& database, Clock::t
           (run.input.local_from_cam[1].translation - run.input.local_from_cam[0].translation).norm();
       std::ostringstream reason;
       reason << "colmap point_triangulator: no points triangulated (COLMAP aborted in its bundle adjustment; "
-             << "the nav poses put the camera centres " << baseline_m
+             << "the nav poses put the camera centres " << util::FixedText(baseline_m, 3)
              << " m apart, and a point needs a triangulation angle of "
              << util::ShortestText(run.options.min_tri_angle_deg) << " deg; log: " << run.steps->LastLog()
              << ")";

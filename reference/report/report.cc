@@ -82,16 +82,6 @@ const Json& Element(const Json& json, size_t index) {
   return json.is_array() && index < json.size() ? json[index] : null_value;
 }
 
-// A member that the record's format requires, of the given kind.
-const Json& Required(const Json& json, const char* key, const fs::path& path, const char* what) {
-  const Json& value = Member(json, key);
-  const bool ok = (std::string(what) == "array" && value.is_array()) ||
-                  (std::string(what) == "object" && value.is_object()) ||
-                  (std::string(what) == "string" && value.is_string());
-  if (!ok) throw InputError(path.string() + ": key \"" + key + "\": expected " + what);
-  return value;
-}
-
 bool IsNumber(const Json& j) { return j.is_number() && std::isfinite(j.get<double>()); }
 std::string Fixed(const Json& j, int digits) {
   return IsNumber(j) ? util::FixedCell(j.get<double>(), digits) : "-";
@@ -321,6 +311,11 @@ void CheckElements(const Json& array, const fs::path& path, const std::string& w
   }
 }
 
+// A key the record's format requires: there, and an array.
+void RequireArray(const Json& record, const char* key, const fs::path& path) {
+  if (!Member(record, key).is_array()) ThrowDamaged(path, Place("", key), KindName(Kind::kArray), Member(record, key));
+}
+
 // An ROI's status: there, and one of `names`.
 void CheckStatus(const Json& status, const std::vector<std::string>& names, const fs::path& path,
                  const std::string& where) {
@@ -348,6 +343,7 @@ void CheckRunRecord(const Json& result, const fs::path& path) {
              {{"dataset", Kind::kString}, {"frames", Kind::kArray}, {"inputs", Kind::kObject},
               {"budget_s", Kind::kNumber}, {"budget_exhausted", Kind::kBool}, {"status_counts", Kind::kObject},
               {"rois", Kind::kArray}});
+  RequireArray(result, "rois", path);
   CheckElements(Member(result, "frames"), path, "key \"frames\"", Kind::kInteger);
   CheckKinds(Member(result, "inputs"), path, "key \"inputs\"",
              {{"baseline_m", Kind::kNumber}, {"lrf_range_m", Kind::kNumber}});
@@ -391,6 +387,8 @@ void CheckCompareRecord(const Json& compare, const fs::path& path) {
              {{"dataset", Kind::kString}, {"frames", Kind::kArray}, {"baseline_m", Kind::kNumber},
               {"lrf_range_m", Kind::kNumber}, {"truth", Kind::kBool}, {"min_points_for_stats", Kind::kInteger},
               {"methods", Kind::kArray}, {"rois", Kind::kArray}});
+  RequireArray(compare, "methods", path);
+  RequireArray(compare, "rois", path);
   CheckElements(Member(compare, "frames"), path, "key \"frames\"", Kind::kInteger);
   const Json& methods = Member(compare, "methods");
   for (size_t i = 0; i < methods.size(); ++i) {
@@ -454,9 +452,8 @@ Json ReadFolderResult(const fs::path& dir, const std::string& kind) {
 }
 
 // `result`: the folder's result.json (ReadFolderResult).
-void FillRunPage(const fs::path& dir, const Json& result, Page* page) {
-  const fs::path result_path = dir / "result.json";
-  const Json& rois = Required(result, "rois", result_path, "array");
+void FillRunPage(const Json& result, Page* page) {
+  const Json& rois = Member(result, "rois");  // an array (CheckRunRecord)
   const Json& frames = Member(result, "frames");
 
   page->dataset_name = Text(Member(result, "dataset"));
@@ -567,9 +564,8 @@ std::string TimingLine(const fs::path& timings_path, std::vector<std::string>* n
 
 // `compare`: the folder's compare.json (ReadFolderResult).
 void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
-  const fs::path compare_path = dir / "compare.json";
-  const Json& methods = Required(compare, "methods", compare_path, "array");
-  const Json& rois = Required(compare, "rois", compare_path, "array");
+  const Json& methods = Member(compare, "methods");  // arrays (CheckCompareRecord)
+  const Json& rois = Member(compare, "rois");
   const Json& frames = Member(compare, "frames");
 
   std::map<std::string, double> seconds;
@@ -1094,7 +1090,7 @@ void FillFromFolder(const fs::path& dir, const Json& folder_result, Page* page) 
   if (compare) {
     FillComparePage(dir, folder_result, page);
   } else {
-    FillRunPage(dir, folder_result, page);
+    FillRunPage(folder_result, page);
   }
   const fs::path flight_dir = compare ? dir / "flight" : dir;
   const std::string timing = TimingLine(flight_dir / "timings.json", &page->notes);

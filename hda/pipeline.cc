@@ -326,6 +326,7 @@ bool MarkUnobservableDepth(const Context& ctx, RoiResult* roi) {
   DepthReach reach;
   if (!DepthUnobservable(ctx, roi->box1_px, &reach)) return false;
   roi->status = RoiStatus::kDegenerate;
+  roi->depth_unobservable = true;
   roi->reason = "depth not observable: under the nav pose (baseline " +
                 util::FixedText(ctx.c2_in_cam1.norm(), 3) + " m) a point with the " +
                 util::FixedText(ctx.options->triangulation.min_parallax_deg, 3) +

@@ -90,6 +90,7 @@ struct RoiResult {
   double ils_distance_m = 0.0;         // horizontal distance of the ROI centre's ground point to the ILS
   RoiCounts counts;
   bool matched = false;                // matching ran (or the matches were given): matching_status holds
+  bool depth_unobservable = false;     // refused before matching: the nav pose leaves its depth unobservable
   MatchingStatus matching_status = MatchingStatus::kTooFewMatches;
 
   // The surviving matches (image 1 and image 2 pixels) and their points, in

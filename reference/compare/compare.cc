@@ -974,7 +974,7 @@ void PassOnFlightReasons(const hda::HdaResult& flight, std::vector<MethodRoi>* r
     const hda::RoiResult& r = flight.rois[i];
     MethodRoi& roi = (*rois)[i];
     if (r.has_fit || roi.num_points > 0) continue;
-    if (r.status == hda::RoiStatus::kDegenerate && !r.matched) roi.status = MethodRoiStatus::kLowParallax;
+    if (r.depth_unobservable) roi.status = MethodRoiStatus::kLowParallax;
     roi.reason = "no points: the flight method fitted none here (" + std::string(hda::ToString(r.status)) +
                  (r.reason.empty() ? "" : ": " + r.reason) + ")";
   }

@@ -149,7 +149,8 @@ enum class MethodRoiStatus {
   kNotRectifiable,  // "not rectifiable": dense-nav: the pair has no baseline, one too short for the
                     // matcher's disparity step, or its epipole leaves no part of image 1 to rectify
   kDiverged,        // "diverged": plane-nav: the photometric fit did not give a plane
-  kFlight,        // the flight method: its own status, MethodRoi::flight_status
+  kFlight,        // the flight method: its own status, MethodRoi::flight_status. The last:
+                  // the report's record check takes every status before it as a name
 };
 const char* ToString(MethodRoiStatus status);  // the names above
 

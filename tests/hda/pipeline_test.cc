@@ -265,6 +265,7 @@ TEST(RunHda, APairWithoutParallaxIsDegenerateOnEveryRoiNotShortOfPoints) {
       EXPECT_NE(roi.reason.find("the 0.500 deg of parallax triangulation needs"), std::string::npos) << roi.reason;
       EXPECT_EQ(roi.counts.keypoints1, 0) << "ROI " << roi.id;
       EXPECT_FALSE(roi.matched) << "ROI " << roi.id;
+      EXPECT_TRUE(roi.depth_unobservable) << "ROI " << roi.id;
       EXPECT_FALSE(roi.has_fit);
     }
     EXPECT_TRUE(result.ranking.empty());
@@ -277,6 +278,7 @@ TEST(RunHda, APairWithoutParallaxIsDegenerateOnEveryRoiNotShortOfPoints) {
       EXPECT_EQ(roi.reason.find("depth not observable"), std::string::npos) << "ROI " << roi.id << ": " << roi.reason;
       EXPECT_GT(roi.counts.keypoints1, 0) << "ROI " << roi.id;
       EXPECT_TRUE(roi.matched) << "ROI " << roi.id;
+      EXPECT_FALSE(roi.depth_unobservable) << "ROI " << roi.id;
     }
   }
   // Given matches are judged the same way.
@@ -288,6 +290,7 @@ TEST(RunHda, APairWithoutParallaxIsDegenerateOnEveryRoiNotShortOfPoints) {
                                              cv::Rect(224, 224, 64, 64), points, points);
   EXPECT_EQ(site.status, RoiStatus::kDegenerate) << site.reason;
   EXPECT_NE(site.reason.find("baseline 0.000 m"), std::string::npos) << site.reason;
+  EXPECT_TRUE(site.depth_unobservable);
 }
 
 TEST(RunHda, AWrongNavigationPoseRejectsTheMatches) {

@@ -381,11 +381,24 @@ Eigen::Vector3d LevelGroundInCam1(const Context& ctx) {
   return up_in_cam1 / up_in_cam1.dot(lrf_point);
 }
 
+// Appends to a method's note how many ROIs it left unfitted for low
+// parallax, and why (nothing when none).
+void NoteLowParallax(const std::vector<MethodRoi>& rois, const std::string& why, MethodSummary* summary) {
+  const auto low_parallax = std::count_if(rois.begin(), rois.end(), [](const MethodRoi& roi) {
+    return roi.status == MethodRoiStatus::kLowParallax;
+  });
+  if (low_parallax > 0) {
+    summary->note += "; " + std::to_string(low_parallax) + " ROIs not fitted: low parallax (" + why + ")";
+  }
+}
+
 // dense-nav: the pair rectified with the nav pose and matched by SGBM
 // (reference/direct/dense_stereo.h); each ROI's plane fitted to the points
 // its image-1 box sees, as every point-based method's. An ROI without enough
 // points is "outside overlap" when under half of its pixels can be matched
-// at all (outside the rectified field or image 2), "no texture" otherwise.
+// at all (outside the rectified field or image 2), "no texture" otherwise;
+// one with enough points is "low parallax" when the matcher's disparity step
+// leaves its slope more uncertain than max_slope_sigma_deg.
 std::vector<MethodRoi> DenseNavRois(const FlightRun& flight, const CompareOptions& options, const Context& ctx,
                                     MethodSummary* summary) {
   const auto start = std::chrono::steady_clock::now();
@@ -428,6 +441,21 @@ std::vector<MethodRoi> DenseNavRois(const FlightRun& flight, const CompareOption
       roi.status = MethodRoiStatus::kTooFewPoints;
       roi.has_fit = false;
     }
+    // Too little parallax for the matcher's step to give a slope: no plane
+    // stood by, however many points (on a pair that did not move but whose
+    // nav pose did, they are noise triangulated with the nav baseline).
+    if (roi.status == MethodRoiStatus::kOk) {
+      const double sigma_deg = DenseSlopeSigmaDeg(dense, ctx.dataset->camera, box, roi.num_points);
+      if (!(sigma_deg <= options.dense_stereo.max_slope_sigma_deg)) {
+        roi.status = MethodRoiStatus::kLowParallax;
+        roi.has_fit = false;
+        roi.reason = std::to_string(roi.num_points) + " points, but the matcher's 1/16 px disparity step alone " +
+                     "leaves their slope uncertain by " +
+                     (std::isfinite(sigma_deg) ? util::FixedText(sigma_deg, 1) + " deg" : "any angle") +
+                     " under the nav pose (at most " +
+                     util::FixedText(options.dense_stereo.max_slope_sigma_deg, 1) + " deg)";
+      }
+    }
     if (roi.status != MethodRoiStatus::kTooFewPoints) continue;
     roi.reason = std::to_string(pixels.size()) + " of the ROI's " + std::to_string(box.area()) +
                  " pixels have a point (" +
@@ -446,6 +474,9 @@ std::vector<MethodRoi> DenseNavRois(const FlightRun& flight, const CompareOption
     }
   }
   summary->note = dense.reason;
+  NoteLowParallax(rois, "the disparity step leaves their slope uncertain by more than " +
+                            util::FixedText(options.dense_stereo.max_slope_sigma_deg, 1) + " deg",
+                  summary);
   summary->wall_s = SecondsSince(start);
   return rois;
 }
@@ -514,13 +545,7 @@ std::vector<MethodRoi> PlaneNavRois(const FlightRun& flight, const CompareOption
   summary->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary->note = std::to_string(fitted) + " planes, " + std::to_string(converged) + " converged within " +
                   std::to_string(options.direct_plane.max_iterations) + " iterations";
-  const auto low_parallax = std::count_if(rois.begin(), rois.end(), [](const MethodRoi& roi) {
-    return roi.status == MethodRoiStatus::kLowParallax;
-  });
-  if (low_parallax > 0) {
-    summary->note += "; " + std::to_string(low_parallax) + " ROIs not fitted: low parallax (the nav pose moves them " +
-                     "alike for every plane)";
-  }
+  NoteLowParallax(rois, "the nav pose moves them alike for every plane", summary);
   return rois;
 }
 

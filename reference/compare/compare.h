@@ -140,7 +140,8 @@ enum class MethodRoiStatus {
   kPlanar,        // "planar": OpenGV for the ROI, colmap-free for the pair: the
                   // configuration cannot give a confident free relative pose, so no slope
   kLowParallax,   // "low parallax": likewise; plane-nav: the pose gives the ROI no parallax;
-                  // flight-refined: the flight method refused the ROI before matching for that
+                  // flight-refined: the flight method refused the ROI before matching for that;
+                  // dense-nav: too little for the disparity step to give a slope
   kPoseFailed,    // "pose failed": OpenGV found no pose
   kOutsideOverlap,  // "outside overlap": plane-nav, dense-nav: too few of the ROI's pixels are seen in image 2
                     // (dense-nav: or in the rectified field)

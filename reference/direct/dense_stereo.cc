@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include <Eigen/Eigenvalues>
@@ -458,6 +459,8 @@ std::vector<std::string> DenseStereoOptions::Validate() const {
   RequireOption(max_lr_difference_px >= 1, "max_lr_difference_px", max_lr_difference_px, ">= 1", &errors);
   RequireOption(min_ncc >= -1 && min_ncc <= 1, "min_ncc", min_ncc, "in [-1, 1]", &errors);
   RequireOption(min_roi_share > 0 && min_roi_share <= 1, "min_roi_share", min_roi_share, "in (0, 1]", &errors);
+  RequireOption(max_slope_sigma_deg > 0 && max_slope_sigma_deg < 90, "max_slope_sigma_deg", max_slope_sigma_deg,
+                "in (0, 90)", &errors);
   RequireOption(max_off_axis_deg > 0 && max_off_axis_deg < 85, "max_off_axis_deg", max_off_axis_deg,
                 "in (0, 85) (degrees)", &errors);
   return errors;
@@ -571,6 +574,31 @@ DenseStereoResult RunDenseStereo(const cv::Mat& image1, const cv::Mat& image2, c
          << " of " << result.field_pixels << " pixels with a disparity";
   result.reason = reason.str();
   return result;
+}
+
+double DenseSlopeSigmaDeg(const DenseStereoResult& result, const calib::CameraModel& camera, const cv::Rect& box1,
+                          int num_points) {
+  constexpr double kInfinity = std::numeric_limits<double>::infinity();
+  const DenseRectification& rect = result.rectification;
+  if (result.status != DenseStereoStatus::kOk || num_points <= 0 || box1.width <= 0 || box1.height <= 0) {
+    return kInfinity;
+  }
+  std::vector<Eigen::Vector3d> rays;
+  std::vector<unsigned char> valid;
+  // The box's centre: its pixels' edges run from box1.x - 0.5 to box1.x + width - 0.5.
+  camera.Unproject({Eigen::Vector2d(box1.x + 0.5 * (box1.width - 1), box1.y + 0.5 * (box1.height - 1))}, &rays,
+                   &valid);
+  if (valid.empty() || valid[0] == 0) return kInfinity;
+  const Eigen::Vector3d in_rect = rect.rect_from_cam1 * rays[0];
+  if (!(in_rect.z() > 0.0)) return kInfinity;
+  const Eigen::Vector3d level_in_rect = rect.rect_from_cam1 * rect.level_plane_in_cam1;
+  const double disparity_px =
+      rect.focal_px * rect.baseline_m * level_in_rect.dot(Eigen::Vector3d(in_rect.x() / in_rect.z(),
+                                                                          in_rect.y() / in_rect.z(), 1.0));
+  if (!(disparity_px > 0.0)) return kInfinity;
+  const double side_px = std::min(box1.width, box1.height);
+  const double tangent = std::sqrt(12.0 / num_points) * rect.focal_px / (kDisparityScale * side_px * disparity_px);
+  return std::atan(tangent) / kDegToRad;
 }
 
 double DenseOverlapFraction(const DenseStereoResult& result, const calib::CameraModel& camera,

@@ -91,6 +91,12 @@ struct DenseStereoOptions {
   // An ROI (hdabench compare) has a plane when at least this share of its
   // image-1 pixels have a disparity.
   double min_roi_share = 0.5;        // in (0, 1]
+  // An ROI (hdabench compare) has a plane only where the matcher's
+  // disparity step alone leaves its slope at most this uncertain
+  // (DenseSlopeSigmaDeg; the flight method's max_slope_sigma_deg is the
+  // same 3 deg): a shorter baseline across the line of sight, a farther ROI or
+  // fewer points make depth differences across the ROI smaller than the step.
+  double max_slope_sigma_deg = 3.0;  // in (0, 90)
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;
 };
@@ -137,6 +143,18 @@ struct DenseStereoResult {
   std::vector<Eigen::Vector3d> points_in_cam1;
   std::vector<Eigen::Vector2d> pixels1;
 };
+
+// The slope uncertainty (degrees) that the matcher's disparity step (1/16
+// px, taken as each point's disparity error) alone leaves the plane of an ROI
+// whose `num_points` points cover image-1 box `box1`. Over a side of w pixels
+// a least-squares plane's disparity gradient is uncertain by
+// step / (w sqrt(N / 12)) per pixel; on ground of disparity d (the level
+// ground's at the box's centre) a slope of tangent t changes the disparity
+// by d t / f per pixel, so tan(sigma) = step sqrt(12 / N) f / (w d). Infinity
+// where the pair is not rectified, the box's centre has no ray in the field
+// or the level ground no disparity there.
+double DenseSlopeSigmaDeg(const DenseStereoResult& result, const calib::CameraModel& camera, const cv::Rect& box1,
+                          int num_points);
 
 // The dense reconstruction of the pair: images 1 and 2 (one channel, 8-bit,
 // 16-bit or float, of the camera's size; both mapped to 8 bits by the same

@@ -561,5 +561,46 @@ TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
   }
 }
 
+// A synthetic pair whose camera did not move (speed 0) but whose nav pose
+// drifted a fraction of a metre: the images have no parallax, the nav pose a
+// baseline of about 0.2 m at about 800 m. The flight method finds every ROI's
+// depth unobservable; dense-nav, which can rectify along that baseline (its
+// level ground gets about half a pixel of disparity, over the matcher's 1/16
+// px step), has plenty of points per ROI but no slope to stand by: its
+// disparity step alone leaves each ROI's slope uncertain by about 20 deg.
+// Without that bound its planes were noise (a 64 deg median slope error).
+TEST(CompareWithoutMotion, DenseNavIsLowParallaxWhereTheDisparityStepLeavesNoSlope) {
+  const fs::path out = FreshTestDir();
+  CommandResult result = RunHdabench({"synth", "--out", (out / "pair").string(), "--image-size", "512", "--set",
+                                      "speed_mps=0", "--quiet"},
+                                     out);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  result = RunHdabench({"compare", (out / "pair").string(), "--methods", "flight,flight-refined,dense-nav",
+                        "--out", (out / "cmp").string(), "--no-figures", "--no-report"},
+                       out);
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const nlohmann::json json = nlohmann::json::parse(testing_support::ReadText(out / "cmp" / "compare.json"));
+  const double baseline_m = json["baseline_m"].get<double>();
+  EXPECT_GT(baseline_m, 0.01);
+  EXPECT_LT(baseline_m, 1.0);
+  ASSERT_GE(json["rois"].size(), 10u);
+  for (const auto& roi : json["rois"]) {
+    const auto& methods = roi["methods"];
+    EXPECT_EQ(methods["flight"]["status"], "degenerate") << roi["id"];
+    EXPECT_EQ(methods["flight-refined"]["status"], "low parallax") << roi["id"];
+    const auto& dense = methods["dense-nav"];
+    EXPECT_EQ(dense["status"], "low parallax") << roi["id"] << ": " << dense["reason"];
+    EXPECT_TRUE(dense["slope_deg"].is_null()) << roi["id"];
+    EXPECT_GE(dense["num_points"].get<int>(), 10) << roi["id"];
+    EXPECT_NE(dense["reason"].get<std::string>().find("disparity step alone leaves their slope uncertain by"),
+              std::string::npos)
+        << dense["reason"];
+  }
+  const std::string summary = testing_support::ReadText(out / "cmp" / "compare.md");
+  EXPECT_NE(summary.find(std::to_string(json["rois"].size()) + " ROIs not fitted: low parallax (the disparity step"),
+            std::string::npos)
+      << summary;
+}
+
 }  // namespace
 }  // namespace hdabench::reference

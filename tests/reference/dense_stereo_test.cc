@@ -1,6 +1,7 @@
 #include "reference/direct/dense_stereo.h"
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include <Eigen/Eigenvalues>
@@ -184,6 +185,42 @@ TEST(DenseOverlapFraction, ABoxAtTheEdgeIsOutsideTheOverlap) {
   ASSERT_EQ(dense.status, DenseStereoStatus::kOk);
   EXPECT_LT(DenseOverlapFraction(dense, Camera(), scene.cam2_from_cam1, cv::Rect(0, 104, 32, 32), 5), 0.1);
   EXPECT_DOUBLE_EQ(DenseOverlapFraction(dense, Camera(), scene.cam2_from_cam1, cv::Rect(104, 104, 32, 32), 5), 1.0);
+}
+
+// The slope uncertainty the disparity step leaves an ROI: on the scene's
+// pair (level ground 40 px of disparity), a 96 x 96 px box of 9216 points has
+// tan(sigma) = sqrt(12 / 9216) 800 / (16 x 96 x 40) (0.027 deg). The tangent
+// grows as the nav baseline shrinks (a hundredth of it: 100 times) and as the
+// square root of the points' count falls, and sigma is infinite where the
+// pair is not rectifiable or the ROI has no points.
+TEST(DenseSlopeSigmaDeg, FollowsTheDisparityStepTheBaselineAndThePoints) {
+  const Scene scene;
+  const cv::Rect box(80, 80, 96, 96);
+  const DenseStereoResult dense = Dense(scene, 0.0, scene.cam2_from_cam1);
+  ASSERT_EQ(dense.status, DenseStereoStatus::kOk) << dense.reason;
+  const auto tangent = [&box](const DenseStereoResult& d, int points) {
+    return std::tan(DenseSlopeSigmaDeg(d, Camera(), box, points) * util::kDegToRad);
+  };
+  const double expected = std::sqrt(12.0 / 9216.0) * 800.0 / (16.0 * 96.0 * 40.0);
+  EXPECT_NEAR(tangent(dense, 9216), expected, 0.05 * expected);
+  EXPECT_NEAR(tangent(dense, 9216 / 4), 2.0 * tangent(dense, 9216), 1e-9 * expected);
+
+  Rigid3d short_baseline = scene.cam2_from_cam1;
+  short_baseline.translation *= 0.01;
+  const DenseStereoResult short_pair = Dense(scene, 0.0, short_baseline);
+  ASSERT_EQ(short_pair.status, DenseStereoStatus::kOk) << short_pair.reason;
+  EXPECT_NEAR(tangent(short_pair, 9216) / tangent(dense, 9216), 100.0, 1e-6);
+  // 2.7 deg: within the 3 deg bound; with 144 points (8 times the tangent), 20.6 deg: past it.
+  const double bound_deg = DenseStereoOptions().max_slope_sigma_deg;
+  EXPECT_LT(DenseSlopeSigmaDeg(short_pair, Camera(), box, 9216), bound_deg);
+  EXPECT_GT(DenseSlopeSigmaDeg(short_pair, Camera(), box, 144), bound_deg);
+
+  Rigid3d no_baseline = scene.cam2_from_cam1;
+  no_baseline.translation.setZero();
+  const DenseStereoResult none = Dense(scene, 0.0, no_baseline);
+  ASSERT_EQ(none.status, DenseStereoStatus::kNotRectifiable);
+  EXPECT_EQ(DenseSlopeSigmaDeg(none, Camera(), box, 9216), std::numeric_limits<double>::infinity());
+  EXPECT_EQ(DenseSlopeSigmaDeg(dense, Camera(), box, 0), std::numeric_limits<double>::infinity());
 }
 
 TEST(RunDenseStereo, BadInputsAreInputErrors) {

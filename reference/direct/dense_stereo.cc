@@ -107,16 +107,23 @@ bool RectifiedField(const calib::CameraModel& camera, const Eigen::Matrix3d& rec
   return any && rect->field_x_max > rect->field_x_min && rect->field_y_max > rect->field_y_min;
 }
 
-// The search: level ground's disparity f B (p_r . (x, y, 1)) is linear in the
-// normalised coordinates, so its extremes are at the field's corners; the
-// horizon (disparity <= 0) bounds it below by 0.
+// The level ground's disparity f B (p_r . (x, y, 1)) at rectified normalised
+// coordinates (x, y), p_r its plane in the rectified frame: <= 0 beyond its
+// horizon.
+double LevelGroundDisparityPx(const DenseRectification& rect, double x, double y) {
+  const Eigen::Vector3d p = rect.rect_from_cam1 * rect.level_plane_in_cam1;
+  return rect.focal_px * rect.baseline_m * p.dot(Eigen::Vector3d(x, y, 1.0));
+}
+
+// The search: level ground's disparity is linear in the normalised
+// coordinates, so its extremes are at the field's corners; the horizon
+// (disparity <= 0) bounds it below by 0.
 void DisparitySearch(const DenseStereoOptions& options, DenseRectification* rect, bool* clipped) {
-  const Eigen::Vector3d p = rect->rect_from_cam1 * rect->level_plane_in_cam1;
   double lo = 0.0, hi = 0.0;
   bool first = true;
   for (const double x : {rect->field_x_min, rect->field_x_max}) {
     for (const double y : {rect->field_y_min, rect->field_y_max}) {
-      const double d = std::max(0.0, rect->focal_px * rect->baseline_m * p.dot(Eigen::Vector3d(x, y, 1.0)));
+      const double d = std::max(0.0, LevelGroundDisparityPx(*rect, x, y));
       lo = first ? d : std::min(lo, d);
       hi = first ? d : std::max(hi, d);
       first = false;
@@ -591,10 +598,7 @@ double DenseSlopeSigmaDeg(const DenseStereoResult& result, const calib::CameraMo
   if (valid.empty() || valid[0] == 0) return kInfinity;
   const Eigen::Vector3d in_rect = rect.rect_from_cam1 * rays[0];
   if (!(in_rect.z() > 0.0)) return kInfinity;
-  const Eigen::Vector3d level_in_rect = rect.rect_from_cam1 * rect.level_plane_in_cam1;
-  const double disparity_px =
-      rect.focal_px * rect.baseline_m * level_in_rect.dot(Eigen::Vector3d(in_rect.x() / in_rect.z(),
-                                                                          in_rect.y() / in_rect.z(), 1.0));
+  const double disparity_px = LevelGroundDisparityPx(rect, in_rect.x() / in_rect.z(), in_rect.y() / in_rect.z());
   if (!(disparity_px > 0.0)) return kInfinity;
   const double side_px = std::min(box1.width, box1.height);
   const double tangent = std::sqrt(12.0 / num_points) * rect.focal_px / (kDisparityScale * side_px * disparity_px);

@@ -563,11 +563,11 @@ TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
 
 // A synthetic pair whose camera did not move (speed 0) but whose nav pose
 // drifted a fraction of a metre: the images have no parallax, the nav pose a
-// baseline of about 0.2 m at about 800 m. The flight method finds every ROI's
-// depth unobservable; dense-nav, which can rectify along that baseline (its
-// level ground gets about half a pixel of disparity, over the matcher's 1/16
+// baseline of 0.24 m at 564 m of LRF range. The flight method finds every
+// ROI's depth unobservable; dense-nav, which can rectify along that baseline
+// (its level ground gets about a pixel of disparity, over the matcher's 1/16
 // px step), has plenty of points per ROI but no slope to stand by: its
-// disparity step alone leaves each ROI's slope uncertain by about 20 deg.
+// disparity step alone leaves each ROI's slope uncertain by 20-30 deg.
 // Without that bound its planes were noise (a 64 deg median slope error).
 TEST(CompareWithoutMotion, DenseNavIsLowParallaxWhereTheDisparityStepLeavesNoSlope) {
   const fs::path out = FreshTestDir();

@@ -449,7 +449,8 @@ std::vector<MethodRoi> DenseNavRois(const FlightRun& flight, const CompareOption
       if (!(sigma_deg <= options.dense_stereo.max_slope_sigma_deg)) {
         roi.status = MethodRoiStatus::kLowParallax;
         roi.has_fit = false;
-        roi.reason = std::to_string(roi.num_points) + " points, but the matcher's 1/16 px disparity step alone " +
+        roi.reason = std::to_string(roi.num_points) + " points, but the matcher's 1/" +
+                     util::FixedText(kDisparityStepsPerPx, 0) + " px disparity step alone " +
                      "leaves their slope uncertain by " +
                      (std::isfinite(sigma_deg) ? util::FixedText(sigma_deg, 1) + " deg" : "any angle") +
                      " under the nav pose (at most " +
@@ -545,7 +546,7 @@ std::vector<MethodRoi> PlaneNavRois(const FlightRun& flight, const CompareOption
   summary->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   summary->note = std::to_string(fitted) + " planes, " + std::to_string(converged) + " converged within " +
                   std::to_string(options.direct_plane.max_iterations) + " iterations";
-  NoteLowParallax(rois, "the nav pose moves them alike for every plane", summary);
+  NoteLowParallax(rois, "the nav pose's parallax leaves their plane unobservable", summary);
   return rois;
 }
 

@@ -20,8 +20,6 @@ namespace {
 
 using util::kDegToRad;
 
-// SGBM's disparities are in sixteenths of a pixel.
-constexpr double kDisparityScale = 16.0;
 // The window of the two-dimensional matches that measure the row offset:
 // 9 x 9 pixels.
 constexpr int kRowShiftHalfWindow = 4;
@@ -323,7 +321,7 @@ bool EstimateRowShift(const cv::Mat& left, const cv::Mat& right_spline, const cv
     for (int u = std::max(first_column, half + 1); u < left.cols - half - 1; u += kStride) {
       if (d_row[u] < 0) continue;
       double d = 0.0, e = 0.0;
-      if (RefineMatch2d(left, right_spline, u, v, half, d_row[u] / kDisparityScale, gradient, min_gradient, &d, &e)) {
+      if (RefineMatch2d(left, right_spline, u, v, half, d_row[u] / kDisparityStepsPerPx, gradient, min_gradient, &d, &e)) {
         rows.emplace_back(u - d, v, e);  // the offset is applied at image 2's column
       }
     }
@@ -387,7 +385,7 @@ bool SetUpRectification(const calib::CameraModel& camera, const Rigid3d& cam2_fr
     return false;
   }
   // A baseline that gives the level ground less disparity than SGBM's step
-  // (1 / kDisparityScale px) is none: the matcher cannot tell it from zero,
+  // (1 / kDisparityStepsPerPx px) is none: the matcher cannot tell it from zero,
   // and a baseline of rounding errors has no direction to rectify along.
   const double ground_distance_m = 1.0 / rect.level_plane_in_cam1.norm();
   const double disparity_px = rect.focal_px * rect.baseline_m / ground_distance_m;
@@ -399,11 +397,11 @@ bool SetUpRectification(const calib::CameraModel& camera, const Rigid3d& cam2_fr
     result->reason = "no baseline: camera 2's centre is camera 1's";
     return false;
   }
-  if (!(disparity_px >= 1.0 / kDisparityScale)) {
+  if (!(disparity_px >= 1.0 / kDisparityStepsPerPx)) {
     std::ostringstream reason;
     reason << "baseline too short: camera 2's centre is " << rect.baseline_m << " m from camera 1's, about "
            << disparity_px << " px of disparity on the level ground (" << ground_distance_m
-           << " m away along its normal), under the matcher's 1/" << kDisparityScale << " px step";
+           << " m away along its normal), under the matcher's 1/" << kDisparityStepsPerPx << " px step";
     result->reason = reason.str();
     return false;
   }
@@ -552,7 +550,7 @@ DenseStereoResult RunDenseStereo(const cv::Mat& image1, const cv::Mat& image2, c
       if (!Inside(m1x[u], m1y[u], camera, border)) continue;
       ++result.field_pixels;
       if (d_row[u] < 0) continue;  // no disparity (SGBM marks it below the search)
-      double d = d_row[u] / kDisparityScale;
+      double d = d_row[u] / kDisparityStepsPerPx;
       double ncc = 1.0;
       const bool window_inside = v >= block / 2 && v < rect.height_px - block / 2 && u < rect.width_px - block / 2;
       if (options.subpixel_refinement &&
@@ -601,7 +599,7 @@ double DenseSlopeSigmaDeg(const DenseStereoResult& result, const calib::CameraMo
   const double disparity_px = LevelGroundDisparityPx(rect, in_rect.x() / in_rect.z(), in_rect.y() / in_rect.z());
   if (!(disparity_px > 0.0)) return kInfinity;
   const double side_px = std::min(box1.width, box1.height);
-  const double tangent = std::sqrt(12.0 / num_points) * rect.focal_px / (kDisparityScale * side_px * disparity_px);
+  const double tangent = std::sqrt(12.0 / num_points) * rect.focal_px / (kDisparityStepsPerPx * side_px * disparity_px);
   return std::atan(tangent) / kDegToRad;
 }
 

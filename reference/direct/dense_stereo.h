@@ -62,6 +62,9 @@
 
 namespace hdabench::reference {
 
+// SGBM's disparities are in sixteenths of a pixel: the matcher's step.
+constexpr double kDisparityStepsPerPx = 16.0;
+
 struct DenseStereoOptions {
   int block_size_px = 5;             // odd, in [3, 11]: SGBM's matching window
   // The search around level ground: disparities of level ground times

@@ -117,6 +117,73 @@ double CornerParallaxPx(const RoiPixels& roi, const calib::CameraModel& camera, 
   return largest;
 }
 
+// Camera-2 points' pixels and the projection's Jacobians d pixel / d point
+// (forward differences of h = 1e-7 times the point's distance, at least
+// 1e-7 m), for the points with use[k]; valid[k] is 1 where the point and its
+// three steps project.
+struct Projections {
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<Eigen::Matrix<double, 2, 3>> jacobians;
+  std::vector<unsigned char> valid;
+};
+
+Projections ProjectWithJacobians(const calib::CameraModel& camera, const std::vector<Eigen::Vector3d>& in_cam2,
+                                 const std::vector<unsigned char>& use) {
+  const size_t n = in_cam2.size();
+  std::vector<Eigen::Vector3d> points(4 * n);
+  std::vector<double> steps(n, 0.0);
+  for (size_t k = 0; k < n; ++k) {
+    if (!use[k]) continue;
+    const Eigen::Vector3d& x2 = in_cam2[k];
+    const double h = 1e-7 * std::max(1.0, x2.norm());
+    steps[k] = h;
+    points[4 * k] = x2;
+    for (int j = 0; j < 3; ++j) points[4 * k + 1 + j] = x2 + h * Eigen::Vector3d::Unit(j);
+  }
+  std::vector<Eigen::Vector2d> projected;
+  std::vector<unsigned char> valid;
+  camera.Project(points, &projected, &valid);
+  Projections out;
+  out.pixels.resize(n, Eigen::Vector2d::Zero());
+  out.jacobians.resize(n, Eigen::Matrix<double, 2, 3>::Zero());
+  out.valid.assign(n, 0);
+  for (size_t k = 0; k < n; ++k) {
+    if (!use[k] || !valid[4 * k] || !valid[4 * k + 1] || !valid[4 * k + 2] || !valid[4 * k + 3]) continue;
+    out.valid[k] = 1;
+    out.pixels[k] = projected[4 * k];
+    for (int j = 0; j < 3; ++j) out.jacobians[k].col(j) = (projected[4 * k + 1 + j] - projected[4 * k]) / steps[k];
+  }
+  return out;
+}
+
+// The ROI's pixels on plane p: each one's point in camera 1 and in camera 2
+// (in_front[k] 0, and nothing else set, where its ray meets the plane behind
+// camera 1).
+struct PointsOnPlane {
+  std::vector<Eigen::Vector3d> in_cam1, in_cam2;
+  std::vector<unsigned char> in_front;
+  int behind = 0;
+};
+
+PointsOnPlane OnPlane(const RoiPixels& roi, const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& p) {
+  const size_t n = roi.bearings.size();
+  PointsOnPlane out;
+  out.in_cam1.resize(n);
+  out.in_cam2.resize(n);
+  out.in_front.assign(n, 0);
+  for (size_t k = 0; k < n; ++k) {
+    const double pb = p.dot(roi.bearings[k]);
+    if (!(pb > 0.0)) {
+      ++out.behind;
+      continue;
+    }
+    out.in_front[k] = 1;
+    out.in_cam1[k] = roi.bearings[k] / pb;
+    out.in_cam2[k] = cam2_from_cam1 * out.in_cam1[k];
+  }
+  return out;
+}
+
 // One linearisation of the problem at plane p (parameterised as p = scale *
 // q), gain and offset: the residuals and their Jacobian rows of the pixels
 // that land inside image 2.
@@ -131,41 +198,16 @@ Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraMode
                         double offset, const Eigen::Matrix2d& image1_from_image2) {
   const Eigen::Matrix3d R = cam2_from_cam1.RotationMatrix();
   const size_t n = roi.bearings.size();
-  // Each point in camera 2 and, for the projection's Jacobian, the same point
-  // moved by h along each axis.
-  std::vector<Eigen::Vector3d> points(4 * n);
-  std::vector<Eigen::Vector3d> in_cam1(n);
-  std::vector<double> steps(n, 0.0);
-  std::vector<unsigned char> front(n, 0);
+  const PointsOnPlane on_plane = OnPlane(roi, cam2_from_cam1, p);
+  const Projections projections = ProjectWithJacobians(camera, on_plane.in_cam2, on_plane.in_front);
   Linearisation out;
-  for (size_t k = 0; k < n; ++k) {
-    const double pb = p.dot(roi.bearings[k]);
-    if (!(pb > 0.0)) {
-      ++out.behind;
-      continue;
-    }
-    front[k] = 1;
-    in_cam1[k] = roi.bearings[k] / pb;
-    const Eigen::Vector3d x2 = cam2_from_cam1 * in_cam1[k];
-    const double h = 1e-7 * std::max(1.0, x2.norm());
-    steps[k] = h;
-    points[4 * k] = x2;
-    for (int j = 0; j < 3; ++j) points[4 * k + 1 + j] = x2 + h * Eigen::Vector3d::Unit(j);
-  }
-  std::vector<Eigen::Vector2d> projected;
-  std::vector<unsigned char> valid;
-  camera.Project(points, &projected, &valid);
+  out.behind = on_plane.behind;
   out.residuals.reserve(n);
   out.jacobians.reserve(n);
   for (size_t k = 0; k < n; ++k) {
-    if (!front[k]) continue;
-    const Eigen::Vector2d& q = projected[4 * k];
-    if (!valid[4 * k] || !valid[4 * k + 1] || !valid[4 * k + 2] || !valid[4 * k + 3] ||
-        !InsideSpline(images.spline2, q.x(), q.y())) {
-      continue;
-    }
-    Eigen::Matrix<double, 2, 3> dq_dx2;
-    for (int j = 0; j < 3; ++j) dq_dx2.col(j) = (projected[4 * k + 1 + j] - q) / steps[k];
+    const Eigen::Vector2d& q = projections.pixels[k];
+    if (!projections.valid[k] || !InsideSpline(images.spline2, q.x(), q.y())) continue;
+    const Eigen::Matrix<double, 2, 3>& dq_dx2 = projections.jacobians[k];
     const SplineSample sample = SampleCubicSpline(images.spline2, q.x(), q.y());
     // Image 2's gradient from image 1's (central differences, which leave
     // out the pixel's own value) through the ROI's warp: noise-free of the
@@ -176,7 +218,7 @@ Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraMode
     const Eigen::RowVector2d g = gain * roi.gradients1[k] * image1_from_image2;
     const Eigen::Vector3d& b = roi.bearings[k];
     // X = b / (p . b): dX/dp = -X b^T / (p . b); p = scale * q.
-    const Eigen::Matrix3d dx_dp = -in_cam1[k] * b.transpose() / p.dot(b);
+    const Eigen::Matrix3d dx_dp = -on_plane.in_cam1[k] * b.transpose() / p.dot(b);
     Vector5d row;
     row.head<3>() = (g * dq_dx2 * R * dx_dp * scale).transpose();
     row(3) = -roi.values1[k];
@@ -265,19 +307,26 @@ double SearchScale(const DirectPlaneImages& images, const calib::CameraModel& ca
 // Huber weight of a residual for width k.
 double HuberWeight(double r, double k) { return std::abs(r) <= k ? 1.0 : k / std::abs(r); }
 
+// The larger semi-axis of the 1-sigma uncertainty of plane p's unit normal
+// (the covariance of p propagated to it), degrees.
+double NormalSigmaDeg(const Eigen::Vector3d& p, const Eigen::Matrix3d& covariance) {
+  const Eigen::Vector3d n = p.normalized();
+  const Eigen::Matrix3d j = (Eigen::Matrix3d::Identity() - n * n.transpose()) / p.norm();
+  const Eigen::Matrix3d c = j * covariance * j.transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(0.5 * (c + c.transpose()));
+  const double largest = std::max(0.0, eigen.eigenvalues().maxCoeff());
+  return std::sqrt(largest) * util::kRadToDeg;
+}
+
 // The slope of plane p against up_in_cam1 and the larger semi-axis of its
-// normal's uncertainty (covariance of p propagated to the unit normal).
+// normal's uncertainty.
 void SlopeAndSigma(const Eigen::Vector3d& p, const Eigen::Matrix3d& covariance, const Eigen::Vector3d& up,
                    DirectPlaneResult* result) {
   Eigen::Vector3d n = p.normalized();
   if (n.dot(up) < 0.0) n = -n;  // p points from camera 1 to the plane; the surface normal points up
   result->up_normal_in_cam1 = n;
   result->slope_deg = std::acos(std::clamp(n.dot(up), -1.0, 1.0)) * util::kRadToDeg;
-  const Eigen::Matrix3d j = (Eigen::Matrix3d::Identity() - n * n.transpose()) / p.norm();
-  const Eigen::Matrix3d c = j * covariance * j.transpose();
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(0.5 * (c + c.transpose()));
-  const double largest = std::max(0.0, eigen.eigenvalues().maxCoeff());
-  result->slope_sigma_deg = std::sqrt(largest) * util::kRadToDeg;
+  result->slope_sigma_deg = NormalSigmaDeg(p, covariance);
 }
 
 // What one fit works on: the pair, the ROI's pixels and the starting plane's
@@ -479,6 +528,56 @@ void FinishAtSolution(const Problem& problem, const State& state, const Eigen::V
   result->status = DirectPlaneStatus::kOk;
 }
 
+// The slope sigma (degrees) the pose's parallax alone leaves plane p of the
+// ROI: each of its pixels that lands in image 2 located there to
+// precision_px, and nothing else known (no texture, no noise, no brightness
+// model). A pixel's image-2 motion with the plane is along its epipolar
+// line, so the precision is along that line. +infinity when the motion does
+// not constrain every direction of the plane.
+double ParallaxSlopeSigmaDeg(const Problem& problem, const Eigen::Vector3d& p, double precision_px) {
+  const PointsOnPlane on_plane = OnPlane(problem.roi, *problem.cam2_from_cam1, p);
+  const Projections projections = ProjectWithJacobians(*problem.camera, on_plane.in_cam2, on_plane.in_front);
+  const Eigen::Matrix3d R = problem.cam2_from_cam1->RotationMatrix();
+  Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  for (size_t k = 0; k < problem.roi.bearings.size(); ++k) {
+    const Eigen::Vector2d& q = projections.pixels[k];
+    if (!projections.valid[k] || !InsideSpline(problem.images->spline2, q.x(), q.y())) continue;
+    const Eigen::Vector3d& b = problem.roi.bearings[k];
+    const Eigen::Matrix3d dx_dp = -on_plane.in_cam1[k] * b.transpose() / p.dot(b);
+    const Eigen::Matrix<double, 2, 3> dq_dp = projections.jacobians[k] * R * dx_dp;
+    information.noalias() += dq_dp.transpose() * dq_dp;
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(information);
+  const Eigen::Vector3d values = eigen.eigenvalues();
+  if (!(values.minCoeff() > 1e-12 * values.maxCoeff()) || !std::isfinite(values.maxCoeff())) {
+    return std::numeric_limits<double>::infinity();
+  }
+  const Eigen::Matrix3d covariance = precision_px * precision_px * eigen.eigenvectors() *
+                                     values.cwiseInverse().asDiagonal() * eigen.eigenvectors().transpose();
+  return NormalSigmaDeg(p, covariance);
+}
+
+// A fit that found no texture or diverged, on a pair whose parallax alone
+// would leave the slope over the bound with every pixel located to
+// parallax_precision_px, is low parallax: the cause is the geometry, which
+// no texture would overcome.
+void AttributeToParallax(const Problem& problem, const Eigen::Vector3d& start, DirectPlaneResult* result) {
+  const DirectPlaneOptions& options = *problem.options;
+  result->parallax_slope_sigma_deg = ParallaxSlopeSigmaDeg(problem, start, options.parallax_precision_px);
+  if (result->parallax_slope_sigma_deg <= options.max_slope_sigma_deg) return;
+  std::ostringstream reason;
+  reason << "the nav pose's parallax (baseline " << util::FixedText(problem.cam2_from_cam1->Inverse().translation.norm(), 3)
+         << " m) leaves the slope uncertain by "
+         << (std::isfinite(result->parallax_slope_sigma_deg)
+                 ? util::FixedText(result->parallax_slope_sigma_deg, 1) + " deg"
+                 : std::string("any angle"))
+         << " on the starting plane even with every pixel located to "
+         << util::FixedText(options.parallax_precision_px, 4) << " px (at most "
+         << util::FixedText(options.max_slope_sigma_deg, 2) << " deg); the fit: " << result->reason;
+  result->status = DirectPlaneStatus::kLowParallax;
+  result->reason = reason.str();
+}
+
 }  // namespace
 
 std::vector<std::string> DirectPlaneOptions::Validate() const {
@@ -492,6 +591,8 @@ std::vector<std::string> DirectPlaneOptions::Validate() const {
                 min_overlap_fraction, "in (0, 1]", &errors);
   RequireOption(min_pixels >= 8, "min_pixels", min_pixels, ">= 8", &errors);
   RequireOption(max_slope_sigma_deg > 0, "max_slope_sigma_deg", max_slope_sigma_deg, "> 0 (degrees)", &errors);
+  RequireOption(parallax_precision_px > 0, "parallax_precision_px", parallax_precision_px, "> 0 (pixels)",
+                &errors);
   return errors;
 }
 
@@ -567,8 +668,10 @@ DirectPlaneResult FitPlaneDirect(const DirectPlaneImages& images, const calib::C
     result.reason = "the starting plane puts the ROI behind a camera";
     return result;
   }
-  if (!Iterate(problem, &state, &result)) return result;
-  FinishAtSolution(problem, state, up_in_cam1, &result);
+  if (Iterate(problem, &state, &result)) FinishAtSolution(problem, state, up_in_cam1, &result);
+  if (result.status == DirectPlaneStatus::kNoTexture || result.status == DirectPlaneStatus::kDiverged) {
+    AttributeToParallax(problem, initial_plane_in_cam1, &result);
+  }
   return result;
 }
 

@@ -59,6 +59,14 @@ struct DirectPlaneOptions {
   // pixels do not constrain the plane (uniform, or gradients only across the
   // epipolar direction).
   double max_slope_sigma_deg = 3.0;  // > 0, degrees
+  // An ROI the fit leaves "no texture" or "diverged" is "low parallax"
+  // instead where the pose's parallax alone, on the starting plane, would leave its slope
+  // more uncertain than max_slope_sigma_deg even with every pixel located
+  // in image 2 to this precision: then no texture would give a slope, and
+  // the cause is the geometry. The default is dense-nav's disparity step
+  // (kDisparityStepsPerPx), so that both references call the same geometry
+  // low parallax.
+  double parallax_precision_px = 1.0 / 16.0;  // > 0, pixels
 
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;
@@ -72,7 +80,9 @@ enum class DirectPlaneStatus {
                     // did not converge within max_iterations
   kLowParallax,     // "low parallax": the pose moves no corner of the ROI by convergence_px
                     // between the starting plane and infinity (no baseline across its lines of
-                    // sight): every plane maps the ROI alike
+                    // sight): every plane maps the ROI alike; or the fit found no texture or
+                    // diverged where the parallax alone leaves the slope unobservable
+                    // (parallax_precision_px)
 };
 const char* ToString(DirectPlaneStatus status);
 
@@ -88,6 +98,10 @@ struct DirectPlaneResult {
   Eigen::Vector3d up_normal_in_cam1 = Eigen::Vector3d::Zero();  // the plane's unit normal, up
   double slope_deg = 0.0;            // angle between the plane and the level
   double slope_sigma_deg = 0.0;      // the larger semi-axis of the normal's 1-sigma uncertainty
+  // Where the fit found no texture or diverged: the slope sigma the pose's parallax alone
+  // leaves the starting plane with every pixel located to
+  // parallax_precision_px (infinity without parallax); 0 elsewhere.
+  double parallax_slope_sigma_deg = 0.0;
   int pixels = 0;                    // pixels used at the solution
   double search_scale = 1.0;         // the search's factor on the starting inverse distance
   // The ROI's pixel rays on the fitted plane, in camera 1 (metres): the

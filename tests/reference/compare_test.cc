@@ -569,13 +569,16 @@ TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
 // px step), has plenty of points per ROI but no slope to stand by: its
 // disparity step alone leaves each ROI's slope uncertain by 20-30 deg.
 // Without that bound its planes were noise (a 64 deg median slope error).
-TEST(CompareWithoutMotion, DenseNavIsLowParallaxWhereTheDisparityStepLeavesNoSlope) {
+// plane-nav's fits find no slope either (sigmas of 12-30 deg); the
+// parallax alone, with every pixel located to the same 1/16 px, leaves
+// 7-12 deg, so the cause it gives is the parallax, not the texture.
+TEST(CompareWithoutMotion, TheNavReferencesAreLowParallaxWhereTheParallaxLeavesNoSlope) {
   const fs::path out = FreshTestDir();
   CommandResult result = RunHdabench({"synth", "--out", (out / "pair").string(), "--image-size", "512", "--set",
                                       "speed_mps=0", "--quiet"},
                                      out);
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  result = RunHdabench({"compare", (out / "pair").string(), "--methods", "flight,flight-refined,dense-nav",
+  result = RunHdabench({"compare", (out / "pair").string(), "--methods", "flight,flight-refined,dense-nav,plane-nav",
                         "--out", (out / "cmp").string(), "--no-figures", "--no-report"},
                        out);
   ASSERT_EQ(result.exit_code, 0) << result.err;
@@ -595,9 +598,17 @@ TEST(CompareWithoutMotion, DenseNavIsLowParallaxWhereTheDisparityStepLeavesNoSlo
     EXPECT_NE(dense["reason"].get<std::string>().find("disparity step alone leaves their slope uncertain by"),
               std::string::npos)
         << dense["reason"];
+    const auto& plane = methods["plane-nav"];
+    EXPECT_EQ(plane["status"], "low parallax") << roi["id"] << ": " << plane["reason"];
+    EXPECT_TRUE(plane["slope_deg"].is_null()) << roi["id"];
+    EXPECT_NE(plane["reason"].get<std::string>().find("the nav pose's parallax (baseline "), std::string::npos)
+        << plane["reason"];
   }
   const std::string summary = testing_support::ReadText(out / "cmp" / "compare.md");
-  EXPECT_NE(summary.find(std::to_string(json["rois"].size()) + " ROIs not fitted: low parallax (the disparity step"),
+  const std::string rois = std::to_string(json["rois"].size());
+  EXPECT_NE(summary.find(rois + " ROIs not fitted: low parallax (the disparity step"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("- plane-nav: 0 planes, 0 converged within 30 iterations; " + rois +
+                         " ROIs not fitted: low parallax (the nav pose's parallax leaves their plane unobservable)"),
             std::string::npos)
       << summary;
 }

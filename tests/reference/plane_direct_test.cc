@@ -23,10 +23,24 @@ DirectPlaneImages ExactImages(const Scene& scene) {
 }
 
 DirectPlaneResult Fit(const Scene& scene, double sigma_dn, const cv::Rect& box,
-                      const Eigen::Vector3d& start = Eigen::Vector3d(0.0, 0.0, 1.0 / 90.0)) {
+                      const Eigen::Vector3d& start = Eigen::Vector3d(0.0, 0.0, 1.0 / 90.0),
+                      const DirectPlaneOptions& options = DirectPlaneOptions()) {
   const DirectPlaneImages images =
       PrepareDirectPlaneImages(Render(scene, Rigid3d(), sigma_dn, 1), Render(scene, scene.cam2_from_cam1, sigma_dn, 2));
-  return FitPlaneDirect(images, Camera(), box, scene.cam2_from_cam1, start, scene.up, DirectPlaneOptions());
+  return FitPlaneDirect(images, Camera(), box, scene.cam2_from_cam1, start, scene.up, options);
+}
+
+// The slope's uncertainty the parallax alone leaves a square box of side w
+// px whose N pixels are each located along the epipolar line to
+// precision_px: a least-squares plane's disparity gradient is then
+// uncertain by precision_px sqrt(12 / N) / w per pixel, and a slope of
+// tangent t changes the disparity d = f B / Z by d t / f per pixel, so
+// sigma = precision_px sqrt(12 / N) f / (w d) radians (to first order).
+// It is taken on the fit's starting plane: level, 90 m from camera 1.
+double ParallaxSigmaRad(double baseline_m, int side_px, double precision_px) {
+  const double disparity_px = textured_plane::kFocalPx * baseline_m / 90.0;
+  const double n = static_cast<double>(side_px) * side_px;
+  return precision_px * std::sqrt(12.0 / n) * textured_plane::kFocalPx / (side_px * disparity_px);
 }
 
 // Without noise the plane comes back to a hundredth of a degree, from a
@@ -70,6 +84,43 @@ TEST(FitPlaneDirect, AnUntexturedRoiIsNoTextureNeverANumber) {
   EXPECT_STREQ(ToString(fit.status), "no texture");
   EXPECT_FALSE(fit.reason.empty());
   EXPECT_TRUE(std::isfinite(fit.slope_deg));
+  // The 5 m baseline's parallax would give a slope (0.1 deg at 1/16 px per
+  // pixel): the cause is the texture.
+  const double precision_px = DirectPlaneOptions().parallax_precision_px;
+  EXPECT_NEAR(fit.parallax_slope_sigma_deg * util::kDegToRad / ParallaxSigmaRad(5.0, 48, precision_px), 1.0,
+              0.05);
+  EXPECT_LT(fit.parallax_slope_sigma_deg, DirectPlaneOptions().max_slope_sigma_deg);
+}
+
+// A hundredth of the baseline (0.4 px of disparity, corners still moving
+// far more than convergence_px between the plane and infinity): the noisy
+// fit's own sigma is far over the bound, and the parallax alone leaves the
+// slope about 10 deg uncertain at 1/16 px per pixel, so no texture would
+// have given one: the ROI is low parallax, not no texture. The attribution
+// follows parallax_precision_px: at a hundredth of it the geometry would
+// allow a slope, and the texture is blamed.
+TEST(FitPlaneDirect, APairWhoseParallaxLeavesNoSlopeIsLowParallaxNotNoTexture) {
+  Scene scene;
+  scene.cam2_from_cam1.translation = Eigen::Vector3d(-0.05, 0.0, 0.0);
+  const cv::Rect box(104, 104, 48, 48);
+  const DirectPlaneOptions options;
+  const DirectPlaneResult fit = Fit(scene, 1.0, box, Eigen::Vector3d(0.0, 0.0, 1.0 / 90.0), options);
+  EXPECT_EQ(fit.status, DirectPlaneStatus::kLowParallax) << fit.reason;
+  EXPECT_NE(fit.reason.find("the nav pose's parallax (baseline 0.050 m)"), std::string::npos) << fit.reason;
+  EXPECT_NE(fit.reason.find("the fit: "), std::string::npos) << fit.reason;
+  EXPECT_NEAR(fit.parallax_slope_sigma_deg * util::kDegToRad / ParallaxSigmaRad(0.05, 48, options.parallax_precision_px),
+              1.0, 0.05);
+  EXPECT_GT(fit.parallax_slope_sigma_deg, options.max_slope_sigma_deg);
+  EXPECT_TRUE(fit.points_in_cam1.empty());
+  EXPECT_TRUE(std::isfinite(fit.slope_deg));
+
+  DirectPlaneOptions sharper = options;
+  sharper.parallax_precision_px = options.parallax_precision_px / 100.0;
+  const DirectPlaneResult blamed = Fit(scene, 1.0, box, Eigen::Vector3d(0.0, 0.0, 1.0 / 90.0), sharper);
+  EXPECT_TRUE(blamed.status == DirectPlaneStatus::kNoTexture || blamed.status == DirectPlaneStatus::kDiverged)
+      << ToString(blamed.status) << ": " << blamed.reason;
+  EXPECT_LT(blamed.parallax_slope_sigma_deg, options.max_slope_sigma_deg);
+  EXPECT_NEAR(blamed.parallax_slope_sigma_deg / fit.parallax_slope_sigma_deg, 0.01, 1e-9);
 }
 
 // Camera 2 sees the scene 40 px further left: a box at the left edge of
@@ -121,6 +172,11 @@ TEST(FitPlaneDirect, BadInputsAreInputErrors) {
   const DirectPlaneImages images = ExactImages(scene);
   DirectPlaneOptions options;
   options.max_iterations = 0;
+  EXPECT_THROW(FitPlaneDirect(images, Camera(), cv::Rect(0, 0, 8, 8), scene.cam2_from_cam1, scene.plane, scene.up,
+                              options),
+               InputError);
+  options = DirectPlaneOptions();
+  options.parallax_precision_px = 0.0;
   EXPECT_THROW(FitPlaneDirect(images, Camera(), cv::Rect(0, 0, 8, 8), scene.cam2_from_cam1, scene.plane, scene.up,
                               options),
                InputError);

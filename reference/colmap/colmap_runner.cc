@@ -1133,7 +1133,9 @@ void ReconstructFree(const ColmapRun& run, const fs::path& database, Clock::time
   std::string failure;
   ColmapModel model;
   if (!run.steps->Run("mapper", args, &failure)) {
-    Fail(&free_result, failure);
+    const std::string why =
+        MapperInitialisationFailure(run.options, ReadLog(run.steps->LastLog()), run.steps->LastLog());
+    Fail(&free_result, why.empty() ? failure : why);
   } else if (!fs::is_directory(free_dir / "0")) {
     Fail(&free_result, "colmap mapper: no model written in " + free_dir.string() +
                     " (log: " + run.steps->LastLog() + ")");
@@ -1177,6 +1179,40 @@ std::vector<std::string> ColmapOptions::Validate() const {
   RequireOption(init_min_num_inliers >= 10, "init_min_num_inliers", init_min_num_inliers, ">= 10",
                 &errors);
   return errors;
+}
+
+std::string MapperInitialisationFailure(const ColmapOptions& options, const std::string& log,
+                                        const std::string& log_path) {
+  const auto count = [&log](const std::string& line) {
+    int n = 0;
+    for (size_t at = log.find(line); at != std::string::npos; at = log.find(line, at + line.size())) ++n;
+    return n;
+  };
+  if (count("Initializing with image pair") == 0 || count("failed to create sparse model") == 0) return "";
+  const int tries = 1 + count("Relaxing the initialization constraints");
+  int inliers = options.init_min_num_inliers;
+  double angle_deg = options.init_min_tri_angle_deg;
+  for (int relaxation = 1; relaxation < tries; ++relaxation) {
+    if (relaxation % 2 == 1) {
+      inliers /= 2;
+    } else {
+      angle_deg /= 2.0;
+    }
+  }
+  std::ostringstream reason;
+  reason << "colmap mapper: no initial pose from images 1 and 2 (COLMAP's initialisation failed ";
+  if (tries == 1) {
+    reason << "once, asking for " << inliers << " inliers and a triangulation angle of "
+           << util::ShortestText(angle_deg) << " deg";
+  } else {
+    reason << tries << " times, the last asking for " << inliers << " inliers and a triangulation angle of "
+           << util::ShortestText(angle_deg) << " deg, relaxed from " << options.init_min_num_inliers << " and "
+           << util::ShortestText(options.init_min_tri_angle_deg) << " deg";
+  }
+  reason << ": too few matches agree on a pose, the images have too little parallax, or the motion is too "
+            "close to the line of sight; log: "
+         << log_path << ")";
+  return reason.str();
 }
 
 ColmapCameraParams ToColmapCamera(const calib::CameraModel& camera) {

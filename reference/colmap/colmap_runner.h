@@ -257,6 +257,16 @@ struct ColmapResults {
 // the other method still runs where it can.
 ColmapResults RunColmap(const ColmapInput& input, const ColmapOptions& options);
 
+// colmap-free's failure when COLMAP's mapper could not start a model from
+// images 1 and 2, read from the mapper's log (COLMAP 3.8): it tries the pair
+// with init_min_num_inliers and init_min_tri_angle_deg, then up to four
+// times more (each "Relaxing the initialization constraints"), halving the
+// inliers and the angle in turn, and exits with "failed to create sparse
+// model". The reason names the tries and the last constraints asked for.
+// Empty when the log does not show that failure.
+std::string MapperInitialisationFailure(const ColmapOptions& options, const std::string& log,
+                                        const std::string& log_path);
+
 // The COLMAP camera (model name and parameters, COLMAP pixel convention) for
 // an mrcal model whose lens model has a COLMAP equivalent. Throws
 // UnsupportedError naming the lens model and saying why for any other.

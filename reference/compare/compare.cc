@@ -1021,6 +1021,7 @@ void FillWholePairMethod(const std::string& method, const PairReconstruction& re
   if (method == kMethodFlightRefined) {
     summary->note = whole.refine_note;
     if (recon.ok) PassOnFlightReasons(run.flight.result, rois);
+    NoteLowParallax(*rois, "the flight method found their depth unobservable under the nav pose", summary);
   }
   if (!recon.log_dir.empty()) summary->note = "logs: " + recon.log_dir;
   if ((method == kMethodColmapNav || method == kMethodColmapFree) && !whole.colmap_note.empty()) {

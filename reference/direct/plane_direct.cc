@@ -533,12 +533,13 @@ void FinishAtSolution(const Problem& problem, const State& state, const Eigen::V
 // precision_px, and nothing else known (no texture, no noise, no brightness
 // model). A pixel's image-2 motion with the plane is along its epipolar
 // line, so the precision is along that line. +infinity when the motion does
-// not constrain every direction of the plane.
-double ParallaxSlopeSigmaDeg(const Problem& problem, const Eigen::Vector3d& p, double precision_px) {
+// not constrain every direction of the plane; *pixels: the pixels counted.
+double ParallaxSlopeSigmaDeg(const Problem& problem, const Eigen::Vector3d& p, double precision_px, int* pixels) {
   const PointsOnPlane on_plane = OnPlane(problem.roi, *problem.cam2_from_cam1, p);
   const Projections projections = ProjectWithJacobians(*problem.camera, on_plane.in_cam2, on_plane.in_front);
   const Eigen::Matrix3d R = problem.cam2_from_cam1->RotationMatrix();
   Eigen::Matrix3d information = Eigen::Matrix3d::Zero();
+  *pixels = 0;
   for (size_t k = 0; k < problem.roi.bearings.size(); ++k) {
     const Eigen::Vector2d& q = projections.pixels[k];
     if (!projections.valid[k] || !InsideSpline(problem.images->spline2, q.x(), q.y())) continue;
@@ -546,6 +547,7 @@ double ParallaxSlopeSigmaDeg(const Problem& problem, const Eigen::Vector3d& p, d
     const Eigen::Matrix3d dx_dp = -on_plane.in_cam1[k] * b.transpose() / p.dot(b);
     const Eigen::Matrix<double, 2, 3> dq_dp = projections.jacobians[k] * R * dx_dp;
     information.noalias() += dq_dp.transpose() * dq_dp;
+    ++*pixels;
   }
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(information);
   const Eigen::Vector3d values = eigen.eigenvalues();
@@ -557,22 +559,33 @@ double ParallaxSlopeSigmaDeg(const Problem& problem, const Eigen::Vector3d& p, d
   return NormalSigmaDeg(p, covariance);
 }
 
-// A fit that found no texture or diverged, on a pair whose parallax alone
+// A fit that gave no slope within the bound (it found no texture, or
+// diverged without a sigma under the bound), on a pair whose parallax alone
 // would leave the slope over the bound with every pixel located to
 // parallax_precision_px, is low parallax: the cause is the geometry, which
-// no texture would overcome.
+// no texture would overcome. The parallax is judged on the starting plane,
+// with as many of the ROI's pixels in image 2 as the fit needs; with fewer
+// (at the overlap's edge) the fit's status stands.
 void AttributeToParallax(const Problem& problem, const Eigen::Vector3d& start, DirectPlaneResult* result) {
   const DirectPlaneOptions& options = *problem.options;
-  result->parallax_slope_sigma_deg = ParallaxSlopeSigmaDeg(problem, start, options.parallax_precision_px);
-  if (result->parallax_slope_sigma_deg <= options.max_slope_sigma_deg) return;
+  if (std::isfinite(result->slope_sigma_deg) && result->slope_sigma_deg > 0.0 &&
+      result->slope_sigma_deg <= options.max_slope_sigma_deg) {
+    return;  // the fit's own sigma was under the bound: a plane that did not settle, not a geometry without one
+  }
+  int pixels = 0;
+  const double sigma_deg = ParallaxSlopeSigmaDeg(problem, start, options.parallax_precision_px, &pixels);
+  if (pixels < options.min_pixels ||
+      static_cast<double>(pixels) < options.min_overlap_fraction * static_cast<double>(problem.roi.bearings.size())) {
+    return;
+  }
+  result->parallax_slope_sigma_deg = sigma_deg;
+  if (sigma_deg <= options.max_slope_sigma_deg) return;
   std::ostringstream reason;
-  reason << "the nav pose's parallax (baseline " << util::FixedText(problem.cam2_from_cam1->Inverse().translation.norm(), 3)
+  reason << "the nav pose's parallax (baseline " << problem.cam2_from_cam1->Inverse().translation.norm()
          << " m) leaves the slope uncertain by "
-         << (std::isfinite(result->parallax_slope_sigma_deg)
-                 ? util::FixedText(result->parallax_slope_sigma_deg, 1) + " deg"
-                 : std::string("any angle"))
-         << " on the starting plane even with every pixel located to "
-         << util::FixedText(options.parallax_precision_px, 4) << " px (at most "
+         << (sigma_deg < 90.0 ? util::FixedText(sigma_deg, 1) + " deg" : std::string("any angle"))
+         << " on the starting plane even with each of its " << pixels << " pixels located to "
+         << util::ShortestText(options.parallax_precision_px) << " px in image 2 (at most "
          << util::FixedText(options.max_slope_sigma_deg, 2) << " deg); the fit: " << result->reason;
   result->status = DirectPlaneStatus::kLowParallax;
   result->reason = reason.str();

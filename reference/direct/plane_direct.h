@@ -57,15 +57,16 @@ struct DirectPlaneOptions {
   int min_pixels = 64;              // >= 8: pixels needed at all
   // An ROI whose predicted slope sigma exceeds this is "no texture": its
   // pixels do not constrain the plane (uniform, or gradients only across the
-  // epipolar direction).
+  // epipolar direction); or "low parallax" (parallax_precision_px).
   double max_slope_sigma_deg = 3.0;  // > 0, degrees
-  // An ROI the fit leaves "no texture" or "diverged" is "low parallax"
-  // instead where the pose's parallax alone, on the starting plane, would leave its slope
-  // more uncertain than max_slope_sigma_deg even with every pixel located
+  // An ROI the fit leaves without a slope within max_slope_sigma_deg ("no
+  // texture", or "diverged" without a sigma under it) is "low parallax"
+  // instead where the pose's parallax alone, on the starting plane, would
+  // leave its slope more uncertain than that even with every pixel located
   // in image 2 to this precision: then no texture would give a slope, and
-  // the cause is the geometry. The default is dense-nav's disparity step
-  // (kDisparityStepsPerPx), so that both references call the same geometry
-  // low parallax.
+  // the cause is the geometry. The default is the step dense-nav's bound
+  // takes (kDisparityStepsPerPx). The bounds are not the same: plane-nav's
+  // support is larger than the ROI, and it judges only fits without a slope.
   double parallax_precision_px = 1.0 / 16.0;  // > 0, pixels
 
   // Every violated constraint, one message each ("field = value: expected ...").
@@ -76,12 +77,12 @@ enum class DirectPlaneStatus {
   kOk,              // "ok"
   kOutsideOverlap,  // "outside overlap": too few of the ROI's pixels project into image 2
   kNoTexture,       // "no texture": the pixels do not constrain the plane
-  kDiverged,        // "diverged": the plane went behind a camera, the solve was singular, or it
+  kDiverged,        // "diverged": the plane went behind a camera, a step was not finite, or it
                     // did not converge within max_iterations
   kLowParallax,     // "low parallax": the pose moves no corner of the ROI by convergence_px
                     // between the starting plane and infinity (no baseline across its lines of
-                    // sight): every plane maps the ROI alike; or the fit found no texture or
-                    // diverged where the parallax alone leaves the slope unobservable
+                    // sight): every plane maps the ROI alike; or the fit gave no slope within
+                    // max_slope_sigma_deg where the parallax alone leaves it unobservable
                     // (parallax_precision_px)
 };
 const char* ToString(DirectPlaneStatus status);
@@ -98,7 +99,8 @@ struct DirectPlaneResult {
   Eigen::Vector3d up_normal_in_cam1 = Eigen::Vector3d::Zero();  // the plane's unit normal, up
   double slope_deg = 0.0;            // angle between the plane and the level
   double slope_sigma_deg = 0.0;      // the larger semi-axis of the normal's 1-sigma uncertainty
-  // Where the fit found no texture or diverged: the slope sigma the pose's parallax alone
+  // Where the fit gave no slope within max_slope_sigma_deg and enough of the
+  // ROI's pixels land in image 2: the slope sigma the pose's parallax alone
   // leaves the starting plane with every pixel located to
   // parallax_precision_px (infinity without parallax); 0 elsewhere.
   double parallax_slope_sigma_deg = 0.0;

@@ -605,5 +605,50 @@ TEST(ToColmapCamera, ConvertsOpenCvFamiliesAndRefusesOthers) {
   }
 }
 
+// The mapper's log on a pair it cannot start from (as COLMAP 3.8 writes it):
+// the tries are the first and one per relaxation, which halves the inliers
+// and the angle in turn. A try discarded after its bundle adjustment prints
+// no "Initialization failed", so the relaxations are what is counted.
+std::string MapperLog(int relaxations, int reported_failures, bool gave_up) {
+  std::string log = "Loading database\n";
+  for (int i = 0; i <= relaxations; ++i) {
+    if (i > 0) log += "  => Relaxing the initialization constraints.\n";
+    log += "Initializing with image pair #1 and #2\n";
+    if (i < reported_failures) log += "  => Initialization failed - possible solutions:\n";
+  }
+  if (gave_up) log += "ERROR: failed to create sparse model\n";
+  return log;
+}
+
+TEST(MapperInitialisationFailure, NamesTheTriesAndTheLastConstraintsFromTheLog) {
+  ColmapOptions options;
+  options.init_min_num_inliers = 50;
+  options.init_min_tri_angle_deg = 1.0;
+  std::string why = MapperInitialisationFailure(options, MapperLog(4, 5, true), "05-mapper.log");
+  EXPECT_NE(why.find("colmap mapper: no initial pose from images 1 and 2 (COLMAP's initialisation failed 5 times, "
+                     "the last asking for 12 inliers and a triangulation angle of 0.25 deg, relaxed from 50 and 1 "
+                     "deg: "),
+            std::string::npos)
+      << why;
+  EXPECT_NE(why.find("; log: 05-mapper.log)"), std::string::npos) << why;
+  // Two tries discarded after their bundle adjustment (no "failed" line):
+  // still five tries.
+  EXPECT_EQ(MapperInitialisationFailure(options, MapperLog(4, 3, true), "05-mapper.log"), why);
+  why = MapperInitialisationFailure(options, MapperLog(1, 2, true), "m.log");
+  EXPECT_NE(why.find("failed 2 times, the last asking for 25 inliers and a triangulation angle of 1 deg, relaxed "
+                     "from 50 and 1 deg"),
+            std::string::npos)
+      << why;
+  why = MapperInitialisationFailure(options, MapperLog(0, 1, true), "m.log");
+  EXPECT_NE(why.find("failed once, asking for 50 inliers and a triangulation angle of 1 deg: "), std::string::npos)
+      << why;
+  EXPECT_EQ(why.find("relaxed"), std::string::npos) << why;
+  // Not that failure: a mapper that did not give up, or gave up before
+  // trying the pair, keeps its own message.
+  EXPECT_EQ(MapperInitialisationFailure(options, MapperLog(2, 2, false), "m.log"), "");
+  EXPECT_EQ(MapperInitialisationFailure(options, "Loading database\nERROR: failed to create sparse model\n", "m.log"),
+            "");
+}
+
 }  // namespace
 }  // namespace hdabench::reference

@@ -572,17 +572,30 @@ TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
 // plane-nav's fits find no slope either (sigmas of 12-30 deg); the
 // parallax alone, with every pixel located to the same 1/16 px, leaves
 // 7-12 deg, so the cause it gives is the parallax, not the texture.
+// colmap-free, without the nav pose, finds no initial pose: COLMAP tries the
+// pair five times, relaxing its constraints, and the failure says so.
 TEST(CompareWithoutMotion, TheNavReferencesAreLowParallaxWhereTheParallaxLeavesNoSlope) {
   const fs::path out = FreshTestDir();
   CommandResult result = RunHdabench({"synth", "--out", (out / "pair").string(), "--image-size", "512", "--set",
                                       "speed_mps=0", "--quiet"},
                                      out);
   ASSERT_EQ(result.exit_code, 0) << result.err;
-  result = RunHdabench({"compare", (out / "pair").string(), "--methods", "flight,flight-refined,dense-nav,plane-nav",
-                        "--out", (out / "cmp").string(), "--no-figures", "--no-report"},
+  result = RunHdabench({"compare", (out / "pair").string(), "--methods",
+                        "flight,flight-refined,dense-nav,plane-nav,colmap-free", "--out", (out / "cmp").string(),
+                        "--no-figures", "--no-report"},
                        out);
-  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(result.exit_code, 4) << "a failed method's exit code: " << result.err;
   const nlohmann::json json = nlohmann::json::parse(testing_support::ReadText(out / "cmp" / "compare.json"));
+  for (const auto& m : json["methods"]) {
+    EXPECT_EQ(m["ok"].get<bool>(), m["name"] != "colmap-free") << m["name"];
+    if (m["name"] != "colmap-free") continue;
+    const std::string failure = m["failure"].get<std::string>();
+    EXPECT_NE(failure.find("colmap mapper: no initial pose from images 1 and 2 (COLMAP's initialisation failed 5 "
+                           "times, the last asking for 12 inliers and a triangulation angle of 0.25 deg, relaxed "
+                           "from 50 and 1 deg"),
+              std::string::npos)
+        << failure;
+  }
   const double baseline_m = json["baseline_m"].get<double>();
   EXPECT_GT(baseline_m, 0.01);
   EXPECT_LT(baseline_m, 1.0);
@@ -607,6 +620,11 @@ TEST(CompareWithoutMotion, TheNavReferencesAreLowParallaxWhereTheParallaxLeavesN
   const std::string summary = testing_support::ReadText(out / "cmp" / "compare.md");
   const std::string rois = std::to_string(json["rois"].size());
   EXPECT_NE(summary.find(rois + " ROIs not fitted: low parallax (the disparity step"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("- flight-refined: nothing to refine: too few points: 0 usable of 0, need at least 5; " + rois +
+                         " ROIs not fitted: low parallax (the flight method found their depth unobservable under the "
+                         "nav pose)"),
+            std::string::npos)
+      << summary;
   EXPECT_NE(summary.find("- plane-nav: 0 planes, 0 converged within 30 iterations; " + rois +
                          " ROIs not fitted: low parallax (the nav pose's parallax leaves their plane unobservable)"),
             std::string::npos)

@@ -106,7 +106,7 @@ TEST(FitPlaneDirect, APairWhoseParallaxLeavesNoSlopeIsLowParallaxNotNoTexture) {
   const DirectPlaneOptions options;
   const DirectPlaneResult fit = Fit(scene, 1.0, box, Eigen::Vector3d(0.0, 0.0, 1.0 / 90.0), options);
   EXPECT_EQ(fit.status, DirectPlaneStatus::kLowParallax) << fit.reason;
-  EXPECT_NE(fit.reason.find("the nav pose's parallax (baseline 0.050 m)"), std::string::npos) << fit.reason;
+  EXPECT_NE(fit.reason.find("the nav pose's parallax (baseline 0.05 m)"), std::string::npos) << fit.reason;
   EXPECT_NE(fit.reason.find("the fit: "), std::string::npos) << fit.reason;
   EXPECT_NEAR(fit.parallax_slope_sigma_deg * util::kDegToRad / ParallaxSigmaRad(0.05, 48, options.parallax_precision_px),
               1.0, 0.05);

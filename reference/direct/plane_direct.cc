@@ -162,7 +162,6 @@ Projections ProjectWithJacobians(const calib::CameraModel& camera, const std::ve
 struct PointsOnPlane {
   std::vector<Eigen::Vector3d> in_cam1, in_cam2;
   std::vector<unsigned char> in_front;
-  int behind = 0;
 };
 
 PointsOnPlane OnPlane(const RoiPixels& roi, const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& p) {
@@ -173,15 +172,18 @@ PointsOnPlane OnPlane(const RoiPixels& roi, const Rigid3d& cam2_from_cam1, const
   out.in_front.assign(n, 0);
   for (size_t k = 0; k < n; ++k) {
     const double pb = p.dot(roi.bearings[k]);
-    if (!(pb > 0.0)) {
-      ++out.behind;
-      continue;
-    }
+    if (!(pb > 0.0)) continue;
     out.in_front[k] = 1;
     out.in_cam1[k] = roi.bearings[k] / pb;
     out.in_cam2[k] = cam2_from_cam1 * out.in_cam1[k];
   }
   return out;
+}
+
+// How the point X = b / (p . b) of a pixel's ray (unit bearing b) on plane
+// p moves with p: dX/dp = -X b^T / (p . b).
+Eigen::Matrix3d PointOnPlaneJacobian(const Eigen::Vector3d& x, const Eigen::Vector3d& b, const Eigen::Vector3d& p) {
+  return -x * b.transpose() / p.dot(b);
 }
 
 // One linearisation of the problem at plane p (parameterised as p = scale *
@@ -190,7 +192,6 @@ PointsOnPlane OnPlane(const RoiPixels& roi, const Rigid3d& cam2_from_cam1, const
 struct Linearisation {
   std::vector<double> residuals;
   std::vector<Vector5d> jacobians;
-  int behind = 0;  // pixels whose ray meets the plane behind camera 1
 };
 
 Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraModel& camera, const RoiPixels& roi,
@@ -201,7 +202,6 @@ Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraMode
   const PointsOnPlane on_plane = OnPlane(roi, cam2_from_cam1, p);
   const Projections projections = ProjectWithJacobians(camera, on_plane.in_cam2, on_plane.in_front);
   Linearisation out;
-  out.behind = on_plane.behind;
   out.residuals.reserve(n);
   out.jacobians.reserve(n);
   for (size_t k = 0; k < n; ++k) {
@@ -217,8 +217,8 @@ Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraMode
     // Image 2 is modelled as gain * image 1: its gradient is gain times image 1's.
     const Eigen::RowVector2d g = gain * roi.gradients1[k] * image1_from_image2;
     const Eigen::Vector3d& b = roi.bearings[k];
-    // X = b / (p . b): dX/dp = -X b^T / (p . b); p = scale * q.
-    const Eigen::Matrix3d dx_dp = -on_plane.in_cam1[k] * b.transpose() / p.dot(b);
+    // p = scale * q.
+    const Eigen::Matrix3d dx_dp = PointOnPlaneJacobian(on_plane.in_cam1[k], b, p);
     Vector5d row;
     row.head<3>() = (g * dq_dx2 * R * dx_dp * scale).transpose();
     row(3) = -roi.values1[k];
@@ -544,7 +544,7 @@ double ParallaxSlopeSigmaDeg(const Problem& problem, const Eigen::Vector3d& p, d
     const Eigen::Vector2d& q = projections.pixels[k];
     if (!projections.valid[k] || !InsideSpline(problem.images->spline2, q.x(), q.y())) continue;
     const Eigen::Vector3d& b = problem.roi.bearings[k];
-    const Eigen::Matrix3d dx_dp = -on_plane.in_cam1[k] * b.transpose() / p.dot(b);
+    const Eigen::Matrix3d dx_dp = PointOnPlaneJacobian(on_plane.in_cam1[k], b, p);
     const Eigen::Matrix<double, 2, 3> dq_dp = projections.jacobians[k] * R * dx_dp;
     information.noalias() += dq_dp.transpose() * dq_dp;
     ++*pixels;

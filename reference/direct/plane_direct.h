@@ -35,6 +35,7 @@
 
 #include "calib/camera_model.h"
 #include "calib/rigid3.h"
+#include "reference/direct/dense_stereo.h"
 
 namespace hdabench::reference {
 
@@ -67,7 +68,7 @@ struct DirectPlaneOptions {
   // the cause is the geometry. The default is the step dense-nav's bound
   // takes (kDisparityStepsPerPx). The bounds are not the same: plane-nav's
   // support is larger than the ROI, and it judges only fits without a slope.
-  double parallax_precision_px = 1.0 / 16.0;  // > 0, pixels
+  double parallax_precision_px = 1.0 / kDisparityStepsPerPx;  // > 0, pixels
 
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;

@@ -1,0 +1,109 @@
+// Large rasters on huge pages: ordinary continuous matrices, on memory aligned
+// to 2 MiB that the kernel was asked to back with huge pages, given back to
+// the kernel when the last reference goes.
+#include "tools/images/huge_pages.h"
+
+#include <cstdint>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <tuple>
+
+#include <gtest/gtest.h>
+#include <opencv2/core.hpp>
+
+namespace hdabench::images {
+namespace {
+
+constexpr std::uintptr_t kHugePageBytes = std::uintptr_t{2} << 20;
+
+// The mapping of /proc/self/smaps that starts at `start`: its lines up to the
+// next mapping, or "" when none starts there.
+std::string MappingAt(std::uintptr_t start) {
+  std::ifstream smaps("/proc/self/smaps");
+  std::ostringstream prefix;
+  prefix << std::hex << start << '-';
+  std::string line;
+  std::string mapping;
+  bool inside = false;
+  while (std::getline(smaps, line)) {
+    // A mapping's first line starts "start-end perms ..."; its other lines
+    // "Key: value".
+    const std::string first = line.substr(0, line.find(' '));
+    if (first.find(':') == std::string::npos) {
+      if (inside) break;
+      inside = line.rfind(prefix.str(), 0) == 0;
+    }
+    if (inside) mapping += line + "\n";
+  }
+  return mapping;
+}
+
+// Whether this kernel gives huge pages to a region that asks (transparent
+// huge pages "always" or "madvise", not "never" or absent).
+bool KernelAdvisesHugePages() {
+  std::ifstream enabled("/sys/kernel/mm/transparent_hugepage/enabled");
+  std::string modes;
+  std::getline(enabled, modes);
+  return modes.find("[always]") != std::string::npos ||
+         modes.find("[madvise]") != std::string::npos;
+}
+
+TEST(MatOnHugePages, IsAContinuousMatrixOnAlignedAdvisedMemoryGivenBackWhenReleased) {
+  // A truth raster's shape, and one whose size is not a whole number of pages
+  // (2 MiB and 12 bytes).
+  for (const auto& [rows, cols, type] :
+       {std::tuple{1024, 1024, CV_32FC3}, std::tuple{3, 174763, CV_32FC1}}) {
+    cv::Mat mat = MatOnHugePages(rows, cols, type);
+    ASSERT_EQ(mat.rows, rows);
+    ASSERT_EQ(mat.cols, cols);
+    ASSERT_EQ(mat.type(), type);
+    EXPECT_TRUE(mat.isContinuous());
+    EXPECT_EQ(mat.step[0], static_cast<size_t>(cols) * mat.elemSize());
+    const auto start = reinterpret_cast<std::uintptr_t>(mat.data);
+    EXPECT_EQ(start % kHugePageBytes, 0U) << "data at " << std::hex << start;
+
+    // Its own mapping, whole 2 MiB long, advised for huge pages ("hg").
+    const std::string mapping = MappingAt(start);
+    ASSERT_FALSE(mapping.empty()) << "no mapping starts at the matrix's data";
+    std::uintptr_t end = 0;
+    std::istringstream(mapping.substr(mapping.find('-') + 1)) >> std::hex >> end;
+    const std::uintptr_t bytes = static_cast<std::uintptr_t>(rows) * cols * mat.elemSize();
+    EXPECT_EQ(end - start, (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes)
+        << mapping;
+    if (KernelAdvisesHugePages()) {
+      const size_t flags = mapping.find("VmFlags:");
+      ASSERT_NE(flags, std::string::npos) << mapping;
+      EXPECT_NE(mapping.find(" hg", flags), std::string::npos) << mapping;
+    }
+
+    // Written and read as any matrix; a copy shares it, a clone does not.
+    cv::randu(mat, 0, 1000);
+    const cv::Mat clone = mat.clone();
+    cv::Mat shared = mat;
+    mat.release();
+    EXPECT_EQ(shared.data, reinterpret_cast<uchar*>(start));
+    EXPECT_FALSE(MappingAt(start).empty()) << "unmapped while a copy still refers to it";
+    EXPECT_EQ(cv::norm(shared, clone, cv::NORM_INF), 0.0);
+    shared.release();
+    EXPECT_TRUE(MappingAt(start).empty()) << "still mapped after its last reference went";
+  }
+}
+
+TEST(MatOnHugePages, ReallocatesOnItsOwnAllocatorAndLeavesClonesAndSmallMatricesToOpenCVs) {
+  cv::Mat mat = MatOnHugePages(1024, 1024, CV_16UC1);  // exactly a huge page
+  const cv::MatAllocator* const own = mat.u->currAllocator;
+  EXPECT_NE(own, cv::Mat::getStdAllocator());
+  mat.create(2048, 2048, CV_16UC1);  // a new shape: new memory, from the same allocator
+  EXPECT_EQ(mat.u->currAllocator, own);
+  EXPECT_EQ(reinterpret_cast<std::uintptr_t>(mat.data) % kHugePageBytes, 0U);
+  const cv::Mat clone = mat.clone();
+  EXPECT_EQ(clone.u->currAllocator, cv::Mat::getStdAllocator());
+  // A byte under a huge page: OpenCV's.
+  const cv::Mat small = MatOnHugePages(1, (1 << 21) - 1, CV_8UC1);
+  EXPECT_EQ(small.u->currAllocator, cv::Mat::getStdAllocator());
+  EXPECT_TRUE(small.isContinuous());
+}
+
+}  // namespace
+}  // namespace hdabench::images

@@ -6,10 +6,12 @@
 
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <system_error>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -105,6 +107,40 @@ TEST(RunProcess, WorkingFolderAndEnvironment) {
   ASSERT_TRUE(result.Ok()) << result.error;
   EXPECT_EQ(ReadText(dir / "log.txt"),
             fs::canonical(dir / "work").string() + "\nforty two\n/elsewhere\n");
+}
+
+TEST(RunProcess, HugePageMallocSetsGlibcsTunablesUnlessAnEnvironmentDoes) {
+  const fs::path dir = FreshTestDir();
+  const char* const callers = std::getenv("GLIBC_TUNABLES");
+  const std::string saved = callers != nullptr ? callers : "";
+  // What the program sees of GLIBC_TUNABLES, with `environment` added.
+  const auto seen = [&](bool huge_page_malloc,
+                        const std::vector<std::pair<std::string, std::string>>& environment) {
+    util::ProcessOptions options;
+    options.log_file = (dir / "log.txt").string();
+    options.environment = environment;
+    options.huge_page_malloc = huge_page_malloc;
+    fs::remove(dir / "log.txt");
+    const util::ProcessResult result =
+        util::RunProcess({"/bin/sh", "-c", "echo \"${GLIBC_TUNABLES-unset}\""}, options);
+    EXPECT_TRUE(result.Ok()) << result.error;
+    return ReadText(dir / "log.txt");
+  };
+  ::unsetenv("GLIBC_TUNABLES");
+  EXPECT_EQ(seen(false, {}), "unset\n");
+  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb=1\n");
+  EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.arena_max=1"}}),
+            "glibc.malloc.arena_max=1\n");
+  ::setenv("GLIBC_TUNABLES", "glibc.malloc.tcache_count=0", 1);
+  EXPECT_EQ(seen(true, {}), "glibc.malloc.tcache_count=0\n");
+  EXPECT_EQ(seen(false, {}), "glibc.malloc.tcache_count=0\n");
+  EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.arena_max=1"}}),
+            "glibc.malloc.arena_max=1\n");
+  if (callers != nullptr) {
+    ::setenv("GLIBC_TUNABLES", saved.c_str(), 1);
+  } else {
+    ::unsetenv("GLIBC_TUNABLES");
+  }
 }
 
 TEST(RunProcess, ASignalIsReported) {

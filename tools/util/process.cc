@@ -77,18 +77,28 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// The caller's environment with `extra` added or replaced, as "NAME=value".
+// The caller's environment with `extra` added or replaced, as "NAME=value",
+// and, when `huge_page_malloc`, kHugePageMallocTunables where neither sets
+// GLIBC_TUNABLES.
 std::vector<std::string> MergedEnvironment(
-    const std::vector<std::pair<std::string, std::string>>& extra) {
+    const std::vector<std::pair<std::string, std::string>>& extra, bool huge_page_malloc) {
   std::vector<std::string> merged;
+  bool tunables = false;
   for (char** entry = environ; entry != nullptr && *entry != nullptr; ++entry) {
     const std::string text(*entry);
     const std::string name = text.substr(0, text.find('='));
     bool replaced = false;
     for (const auto& [key, value] : extra) replaced = replaced || key == name;
     if (!replaced) merged.push_back(text);
+    tunables = tunables || name == "GLIBC_TUNABLES";
   }
-  for (const auto& [key, value] : extra) merged.push_back(key + "=" + value);
+  for (const auto& [key, value] : extra) {
+    merged.push_back(key + "=" + value);
+    tunables = tunables || key == "GLIBC_TUNABLES";
+  }
+  if (huge_page_malloc && !tunables) {
+    merged.push_back(std::string("GLIBC_TUNABLES=") + kHugePageMallocTunables);
+  }
   return merged;
 }
 
@@ -304,7 +314,7 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOpti
   // Everything the child needs is prepared before fork().
   std::vector<std::string> arg_strings = argv;
   std::vector<char*> arg_pointers = CStrings(&arg_strings);
-  std::vector<std::string> env_strings = MergedEnvironment(options.environment);
+  std::vector<std::string> env_strings = MergedEnvironment(options.environment, options.huge_page_malloc);
   std::vector<char*> env_pointers = CStrings(&env_strings);
   const char* working_dir = options.working_dir.empty() ? nullptr : options.working_dir.c_str();
 

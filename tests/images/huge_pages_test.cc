@@ -3,11 +3,15 @@
 // the kernel when the last reference goes.
 #include "tools/images/huge_pages.h"
 
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <cstdint>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <tuple>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
@@ -17,12 +21,11 @@ namespace {
 
 constexpr std::uintptr_t kHugePageBytes = std::uintptr_t{2} << 20;
 
-// The mapping of /proc/self/smaps that starts at `start`: its lines up to the
-// next mapping, or "" when none starts there.
-std::string MappingAt(std::uintptr_t start) {
+// The mapping of /proc/self/smaps that holds the address `at`: its lines up
+// to the next mapping, or "" when none holds it. (The kernel may have merged
+// the matrix's mapping with a neighbour of the same flags.)
+std::string MappingHolding(std::uintptr_t at) {
   std::ifstream smaps("/proc/self/smaps");
-  std::ostringstream prefix;
-  prefix << std::hex << start << '-';
   std::string line;
   std::string mapping;
   bool inside = false;
@@ -32,11 +35,21 @@ std::string MappingAt(std::uintptr_t start) {
     const std::string first = line.substr(0, line.find(' '));
     if (first.find(':') == std::string::npos) {
       if (inside) break;
-      inside = line.rfind(prefix.str(), 0) == 0;
+      std::uintptr_t begin = 0;
+      std::uintptr_t end = 0;
+      char dash = 0;
+      std::istringstream(first) >> std::hex >> begin >> dash >> end;
+      inside = begin <= at && at < end;
     }
     if (inside) mapping += line + "\n";
   }
   return mapping;
+}
+
+// Whether every page of [start, start + bytes) is mapped (mincore fails with
+// ENOMEM on a range with a page that is not). `pages` has a byte per page.
+bool Mapped(std::uintptr_t start, std::uintptr_t bytes, std::vector<unsigned char>* pages) {
+  return mincore(reinterpret_cast<void*>(start), bytes, pages->data()) == 0;
 }
 
 // Whether this kernel gives huge pages to a region that asks (transparent
@@ -63,14 +76,13 @@ TEST(MatOnHugePages, IsAContinuousMatrixOnAlignedAdvisedMemoryGivenBackWhenRelea
     const auto start = reinterpret_cast<std::uintptr_t>(mat.data);
     EXPECT_EQ(start % kHugePageBytes, 0U) << "data at " << std::hex << start;
 
-    // Its own mapping, whole 2 MiB long, advised for huge pages ("hg").
-    const std::string mapping = MappingAt(start);
-    ASSERT_FALSE(mapping.empty()) << "no mapping starts at the matrix's data";
-    std::uintptr_t end = 0;
-    std::istringstream(mapping.substr(mapping.find('-') + 1)) >> std::hex >> end;
+    // Mapped a whole number of 2 MiB long, advised for huge pages ("hg").
     const std::uintptr_t bytes = static_cast<std::uintptr_t>(rows) * cols * mat.elemSize();
-    EXPECT_EQ(end - start, (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes)
-        << mapping;
+    const std::uintptr_t length = (bytes + kHugePageBytes - 1) / kHugePageBytes * kHugePageBytes;
+    std::vector<unsigned char> pages(length / static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE)));
+    EXPECT_TRUE(Mapped(start, length, &pages));
+    const std::string mapping = MappingHolding(start);
+    ASSERT_FALSE(mapping.empty()) << "no mapping holds the matrix's data";
     if (KernelAdvisesHugePages()) {
       const size_t flags = mapping.find("VmFlags:");
       ASSERT_NE(flags, std::string::npos) << mapping;
@@ -83,10 +95,10 @@ TEST(MatOnHugePages, IsAContinuousMatrixOnAlignedAdvisedMemoryGivenBackWhenRelea
     cv::Mat shared = mat;
     mat.release();
     EXPECT_EQ(shared.data, reinterpret_cast<uchar*>(start));
-    EXPECT_FALSE(MappingAt(start).empty()) << "unmapped while a copy still refers to it";
+    EXPECT_TRUE(Mapped(start, length, &pages)) << "unmapped while a copy still refers to it";
     EXPECT_EQ(cv::norm(shared, clone, cv::NORM_INF), 0.0);
     shared.release();
-    EXPECT_TRUE(MappingAt(start).empty()) << "still mapped after its last reference went";
+    EXPECT_FALSE(Mapped(start, length, &pages)) << "still mapped after its last reference went";
   }
 }
 

@@ -2,7 +2,7 @@
 // (transparent huge pages, asked for with madvise). Filling a fresh matrix
 // costs a page fault per page first touched: 3072 of them for a 12 MiB truth
 // raster on 4 KiB pages, 6 on 2 MiB ones. Where faults are dear (a virtual
-// machine's, tens of microseconds each) that is most of the time taken to read
+// machine's, 10-15 microseconds each) that is most of the time taken to read
 // such a raster from a file already in the page cache. The matrices are
 // ordinary cv::Mat, continuous, freed when their last reference goes.
 #pragma once

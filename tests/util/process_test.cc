@@ -136,6 +136,8 @@ TEST(RunProcess, HugePageMallocSetsGlibcsTunablesUnlessAnEnvironmentDoes) {
   EXPECT_EQ(seen(false, {}), "glibc.malloc.tcache_count=0\n");
   EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.arena_max=1"}}),
             "glibc.malloc.arena_max=1\n");
+  ::setenv("GLIBC_TUNABLES", "", 1);  // empty: every tunable off, and it stands
+  EXPECT_EQ(seen(true, {}), "\n");
   if (callers != nullptr) {
     ::setenv("GLIBC_TUNABLES", saved.c_str(), 1);
   } else {

@@ -13,7 +13,8 @@ namespace hdabench::util {
 
 // glibc's tunables that make malloc ask the kernel for transparent huge pages
 // for its heap and its large blocks (glibc 2.35 and later; earlier ones ignore
-// them). Where page faults are dear (docs/architecture.md, "Page faults") that
+// them). They matter where the kernel's setting is `madvise`; under `always`
+// the kernel gives huge pages unasked, under `never` not at all. Where page faults are dear (docs/architecture.md, "Page faults") that
 // takes COLMAP's steps for `compare --methods colmap-nav` on the default
 // dataset from 690 000 faults to 83 000 and from 30-32 s to 26-29 s, with the
 // same results. Not every program gains: GCC compiling one of the bench's
@@ -34,7 +35,8 @@ struct ProcessOptions {
   std::vector<std::pair<std::string, std::string>> environment;
   // Whether the program's malloc asks for huge pages: GLIBC_TUNABLES =
   // kHugePageMallocTunables, unless the caller's environment or `environment`
-  // sets GLIBC_TUNABLES, which then stands.
+  // sets GLIBC_TUNABLES (even empty, which turns every tunable off), which
+  // then stands whole.
   bool huge_page_malloc = false;
 
   // Every violated constraint, one message each ("field = value: expected ...").

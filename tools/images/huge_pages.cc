@@ -41,21 +41,20 @@ class HugePageAllocator : public cv::MatAllocator {
  public:
   cv::UMatData* allocate(int dims, const int* sizes, int type, void* data, size_t* step,
                          cv::AccessFlag flags, cv::UMatUsageFlags usage) const override {
-    size_t total = CV_ELEM_SIZE(type);
-    for (int i = dims - 1; i >= 0; --i) total *= static_cast<size_t>(sizes[i]);
-    // Under 2 MiB a huge page would be mostly unused; over SIZE_MAX - 4 MiB
-    // the rounding below would wrap.
-    if (data != nullptr || total < kHugePageBytes ||
-        total > std::numeric_limits<size_t>::max() - 2 * kHugePageBytes) {
+    if (data != nullptr) {
       return cv::Mat::getStdAllocator()->allocate(dims, sizes, type, data, step, flags, usage);
     }
-    // The steps of a continuous matrix.
-    if (step != nullptr) {
-      size_t bytes = CV_ELEM_SIZE(type);
-      for (int i = dims - 1; i >= 0; --i) {
-        step[i] = bytes;
-        bytes *= static_cast<size_t>(sizes[i]);
-      }
+    // The steps of a continuous matrix, and its size. OpenCV's allocator
+    // writes the steps again for a matrix handed to it below.
+    size_t total = CV_ELEM_SIZE(type);
+    for (int i = dims - 1; i >= 0; --i) {
+      if (step != nullptr) step[i] = total;
+      total *= static_cast<size_t>(sizes[i]);
+    }
+    // Under 2 MiB a huge page would be mostly unused; over SIZE_MAX - 4 MiB
+    // the rounding below would wrap.
+    if (total < kHugePageBytes || total > std::numeric_limits<size_t>::max() - 2 * kHugePageBytes) {
+      return cv::Mat::getStdAllocator()->allocate(dims, sizes, type, data, step, flags, usage);
     }
     auto* u = new cv::UMatData(this);
     u->size = total;

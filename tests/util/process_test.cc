@@ -109,7 +109,7 @@ TEST(RunProcess, WorkingFolderAndEnvironment) {
             fs::canonical(dir / "work").string() + "\nforty two\n/elsewhere\n");
 }
 
-TEST(RunProcess, HugePageMallocSetsGlibcsTunablesUnlessAnEnvironmentDoes) {
+TEST(RunProcess, HugePageMallocAddsGlibcsTunableUnlessTheEnvironmentNamesIt) {
   const fs::path dir = FreshTestDir();
   const char* const callers = std::getenv("GLIBC_TUNABLES");
   const std::string saved = callers != nullptr ? callers : "";
@@ -130,14 +130,31 @@ TEST(RunProcess, HugePageMallocSetsGlibcsTunablesUnlessAnEnvironmentDoes) {
   EXPECT_EQ(seen(false, {}), "unset\n");
   EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb=1\n");
   EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.arena_max=1"}}),
-            "glibc.malloc.arena_max=1\n");
+            "glibc.malloc.arena_max=1:glibc.malloc.hugetlb=1\n");
+  EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.hugetlb=0"}}), "glibc.malloc.hugetlb=0\n");
   ::setenv("GLIBC_TUNABLES", "glibc.malloc.tcache_count=0", 1);
-  EXPECT_EQ(seen(true, {}), "glibc.malloc.tcache_count=0\n");
+  EXPECT_EQ(seen(true, {}), "glibc.malloc.tcache_count=0:glibc.malloc.hugetlb=1\n");
   EXPECT_EQ(seen(false, {}), "glibc.malloc.tcache_count=0\n");
+  // The call's value replaces the caller's.
   EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.arena_max=1"}}),
-            "glibc.malloc.arena_max=1\n");
-  ::setenv("GLIBC_TUNABLES", "", 1);  // empty: every tunable off, and it stands
-  EXPECT_EQ(seen(true, {}), "\n");
+            "glibc.malloc.arena_max=1:glibc.malloc.hugetlb=1\n");
+  // Named anywhere, with any value, the tunable stands as it is.
+  const std::string three =
+      "glibc.malloc.arena_max=2:glibc.malloc.hugetlb=0:glibc.malloc.tcache_count=0";
+  ::setenv("GLIBC_TUNABLES", three.c_str(), 1);
+  EXPECT_EQ(seen(true, {}), three + "\n");
+  ::setenv("GLIBC_TUNABLES", "glibc.malloc.hugetlb=2", 1);
+  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb=2\n");
+  // A name that only begins like it is another tunable.
+  ::setenv("GLIBC_TUNABLES", "glibc.malloc.hugetlbx=0", 1);
+  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlbx=0:glibc.malloc.hugetlb=1\n");
+  // An item without '=' sets nothing (glibc skips it); a trailing ':' is kept single.
+  ::setenv("GLIBC_TUNABLES", "glibc.malloc.hugetlb", 1);
+  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb:glibc.malloc.hugetlb=1\n");
+  ::setenv("GLIBC_TUNABLES", "glibc.malloc.arena_max=1:", 1);
+  EXPECT_EQ(seen(true, {}), "glibc.malloc.arena_max=1:glibc.malloc.hugetlb=1\n");
+  ::setenv("GLIBC_TUNABLES", "", 1);  // empty: no tunables, so it is the only one
+  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb=1\n");
   if (callers != nullptr) {
     ::setenv("GLIBC_TUNABLES", saved.c_str(), 1);
   } else {

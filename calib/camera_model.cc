@@ -431,10 +431,15 @@ CameraModel CameraModel::Parse(const std::string& text, const std::string& origi
     }
   }
 
-  // libmrcal reads the values: it is the authority on the format.
+  // libmrcal reads the values: it is the authority on the format. It is given
+  // the text with a newline added: libmrcal 2.x ends the whole process when a
+  // comment runs to the end of its input (the cameramodel fuzzer found it);
+  // a newline at the end changes nothing else, and every offset stays.
+  const std::string terminated = text + "\n";
   mrcal_cameramodel_t* parsed = nullptr;
-  const std::string captured = util::CaptureStderr(
-      [&] { parsed = mrcal_read_cameramodel_string(text.c_str(), static_cast<int>(text.size())); });
+  const std::string captured = util::CaptureStderr([&] {
+    parsed = mrcal_read_cameramodel_string(terminated.c_str(), static_cast<int>(terminated.size()));
+  });
   if (parsed == nullptr) throw InputError(origin + ":" + TranslateMrcalMessage(captured, text));
   std::unique_ptr<mrcal_cameramodel_t, void (*)(mrcal_cameramodel_t*)> owner(
       parsed, [](mrcal_cameramodel_t* m) { mrcal_free_cameramodel(&m); });

@@ -421,6 +421,19 @@ TEST(CameraModelLoad, AcceptsModelsWrittenByMrcalsPythonTools) {
   EXPECT_EQ(model.WidthPx(), 1024);
 }
 
+TEST(CameraModelParse, ACommentRunningToTheEndOfTheTextParses) {
+  // libmrcal alone ends the process on such a text (found by the cameramodel
+  // fuzzer); the bench hands it a newline at the end.
+  const std::string model =
+      "{'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ 100, 110, 15.5, 16.5 ],\n"
+      " 'extrinsics': [ 0, 0, 0, 0, 0, 0 ], 'imagersize': [ 32, 34 ] }\n";
+  for (const std::string& ending : {std::string("#"), std::string("# written by hand"), std::string("  #x")}) {
+    const CameraModel parsed = CameraModel::Parse(model + ending, "inline");
+    EXPECT_EQ(parsed.Intrinsics()[1], 110.0) << ending;
+    EXPECT_EQ(parsed.HeightPx(), 34) << ending;
+  }
+}
+
 TEST(CameraModel, ConstructorRejectsBadValues) {
   EXPECT_THROW(CameraModel("LENSMODEL_PINHOLE", {1, 2, 3}, 10, 10), InputError);
   EXPECT_THROW(CameraModel("LENSMODEL_PINHOLE", {1, 2, 3, std::nan("")}, 10, 10), InputError);

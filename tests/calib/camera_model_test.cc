@@ -434,6 +434,16 @@ TEST(CameraModelParse, ACommentRunningToTheEndOfTheTextParses) {
   }
 }
 
+TEST(CameraModelParse, TheFuzzersCommentAtTheEndLoads) {
+  // The input the cameramodel fuzzer found, as it wrote it (tests/data/fuzz-found/README.md).
+  const CameraModel loaded = CameraModel::Load(
+      (fs::path(HDABENCH_SOURCE_DIR) / "tests/data/fuzz-found/comment-at-end-without-newline.cameramodel")
+          .string());
+  EXPECT_EQ(loaded.LensModelName(), "LENSMODEL_OPENCV8");
+  EXPECT_EQ(loaded.Intrinsics()[1], 50.7455168378114);
+  EXPECT_EQ(loaded.WidthPx(), 32);
+}
+
 TEST(CameraModel, ConstructorRejectsBadValues) {
   EXPECT_THROW(CameraModel("LENSMODEL_PINHOLE", {1, 2, 3}, 10, 10), InputError);
   EXPECT_THROW(CameraModel("LENSMODEL_PINHOLE", {1, 2, 3, std::nan("")}, 10, 10), InputError);

@@ -120,7 +120,7 @@ double CornerParallaxPx(const RoiPixels& roi, const calib::CameraModel& camera, 
 // Camera-2 points' pixels and the projection's Jacobians d pixel / d point
 // (forward differences of h = 1e-7 times the point's distance, at least
 // 1e-7 m), for the points with use[k]; valid[k] is 1 where the point and its
-// three steps project.
+// three steps project. Points without use[k] are not projected.
 struct Projections {
   std::vector<Eigen::Vector2d> pixels;
   std::vector<Eigen::Matrix<double, 2, 3>> jacobians;
@@ -130,15 +130,17 @@ struct Projections {
 Projections ProjectWithJacobians(const calib::CameraModel& camera, const std::vector<Eigen::Vector3d>& in_cam2,
                                  const std::vector<unsigned char>& use) {
   const size_t n = in_cam2.size();
-  std::vector<Eigen::Vector3d> points(4 * n);
-  std::vector<double> steps(n, 0.0);
+  std::vector<size_t> used;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> steps;
   for (size_t k = 0; k < n; ++k) {
     if (!use[k]) continue;
     const Eigen::Vector3d& x2 = in_cam2[k];
     const double h = 1e-7 * std::max(1.0, x2.norm());
-    steps[k] = h;
-    points[4 * k] = x2;
-    for (int j = 0; j < 3; ++j) points[4 * k + 1 + j] = x2 + h * Eigen::Vector3d::Unit(j);
+    used.push_back(k);
+    steps.push_back(h);
+    points.push_back(x2);
+    for (int j = 0; j < 3; ++j) points.push_back(x2 + h * Eigen::Vector3d::Unit(j));
   }
   std::vector<Eigen::Vector2d> projected;
   std::vector<unsigned char> valid;
@@ -147,17 +149,18 @@ Projections ProjectWithJacobians(const calib::CameraModel& camera, const std::ve
   out.pixels.resize(n, Eigen::Vector2d::Zero());
   out.jacobians.resize(n, Eigen::Matrix<double, 2, 3>::Zero());
   out.valid.assign(n, 0);
-  for (size_t k = 0; k < n; ++k) {
-    if (!use[k] || !valid[4 * k] || !valid[4 * k + 1] || !valid[4 * k + 2] || !valid[4 * k + 3]) continue;
+  for (size_t u = 0; u < used.size(); ++u) {
+    if (!valid[4 * u] || !valid[4 * u + 1] || !valid[4 * u + 2] || !valid[4 * u + 3]) continue;
+    const size_t k = used[u];
     out.valid[k] = 1;
-    out.pixels[k] = projected[4 * k];
-    for (int j = 0; j < 3; ++j) out.jacobians[k].col(j) = (projected[4 * k + 1 + j] - projected[4 * k]) / steps[k];
+    out.pixels[k] = projected[4 * u];
+    for (int j = 0; j < 3; ++j) out.jacobians[k].col(j) = (projected[4 * u + 1 + j] - projected[4 * u]) / steps[u];
   }
   return out;
 }
 
 // The ROI's pixels on plane p: each one's point in camera 1 and in camera 2
-// (in_front[k] 0, and nothing else set, where its ray meets the plane behind
+// (in_front[k] 0, and both points zero, where its ray meets the plane behind
 // camera 1).
 struct PointsOnPlane {
   std::vector<Eigen::Vector3d> in_cam1, in_cam2;
@@ -167,8 +170,8 @@ struct PointsOnPlane {
 PointsOnPlane OnPlane(const RoiPixels& roi, const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& p) {
   const size_t n = roi.bearings.size();
   PointsOnPlane out;
-  out.in_cam1.resize(n);
-  out.in_cam2.resize(n);
+  out.in_cam1.assign(n, Eigen::Vector3d::Zero());
+  out.in_cam2.assign(n, Eigen::Vector3d::Zero());
   out.in_front.assign(n, 0);
   for (size_t k = 0; k < n; ++k) {
     const double pb = p.dot(roi.bearings[k]);

@@ -123,6 +123,29 @@ TEST(FitPlaneDirect, APairWhoseParallaxLeavesNoSlopeIsLowParallaxNotNoTexture) {
   EXPECT_NEAR(blamed.parallax_slope_sigma_deg / fit.parallax_slope_sigma_deg, 0.01, 1e-9);
 }
 
+// With a twenty-fifth of that baseline the parallax alone leaves the slope
+// uncertain by more than a right angle: the reason says "any angle" rather
+// than a number of degrees, and the sigma is still the first-order one.
+TEST(FitPlaneDirect, AParallaxThatLeavesEverySlopeOpenSaysAnyAngle) {
+  Scene scene;
+  scene.cam2_from_cam1.translation = Eigen::Vector3d(-0.002, 0.0, 0.0);
+  const cv::Rect box(104, 104, 48, 48);
+  const DirectPlaneOptions options;
+  // The corners still move by more than convergence_px: the plane is
+  // observable in principle, so the fit runs and its failure is attributed.
+  ASSERT_GT(textured_plane::kFocalPx * 0.002 / 90.0, options.convergence_px);
+  const DirectPlaneResult fit = Fit(scene, 1.0, box, Eigen::Vector3d(0.0, 0.0, 1.0 / 90.0), options);
+  EXPECT_EQ(fit.status, DirectPlaneStatus::kLowParallax) << fit.reason;
+  EXPECT_GE(fit.parallax_slope_sigma_deg, 90.0);
+  EXPECT_NEAR(fit.parallax_slope_sigma_deg * util::kDegToRad /
+                  ParallaxSigmaRad(0.002, 48, options.parallax_precision_px),
+              1.0, 0.05);
+  EXPECT_NE(fit.reason.find("leaves the slope uncertain by any angle on the starting plane"), std::string::npos)
+      << fit.reason;
+  EXPECT_EQ(fit.reason.find(" deg on the starting plane"), std::string::npos) << fit.reason;
+  EXPECT_TRUE(fit.points_in_cam1.empty());
+}
+
 // Camera 2 sees the scene 40 px further left: a box at the left edge of
 // image 1 is not in image 2.
 TEST(FitPlaneDirect, ARoiOutsideImage2IsOutsideOverlap) {

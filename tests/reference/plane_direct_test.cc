@@ -172,6 +172,31 @@ TEST(FitPlaneDirect, AFitThatDoesNotSettleIsDiverged) {
   EXPECT_TRUE(fit.points_in_cam1.empty());
 }
 
+// A fit stopped before it settles whose own sigma is under the bound stays
+// "diverged" on a pair whose parallax, judged with a coarse matcher's 1/4
+// px, would leave the slope over it: the fit's pixels pinned the plane, so
+// the geometry is not what failed (the parallax is then not judged).
+TEST(FitPlaneDirect, AFitThatDoesNotSettleWithASigmaUnderTheBoundIsNotBlamedOnTheParallax) {
+  Scene scene;
+  scene.cam2_from_cam1.translation = Eigen::Vector3d(-0.15, 0.0, 0.0);
+  const DirectPlaneImages images = ExactImages(scene);
+  DirectPlaneOptions options;
+  options.max_iterations = 1;
+  options.search_fraction = 0.0;
+  options.parallax_precision_px = 0.25;
+  ASSERT_GT(ParallaxSigmaRad(0.15, 48, options.parallax_precision_px) * util::kRadToDeg,
+            2.0 * options.max_slope_sigma_deg);
+  const DirectPlaneResult fit = FitPlaneDirect(images, Camera(), cv::Rect(104, 104, 48, 48), scene.cam2_from_cam1,
+                                               Eigen::Vector3d(0.0, 0.0, 1.0 / 90.0), scene.up, options);
+  EXPECT_FALSE(fit.converged);
+  EXPECT_EQ(fit.status, DirectPlaneStatus::kDiverged) << fit.reason;
+  EXPECT_GT(fit.slope_sigma_deg, 0.0);
+  EXPECT_LE(fit.slope_sigma_deg, options.max_slope_sigma_deg);
+  EXPECT_NE(fit.reason.find("did not settle"), std::string::npos) << fit.reason;
+  EXPECT_EQ(fit.parallax_slope_sigma_deg, 0.0);
+  EXPECT_TRUE(fit.points_in_cam1.empty());
+}
+
 // Without a baseline every plane maps the ROI alike: the plane is not
 // observable, which is said as such (it was "diverged" or "no texture", by
 // how the singular solve ended). Rounding errors of a pose are no baseline.

@@ -197,6 +197,27 @@ TEST(FitPlaneDirect, AFitThatDoesNotSettleWithASigmaUnderTheBoundIsNotBlamedOnTh
   EXPECT_TRUE(fit.points_in_cam1.empty());
 }
 
+// With a tenth of a millimetre of baseline (the corners still move by
+// 1e-3 px, over convergence_px) and 1 DN of noise, the Gauss-Newton steps
+// follow the noise until every step puts the ROI behind a camera: the fit
+// ends "diverged", with no sigma of its own, and the parallax takes the
+// blame as it does for a fit that found no texture.
+TEST(FitPlaneDirect, AFitThatDivergesWhereTheParallaxLeavesAnySlopeIsLowParallax) {
+  for (const double baseline_m : {1e-4, 3e-5}) {
+    Scene scene;
+    scene.cam2_from_cam1.translation = Eigen::Vector3d(-baseline_m, 0.0, 0.0);
+    const DirectPlaneResult fit = Fit(scene, 1.0, cv::Rect(104, 104, 48, 48));
+    EXPECT_EQ(fit.status, DirectPlaneStatus::kLowParallax) << fit.reason;
+    EXPECT_NE(fit.reason.find("the fit: every step puts the ROI behind a camera"), std::string::npos)
+        << fit.reason;
+    EXPECT_NE(fit.reason.find("uncertain by any angle"), std::string::npos) << fit.reason;
+    EXPECT_EQ(fit.slope_sigma_deg, 0.0);
+    EXPECT_TRUE(std::isfinite(fit.parallax_slope_sigma_deg));
+    EXPECT_GT(fit.parallax_slope_sigma_deg, 90.0);
+    EXPECT_TRUE(fit.points_in_cam1.empty());
+  }
+}
+
 // Without a baseline every plane maps the ROI alike: the plane is not
 // observable, which is said as such (it was "diverged" or "no texture", by
 // how the singular solve ended). Rounding errors of a pose are no baseline.

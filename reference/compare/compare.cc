@@ -433,8 +433,12 @@ std::vector<MethodRoi> DenseNavRois(const FlightRun& flight, const CompareOption
     // share counts image-1 pixels (an oblique rectification can sample a
     // pixel twice).
     std::set<std::pair<long, long>> pixels;
-    for (const ReconstructedPoint& p : recon.points) {
-      if (InBox(p.pixel1, box)) pixels.emplace(std::lround(p.pixel1.x()), std::lround(p.pixel1.y()));
+    std::vector<Eigen::Vector3d> in_cam1;
+    for (size_t k = 0; k < recon.points.size(); ++k) {
+      const Eigen::Vector2d& pixel1 = recon.points[k].pixel1;
+      if (!InBox(pixel1, box)) continue;
+      pixels.emplace(std::lround(pixel1.x()), std::lround(pixel1.y()));
+      in_cam1.push_back(dense.points_in_cam1[k]);
     }
     const double share = static_cast<double>(pixels.size()) / std::max(1, box.area());
     if (roi.status == MethodRoiStatus::kOk && share < options.dense_stereo.min_roi_share) {
@@ -445,7 +449,7 @@ std::vector<MethodRoi> DenseNavRois(const FlightRun& flight, const CompareOption
     // stood by, however many points (on a pair that did not move but whose
     // nav pose did, they are noise triangulated with the nav baseline).
     if (roi.status == MethodRoiStatus::kOk) {
-      const double sigma_deg = DenseSlopeSigmaDeg(dense, ctx.dataset->camera, box, roi.num_points);
+      const double sigma_deg = DenseSlopeSigmaDeg(dense, ctx.dataset->camera, box, roi.num_points, in_cam1);
       if (!(sigma_deg <= options.dense_stereo.max_slope_sigma_deg)) {
         roi.status = MethodRoiStatus::kLowParallax;
         roi.has_fit = false;

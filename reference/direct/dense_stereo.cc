@@ -113,6 +113,20 @@ double LevelGroundDisparityPx(const DenseRectification& rect, double x, double y
   return rect.focal_px * rect.baseline_m * p.dot(Eigen::Vector3d(x, y, 1.0));
 }
 
+// The median disparity of points in camera 1 (f B / z in the rectified
+// frame, as LevelGroundDisparityPx), over those in front; 0 for none.
+double MedianDisparityPx(const DenseRectification& rect, const std::vector<Eigen::Vector3d>& points_in_cam1) {
+  std::vector<double> disparities;
+  for (const Eigen::Vector3d& p : points_in_cam1) {
+    const double z = (rect.rect_from_cam1 * p).z();
+    if (z > 0.0 && std::isfinite(z)) disparities.push_back(rect.focal_px * rect.baseline_m / z);
+  }
+  if (disparities.empty()) return 0.0;
+  const auto middle = disparities.begin() + static_cast<std::ptrdiff_t>(disparities.size() / 2);
+  std::nth_element(disparities.begin(), middle, disparities.end());
+  return *middle;
+}
+
 // The search: level ground's disparity is linear in the normalised
 // coordinates, so its extremes are at the field's corners; the horizon
 // (disparity <= 0) bounds it below by 0.
@@ -582,7 +596,7 @@ DenseStereoResult RunDenseStereo(const cv::Mat& image1, const cv::Mat& image2, c
 }
 
 double DenseSlopeSigmaDeg(const DenseStereoResult& result, const calib::CameraModel& camera, const cv::Rect& box1,
-                          int num_points) {
+                          int num_points, const std::vector<Eigen::Vector3d>& points_in_cam1) {
   constexpr double kInfinity = std::numeric_limits<double>::infinity();
   const DenseRectification& rect = result.rectification;
   if (result.status != DenseStereoStatus::kOk || num_points <= 0 || box1.width <= 0 || box1.height <= 0) {
@@ -596,7 +610,8 @@ double DenseSlopeSigmaDeg(const DenseStereoResult& result, const calib::CameraMo
   if (valid.empty() || valid[0] == 0) return kInfinity;
   const Eigen::Vector3d in_rect = rect.rect_from_cam1 * rays[0];
   if (!(in_rect.z() > 0.0)) return kInfinity;
-  const double disparity_px = LevelGroundDisparityPx(rect, in_rect.x() / in_rect.z(), in_rect.y() / in_rect.z());
+  double disparity_px = LevelGroundDisparityPx(rect, in_rect.x() / in_rect.z(), in_rect.y() / in_rect.z());
+  if (!(disparity_px > 0.0)) disparity_px = MedianDisparityPx(rect, points_in_cam1);
   if (!(disparity_px > 0.0)) return kInfinity;
   const double side_px = std::min(box1.width, box1.height);
   const double tangent = std::sqrt(12.0 / num_points) * rect.focal_px / (kDisparityStepsPerPx * side_px * disparity_px);

@@ -153,11 +153,14 @@ struct DenseStereoResult {
 // a least-squares plane's disparity gradient is uncertain by
 // step / (w sqrt(N / 12)) per pixel; on ground of disparity d (the level
 // ground's at the box's centre) a slope of tangent t changes the disparity
-// by d t / f per pixel, so tan(sigma) = step sqrt(12 / N) f / (w d). Infinity
-// where the pair is not rectified, the box's centre has no ray in the field
-// or the level ground no disparity there.
+// by d t / f per pixel, so tan(sigma) = step sqrt(12 / N) f / (w d). Where
+// the box's centre looks above the level ground's horizon (ground higher
+// than the camera, ahead of an oblique one), d is the median disparity of
+// the ROI's own points (`points_in_cam1`, camera 1, metres) instead.
+// Infinity where the pair is not rectified, the box's centre has no ray in
+// the rectified frame, or neither gives a disparity.
 double DenseSlopeSigmaDeg(const DenseStereoResult& result, const calib::CameraModel& camera, const cv::Rect& box1,
-                          int num_points);
+                          int num_points, const std::vector<Eigen::Vector3d>& points_in_cam1 = {});
 
 // The dense reconstruction of the pair: images 1 and 2 (one channel, 8-bit,
 // 16-bit or float, of the camera's size; both mapped to 8 bits by the same

@@ -223,6 +223,40 @@ TEST(DenseSlopeSigmaDeg, FollowsTheDisparityStepTheBaselineAndThePoints) {
   EXPECT_EQ(DenseSlopeSigmaDeg(dense, Camera(), box, 0), std::numeric_limits<double>::infinity());
 }
 
+// An ROI whose centre looks above the level ground's horizon (ground higher
+// than the camera, ahead of an oblique one) has no level-ground disparity;
+// its slope's uncertainty then comes from the median disparity of its own
+// points. Here the level ground is turned behind the camera, so that none
+// of the image has one, and the ROI's points (the plane, 40 px of
+// disparity) give the tangent the level ground gave.
+TEST(DenseSlopeSigmaDeg, AboveTheLevelGroundsHorizonTheRoisOwnPointsGiveTheDisparity) {
+  const Scene scene;
+  const cv::Rect box(80, 80, 96, 96);
+  const DenseStereoResult dense = Dense(scene, 0.0, scene.cam2_from_cam1);
+  ASSERT_EQ(dense.status, DenseStereoStatus::kOk) << dense.reason;
+  std::vector<Eigen::Vector3d> in_box;
+  for (size_t k = 0; k < dense.points_in_cam1.size(); ++k) {
+    const Eigen::Vector2d& q = dense.pixels1[k];
+    if (q.x() >= box.x - 0.5 && q.x() < box.x + box.width - 0.5 && q.y() >= box.y - 0.5 &&
+        q.y() < box.y + box.height - 0.5) {
+      in_box.push_back(dense.points_in_cam1[k]);
+    }
+  }
+  ASSERT_GT(in_box.size(), 1000u);
+  const double level_deg = DenseSlopeSigmaDeg(dense, Camera(), box, 9216, in_box);
+  EXPECT_EQ(level_deg, DenseSlopeSigmaDeg(dense, Camera(), box, 9216)) << "the level ground's disparity comes first";
+
+  DenseStereoResult above = dense;
+  above.rectification.level_plane_in_cam1 = -dense.rectification.level_plane_in_cam1;
+  EXPECT_EQ(DenseSlopeSigmaDeg(above, Camera(), box, 9216), std::numeric_limits<double>::infinity());
+  const double own_deg = DenseSlopeSigmaDeg(above, Camera(), box, 9216, in_box);
+  EXPECT_NEAR(std::tan(own_deg * util::kDegToRad) / std::tan(level_deg * util::kDegToRad), 1.0, 0.02);
+  // Points behind the rectified frame give no disparity either.
+  std::vector<Eigen::Vector3d> behind = in_box;
+  for (Eigen::Vector3d& p : behind) p = -p;
+  EXPECT_EQ(DenseSlopeSigmaDeg(above, Camera(), box, 9216, behind), std::numeric_limits<double>::infinity());
+}
+
 TEST(RunDenseStereo, BadInputsAreInputErrors) {
   const Scene scene;
   const cv::Mat image = Render(scene, Rigid3d(), 0.0, 1);

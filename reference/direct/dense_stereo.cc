@@ -114,7 +114,8 @@ double LevelGroundDisparityPx(const DenseRectification& rect, double x, double y
 }
 
 // The median disparity of points in camera 1 (f B / z in the rectified
-// frame, as LevelGroundDisparityPx), over those in front; 0 for none.
+// frame, as LevelGroundDisparityPx), over those in front (the upper median
+// for an even count); 0 for none.
 double MedianDisparityPx(const DenseRectification& rect, const std::vector<Eigen::Vector3d>& points_in_cam1) {
   std::vector<double> disparities;
   for (const Eigen::Vector3d& p : points_in_cam1) {

@@ -226,9 +226,10 @@ TEST(DenseSlopeSigmaDeg, FollowsTheDisparityStepTheBaselineAndThePoints) {
 // An ROI whose centre looks above the level ground's horizon (ground higher
 // than the camera, ahead of an oblique one) has no level-ground disparity;
 // its slope's uncertainty then comes from the median disparity of its own
-// points. Here the level ground is turned behind the camera, so that none
-// of the image has one, and the ROI's points (the plane, 40 px of
-// disparity) give the tangent the level ground gave.
+// points. Here the level plane is mirrored to the camera's other side (100 m
+// above it), so that every ray of the image looks above its horizon, and the
+// ROI's points (the plane, 40 px of disparity) give the tangent the level
+// ground gave.
 TEST(DenseSlopeSigmaDeg, AboveTheLevelGroundsHorizonTheRoisOwnPointsGiveTheDisparity) {
   const Scene scene;
   const cv::Rect box(80, 80, 96, 96);

@@ -2,12 +2,14 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
+#include "tools/util/text.h"
 #include "tests/reference/textured_plane_scene.h"
 
 namespace hdabench::reference {
@@ -126,6 +128,7 @@ TEST(FitPlaneDirect, APairWhoseParallaxLeavesNoSlopeIsLowParallaxNotNoTexture) {
 // With a twenty-fifth of that baseline the parallax alone leaves the slope
 // uncertain by more than a right angle: the reason says "any angle" rather
 // than a number of degrees, and the sigma is still the first-order one.
+// With a sixth of it (about 60 deg) the reason gives the degrees.
 TEST(FitPlaneDirect, AParallaxThatLeavesEverySlopeOpenSaysAnyAngle) {
   Scene scene;
   scene.cam2_from_cam1.translation = Eigen::Vector3d(-0.002, 0.0, 0.0);
@@ -144,6 +147,14 @@ TEST(FitPlaneDirect, AParallaxThatLeavesEverySlopeOpenSaysAnyAngle) {
       << fit.reason;
   EXPECT_EQ(fit.reason.find(" deg on the starting plane"), std::string::npos) << fit.reason;
   EXPECT_TRUE(fit.points_in_cam1.empty());
+
+  scene.cam2_from_cam1.translation = Eigen::Vector3d(-0.05 / 6.0, 0.0, 0.0);
+  const DirectPlaneResult wide = Fit(scene, 1.0, box, Eigen::Vector3d(0.0, 0.0, 1.0 / 90.0), options);
+  EXPECT_EQ(wide.status, DirectPlaneStatus::kLowParallax) << wide.reason;
+  EXPECT_GT(wide.parallax_slope_sigma_deg, 45.0);
+  EXPECT_LT(wide.parallax_slope_sigma_deg, 80.0);
+  const std::string degrees = util::FixedText(wide.parallax_slope_sigma_deg, 1) + " deg on the starting plane";
+  EXPECT_NE(wide.reason.find("leaves the slope uncertain by " + degrees), std::string::npos) << wide.reason;
 }
 
 // Camera 2 sees the scene 40 px further left: a box at the left edge of
@@ -197,8 +208,9 @@ TEST(FitPlaneDirect, AFitThatDoesNotSettleWithASigmaUnderTheBoundIsNotBlamedOnTh
   EXPECT_TRUE(fit.points_in_cam1.empty());
 }
 
-// With a tenth of a millimetre of baseline (the corners still move by
-// 1e-3 px, over convergence_px) and 1 DN of noise, the Gauss-Newton steps
+// With a tenth or three hundredths of a millimetre of baseline (the corners
+// still move by 9e-4 and 2.7e-4 px, over convergence_px) and 1 DN of noise
+// (the tests' seeded generator), the Gauss-Newton steps
 // follow the noise until every step puts the ROI behind a camera: the fit
 // ends "diverged", with no sigma of its own, and the parallax takes the
 // blame as it does for a fit that found no texture.

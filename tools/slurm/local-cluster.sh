@@ -1,7 +1,10 @@
 #!/bin/bash
 # A single-node Slurm cluster on this machine, on loopback only, for the
 # bench's own tests and for trying the scripts of tools/slurm/ before a real
-# cluster: munged, slurmctld and slurmd with every file under DIR.
+# cluster: munged, slurmctld and slurmd with every file under DIR, but
+# munged's. Those (key, socket, pid, log) go to a private folder that this
+# script makes under /tmp and removes at stop, since the munge user must reach
+# them and DIR may lie under a folder only root can enter (/root is mode 0700).
 #   tools/slurm/local-cluster.sh start DIR [CPUS]   prints "export SLURM_CONF=DIR/slurm.conf"
 #   tools/slurm/local-cluster.sh stop DIR
 # Needs root (slurmd runs jobs as their user) and Debian's slurmctld, slurmd,
@@ -17,11 +20,21 @@ stop() {
   for name in slurmd slurmctld; do
     [[ -f $dir/$name.pid ]] && kill "$(cat "$dir/$name.pid")" 2>/dev/null || true
   done
-  [[ -f $dir/munge/munged.pid ]] && kill "$(cat "$dir/munge/munged.pid")" 2>/dev/null || true
+  local munge_dir=""
+  [[ -f $dir/munge-dir ]] && munge_dir=$(cat "$dir/munge-dir")
   for _ in $(seq 50); do
     pgrep -f "$dir/slurm.conf" >/dev/null || break
     sleep 0.1
   done
+  if [[ $munge_dir == /tmp/hdabench-munge.* && -d $munge_dir ]]; then
+    [[ -f $munge_dir/munged.pid ]] && kill "$(cat "$munge_dir/munged.pid")" 2>/dev/null || true
+    for _ in $(seq 50); do
+      pgrep -f "$munge_dir/" >/dev/null || break
+      sleep 0.1
+    done
+    rm -rf "$munge_dir"
+  fi
+  rm -f "$dir/munge-dir"
 }
 
 case $command in
@@ -31,18 +44,23 @@ case $command in
       command -v "$program" >/dev/null || die "$program not found: install slurmctld slurmd slurm-client munge" 4
     done
     mkdir -p "$dir/state" "$dir/spool" "$dir/log"
-    install -d -o munge -g munge -m 755 "$dir/munge"
-    install -d -o munge -g munge -m 700 "$dir/munge-key"
-    runuser -u munge -- mungekey -c -f -k "$dir/munge-key/munge.key"
-    runuser -u munge -- munged --key-file="$dir/munge-key/munge.key" --socket="$dir/munge/munge.socket" \
-      --pid-file="$dir/munge/munged.pid" --log-file="$dir/munge/munged.log" --seed-file="$dir/munge/munged.seed"
+    stop  # what an earlier start left behind
+    munge=$(mktemp -d /tmp/hdabench-munge.XXXXXX) || die "cannot make a folder under /tmp for munged" 4
+    echo "$munge" > "$dir/munge-dir"
+    chown munge:munge "$munge"
+    chmod 755 "$munge"
+    install -d -o munge -g munge -m 700 "$munge/key"
+    runuser -u munge -- mungekey -c -f -k "$munge/key/munge.key" || { stop; die "mungekey failed" 4; }
+    runuser -u munge -- munged --key-file="$munge/key/munge.key" --socket="$munge/munge.socket" \
+      --pid-file="$munge/munged.pid" --log-file="$munge/munged.log" --seed-file="$munge/munged.seed" ||
+      { stop; die "munged did not start (see $munge/munged.log)" 4; }
     cat > "$dir/slurm.conf" <<CONF
 ClusterName=hdabench-local
 SlurmctldHost=localhost(127.0.0.1)
 SlurmctldPort=$base
 SlurmdPort=$((base + 1))
 AuthType=auth/munge
-AuthInfo=socket=$dir/munge/munge.socket
+AuthInfo=socket=$munge/munge.socket
 CredType=cred/munge
 CommunicationParameters=NoInAddrAny,NoCtldInAddrAny
 SlurmUser=root

@@ -84,21 +84,24 @@ function(hdabench_write_module_rules)
   file(GENERATE OUTPUT ${PROJECT_BINARY_DIR}/module_rules.txt CONTENT "${content}\n")
 endfunction()
 
-# hdabench_embed_python(SCRIPT VARIABLE TEMPLATE): compiles a Python script
-# into the bench. Reads SCRIPT (in the current source folder) into VARIABLE,
-# refuses a script holding the raw-string end ')hdabench_py"', configures
-# TEMPLATE (a .cc.in whose R"hdabench_py(@VARIABLE@)hdabench_py" holds it) into
-# the current binary folder under the template's name without ".in", and
+# hdabench_embed_python(SCRIPT FUNCTION HEADER NAMESPACE): compiles a Python
+# script into the bench as `const std::string& NAMESPACE::FUNCTION()`, declared
+# in HEADER. Reads SCRIPT (in the current source folder), refuses a script
+# holding the raw-string end ')hdabench_py"', writes <SCRIPT's stem>_script.cc
+# into the current binary folder from cmake/embedded_python_script.cc.in, and
 # reconfigures when the script changes.
-function(hdabench_embed_python script variable template)
-  file(READ ${CMAKE_CURRENT_SOURCE_DIR}/${script} text)
-  string(FIND "${text}" ")hdabench_py\"" delimiter_at)
+function(hdabench_embed_python script function header namespace)
+  file(READ ${CMAKE_CURRENT_SOURCE_DIR}/${script} HDABENCH_SCRIPT_TEXT)
+  file(RELATIVE_PATH HDABENCH_SCRIPT_PATH ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR}/${script})
+  string(FIND "${HDABENCH_SCRIPT_TEXT}" ")hdabench_py\"" delimiter_at)
   if(NOT delimiter_at EQUAL -1)
-    file(RELATIVE_PATH where ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR}/${script})
-    message(FATAL_ERROR "${where} holds the raw-string end ')hdabench_py\"'")
+    message(FATAL_ERROR "${HDABENCH_SCRIPT_PATH} holds the raw-string end ')hdabench_py\"'")
   endif()
-  set(${variable} "${text}")
-  string(REGEX REPLACE "\\.in$" "" output ${template})
-  configure_file(${template} ${CMAKE_CURRENT_BINARY_DIR}/${output} @ONLY)
+  set(HDABENCH_SCRIPT_FUNCTION ${function})
+  set(HDABENCH_SCRIPT_HEADER ${header})
+  set(HDABENCH_SCRIPT_NAMESPACE ${namespace})
+  get_filename_component(stem ${script} NAME_WE)
+  configure_file(${PROJECT_SOURCE_DIR}/cmake/embedded_python_script.cc.in
+                 ${CMAKE_CURRENT_BINARY_DIR}/${stem}_script.cc @ONLY)
   set_property(DIRECTORY APPEND PROPERTY CMAKE_CONFIGURE_DEPENDS ${script})
 endfunction()

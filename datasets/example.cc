@@ -1,5 +1,7 @@
 #include "datasets/example.h"
 
+#include "tools/util/options_check.h"
+
 #include "datasets/synth/noise.h"
 #include "tools/util/angles.h"
 
@@ -317,22 +319,23 @@ void AddFlatDem(const GroundExtent& extent, Dataset* dataset) {
 
 }  // namespace
 
-void ExampleDatasetOptions::Validate() const {
-  auto require = [](bool ok, const char* what) {
-    if (!ok) throw std::invalid_argument(std::string("ExampleDatasetOptions: ") + what);
-  };
-  require(image_size_px >= 16 && image_size_px <= 4096, "image_size_px must be in [16, 4096]");
-  require(horizontal_fov_deg > 1.0 && horizontal_fov_deg < 120.0,
-          "horizontal_fov_deg must be in (1, 120)");
-  require(num_frames >= 2 && num_frames <= 1000, "num_frames must be in [2, 1000]");
-  require(duration_s > 0.0 && duration_s < 1000.0, "duration_s must be in (0, 1000)");
-  require(std::isfinite(speed_mps) && std::abs(speed_mps) < 1e4, "speed_mps must be finite");
-  require(altitude_m > 1.0 && altitude_m < 1e5, "altitude_m must be in (1, 1e5)");
-  require(std::isfinite(downrange_m) && std::abs(downrange_m) < 1e5, "downrange_m must be finite");
-  require(off_nadir_deg >= 0.0 && off_nadir_deg < 80.0, "off_nadir_deg must be in [0, 80)");
-  require(nav_rate_hz >= 1.0 && nav_rate_hz <= 1000.0, "nav_rate_hz must be in [1, 1000]");
-  require(lrf_rate_hz >= 1.0 && lrf_rate_hz <= 1000.0, "lrf_rate_hz must be in [1, 1000]");
-  require(margin_s > 0.0 && margin_s < 100.0, "margin_s must be in (0, 100)");
+std::vector<std::string> ExampleDatasetOptions::Validate() const {
+  std::vector<std::string> errors;
+  RequireOption(image_size_px >= 16 && image_size_px <= 4096, "image_size_px", image_size_px, "in [16, 4096]",
+                &errors);
+  RequireOption(horizontal_fov_deg > 1.0 && horizontal_fov_deg < 120.0, "horizontal_fov_deg", horizontal_fov_deg,
+                "in (1, 120)", &errors);
+  RequireOption(num_frames >= 2 && num_frames <= 1000, "num_frames", num_frames, "in [2, 1000]", &errors);
+  RequireOption(duration_s > 0.0 && duration_s < 1000.0, "duration_s", duration_s, "in (0, 1000)", &errors);
+  RequireOption(std::abs(speed_mps) < 1e4, "speed_mps", speed_mps, "in (-1e4, 1e4)", &errors);
+  RequireOption(altitude_m > 1.0 && altitude_m < 1e5, "altitude_m", altitude_m, "in (1, 1e5)", &errors);
+  RequireOption(std::abs(downrange_m) < 1e5, "downrange_m", downrange_m, "in (-1e5, 1e5)", &errors);
+  RequireOption(off_nadir_deg >= 0.0 && off_nadir_deg < 80.0, "off_nadir_deg", off_nadir_deg, "in [0, 80)",
+                &errors);
+  RequireOption(nav_rate_hz >= 1.0 && nav_rate_hz <= 1000.0, "nav_rate_hz", nav_rate_hz, "in [1, 1000]", &errors);
+  RequireOption(lrf_rate_hz >= 1.0 && lrf_rate_hz <= 1000.0, "lrf_rate_hz", lrf_rate_hz, "in [1, 1000]", &errors);
+  RequireOption(margin_s > 0.0 && margin_s < 100.0, "margin_s", margin_s, "in (0, 100)", &errors);
+  return errors;
 }
 
 Dataset MakeExampleDataset(std::uint64_t seed) {
@@ -342,7 +345,7 @@ Dataset MakeExampleDataset(std::uint64_t seed) {
 }
 
 Dataset MakeExampleDataset(const ExampleDatasetOptions& options) {
-  options.Validate();
+  ThrowIfInvalid("invalid ExampleDatasetOptions: ", options.Validate());
   const calib::CameraModel camera = MakeExampleCamera(options);
   Dataset dataset(camera);
   dataset.name = "example-lateral-seed" + std::to_string(options.seed);

@@ -12,6 +12,8 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
+#include <vector>
 
 #include "datasets/dataset.h"
 
@@ -31,13 +33,14 @@ struct ExampleDatasetOptions {
   double lrf_rate_hz = 20.0;       // LRF samples per second
   double margin_s = 0.1;           // nav and LRF start this long before the first frame and end this long after the last
 
-  // Throws std::invalid_argument naming the first field out of range.
-  void Validate() const;
+  // Every violated constraint, one message each ("field = value: expected ...").
+  std::vector<std::string> Validate() const;
 };
 
 // Builds the example in memory (images and truth included), ready for
 // WriteDataset. Deterministic: the same options give bit-identical values on
-// the same build. Throws std::invalid_argument when options are invalid.
+// the same build. Throws InputError naming every field out of range
+// (Validate).
 Dataset MakeExampleDataset(const ExampleDatasetOptions& options);
 Dataset MakeExampleDataset(std::uint64_t seed);
 

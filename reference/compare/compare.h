@@ -4,25 +4,9 @@
 // independently and the comparison fits each ROI's plane to each method's
 // points, next to the truth where the dataset has it.
 //
-// Methods (names as on the command line):
-//   flight              the flight method as it would fly (RunHda)
-//   flight-refined      the flight's points and the nav relative pose refined
-//                       together by a two-view bundle adjustment with the
-//                       nav pose as a prior (Ceres, reference/ceres/ceres_refine.h)
-//   colmap-nav          COLMAP SIFT + point_triangulator, nav poses held fixed
-//   colmap-free         COLMAP SIFT + mapper, aligned to the local frame with
-//                       the nav poses (reference/colmap/colmap_runner.h)
-//   opengv-<solver>     every ROI's ORB matches and those of tiles over the
-//                       rest of the overlap pooled (the flight matcher's
-//                       RANSAC inliers, before any use of navigation), one
-//                       relative pose for the pair by OpenGV with that solver,
-//                       scaled by the nav baseline, each ROI triangulated with
-//                       it from its own matches (reference/opengv/opengv_solvers.h)
-//   dense-nav           the pair rectified with the nav pose, semi-global
-//                       matching, every matched pixel triangulated
-//                       (reference/direct/dense_stereo.h)
-//   plane-nav           per ROI, the direct photometric plane under the nav
-//                       pose (reference/direct/plane_direct.h)
+// The methods (names as on the command line) are the table of method.h:
+// each is one file of reference/compare/methods/, and `hdabench compare
+// --help` lists them.
 //
 // A reference method's points belong to an ROI through their observation in
 // image 1 (inside the ROI's image-1 box). Every method's ROI plane is fitted
@@ -51,7 +35,7 @@
 
 namespace hdabench::reference {
 
-inline constexpr char kMethodFlight[] = "flight";
+// kMethodFlight: reference/flight/slope_statistics.h.
 inline constexpr char kMethodFlightRefined[] = "flight-refined";
 inline constexpr char kMethodColmapNav[] = "colmap-nav";
 inline constexpr char kMethodColmapFree[] = "colmap-free";
@@ -137,8 +121,8 @@ enum class MethodRoiStatus {
   kDegenerate,    // "degenerate": the points are collinear
   kFailed,        // "failed": the method failed for the run
   kNoSearchBox,   // "no search box": the ROI was not predicted in image 2
-  kPlanar,        // "planar": OpenGV for the ROI, colmap-free for the pair: the
-                  // configuration cannot give a confident free relative pose, so no slope
+  kPlanar,        // "planar": OpenGV and colmap-free: the pair's configuration cannot
+                  // give a confident free relative pose, so no slope
   kLowParallax,   // "low parallax": likewise; plane-nav: the pose gives the ROI no parallax;
                   // flight-refined: the flight method refused the ROI before matching for that;
                   // dense-nav: too little for the disparity step to give a slope
@@ -169,9 +153,8 @@ struct MethodRoi {
   std::string reason;             // one line with numbers
   int num_points = 0;
   bool has_fit = false;           // a plane was fitted: slope, normal and roughness are meaningful
-  // Whether the slope counts in the statistics: has_fit, and for the flight
-  // method a status with a slope (hda::HasSlope; a degenerate ROI's plane is
-  // a diagnostic).
+  // Whether the method stands by its slope: has_fit and a status with a
+  // slope (StatusHasSlope; a degenerate ROI's plane is a diagnostic).
   bool HasSlope() const;
   double slope_deg = 0.0;
   Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();  // the fitted plane's unit normal, up
@@ -179,22 +162,15 @@ struct MethodRoi {
   double roughness_max_m = 0.0;
   bool has_sigma = false;         // the method predicts its slope uncertainty (flight only)
   double slope_sigma_deg = 0.0;
-  std::string configuration;      // OpenGV (the ROI's), colmap-free (the pair's): well-conditioned, planar, low parallax, too few points
-  bool has_pose_error = false;    // OpenGV with truth: the ROI's relative pose against the true one
-  double rotation_error_deg = 0.0;
-  double translation_direction_error_deg = 0.0;
+  std::string configuration;      // OpenGV, colmap-free: the pair's (well-conditioned, planar, low parallax, too few points)
   PointAccuracy accuracy;
   std::vector<Eigen::Vector3d> points_in_local_m;  // the method's points in the ROI
   double wall_s = 0.0;           // wall time spent on this ROI (per-ROI methods only)
 };
 
-// Statistics of absolute errors (degrees for slopes, metres for roughness).
-struct ErrorStats {
-  int count = 0;
-  double median = 0.0;
-  double p90 = 0.0;
-  double max = 0.0;
-};
+// The ROI as the statistics see it (reference/flight/slope_statistics.h),
+// against its truth (nullptr: none).
+SlopeSample SampleOfMethodRoi(const MethodRoi& roi, const RoiTruthValue* truth);
 
 struct MethodSummary {
   std::string method;
@@ -229,13 +205,20 @@ struct CompareRun {
 using CompareProgress = std::function<void(const std::string& message)>;
 
 // Runs every method of options.methods on frames (frame1, frame2) of a dataset
-// loaded with images (and truth, for the truth columns). image_paths are the
-// frames' image files (COLMAP reads files). A method that fails marks its
-// column failed with the reason; the others are still computed. Throws
-// InputError for invalid options or frames.
+// loaded with images (and truth, for the truth columns); COLMAP reads the
+// frames' image files from the dataset's folder. Each method runs inside a
+// guard (method.h): one that throws marks its column failed with the reason,
+// and the others are still computed. Throws InputError for invalid options or
+// frames, and what the flight method throws (it finds the ROIs).
 CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
                       const CompareOptions& options, const std::string& colmap_workspace,
                       const CompareProgress& progress = nullptr);
+
+// RunCompare's last step: each method's statistics (MethodSummary's counts,
+// errors against the truth and colmap-nav, point accuracy, time ratio) from
+// run->rois, by the one rule of reference/flight/slope_statistics.h.
+// run->summaries holds one per method, with what each method filled.
+void SummariseCompareRun(CompareRun* run);
 
 // A whole-run reconstruction split by ROI (points whose image-1 observation
 // is inside the ROI's image-1 box), each ROI fitted with FitRoiPoints and
@@ -267,8 +250,5 @@ RoiFit FitRoiPoints(const std::vector<Eigen::Vector3d>& points_in_local,
 // Point accuracy against the truth DEM (see PointAccuracy).
 PointAccuracy ComputePointAccuracy(const std::vector<Eigen::Vector3d>& points_in_local,
                                    const datasets::TruthDem& dem);
-
-// Median, 90th percentile (linear between order statistics) and max of values.
-ErrorStats ComputeErrorStats(std::vector<double> values);
 
 }  // namespace hdabench::reference

@@ -53,9 +53,6 @@ Json MethodRoiJson(const MethodRoi& r) {
   j["roughness_rms_m"] = r.has_fit ? Number(r.roughness_rms_m) : Json(nullptr);
   j["roughness_max_m"] = r.has_fit ? Number(r.roughness_max_m) : Json(nullptr);
   j["configuration"] = r.configuration.empty() ? Json(nullptr) : Json(r.configuration);
-  j["rotation_error_deg"] = r.has_pose_error ? Number(r.rotation_error_deg) : Json(nullptr);
-  j["translation_direction_error_deg"] =
-      r.has_pose_error ? Number(r.translation_direction_error_deg) : Json(nullptr);
   j["point_accuracy"] = AccuracyJson(r.accuracy);
   return j;
 }
@@ -170,8 +167,7 @@ std::string CompareTimingsJson(const CompareRun& run) {
 std::string CompareRoisCsv(const CompareRun& run) {
   std::ostringstream out;
   out << "roi,method,status,num_points,slope_deg,slope_sigma_deg,truth_slope_deg,slope_error_deg,"
-         "tilt_error_deg,roughness_rms_m,truth_roughness_rms_m,configuration,rotation_error_deg,"
-         "translation_direction_error_deg,points_within_0_3_m\n";
+         "tilt_error_deg,roughness_rms_m,truth_roughness_rms_m,configuration,points_within_0_3_m\n";
   const auto quoted = [](const std::string& text) {
     std::string q = "\"";
     for (const char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
@@ -187,8 +183,6 @@ std::string CompareRoisCsv(const CompareRun& run) {
           << (t != nullptr ? util::CsvNumber(t->slope_deg) : "") << "," << util::CsvNumber(SlopeError(run, m, i))
           << "," << util::CsvNumber(TiltError(run, m, i)) << "," << (r.has_fit ? util::CsvNumber(r.roughness_rms_m) : "") << ","
           << (t != nullptr ? util::CsvNumber(t->roughness_rms_m) : "") << "," << r.configuration << ","
-          << (r.has_pose_error ? util::CsvNumber(r.rotation_error_deg) : "") << ","
-          << (r.has_pose_error ? util::CsvNumber(r.translation_direction_error_deg) : "") << ","
           << (r.accuracy.available ? util::CsvNumber(r.accuracy.within_0_3_m) : "") << "\n";
     }
   }

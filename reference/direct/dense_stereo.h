@@ -96,9 +96,10 @@ struct DenseStereoOptions {
   double min_roi_share = 0.5;        // in (0, 1]
   // An ROI (hdabench compare) has a plane only where the matcher's
   // disparity step alone leaves its slope at most this uncertain
-  // (DenseSlopeSigmaDeg; the flight method's max_slope_sigma_deg is the
-  // same 3 deg): a shorter baseline across the line of sight, a farther ROI or
-  // fewer points make depth differences across the ROI smaller than the step.
+  // (DenseSlopeSigmaDeg; compare passes the flight method's
+  // max_slope_sigma_deg): a shorter baseline across the line of sight, a
+  // farther ROI or fewer points make depth differences across the ROI smaller
+  // than the step.
   double max_slope_sigma_deg = 3.0;  // in (0, 90)
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;

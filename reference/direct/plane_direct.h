@@ -58,7 +58,8 @@ struct DirectPlaneOptions {
   int min_pixels = 64;              // >= 8: pixels needed at all
   // An ROI whose predicted slope sigma exceeds this is "no texture": its
   // pixels do not constrain the plane (uniform, or gradients only across the
-  // epipolar direction); or "low parallax" (parallax_precision_px).
+  // epipolar direction); or "low parallax" (parallax_precision_px). compare
+  // passes the flight method's max_slope_sigma_deg.
   double max_slope_sigma_deg = 3.0;  // > 0, degrees
   // An ROI the fit leaves without a slope within max_slope_sigma_deg ("no
   // texture", or "diverged" without a sigma under it) is "low parallax"

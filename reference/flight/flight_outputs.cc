@@ -480,35 +480,29 @@ std::string RoiPly(const hda::RoiResult& roi) {
 }
 
 SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run) {
-  std::vector<double> errors, tilts;
-  double signed_sum = 0.0;
-  int within = 0;
+  SlopeErrorPool pool;
   for (size_t i = 0; i < run.result.rois.size(); ++i) {
     const hda::RoiResult& roi = run.result.rois[i];
-    const double signed_error = SlopeErrorDeg(run, i);
-    const double tilt = TiltErrorOf(run, i);
-    if (!hda::HasSlope(roi.status) || !std::isfinite(signed_error) ||
-        roi.counts.depth_inliers < kMinPointsForSlopeStats) {
-      continue;
-    }
-    const double error = std::abs(signed_error);
-    errors.push_back(error);
-    if (std::isfinite(tilt)) tilts.push_back(tilt);
-    signed_sum += signed_error;
-    if (error <= 2.0 * roi.slope_sigma_deg) ++within;
+    SlopeSample sample;
+    sample.has_slope = roi.has_fit && hda::HasSlope(roi.status);
+    sample.num_points = roi.counts.depth_inliers;
+    sample.error_deg = SlopeErrorDeg(run, i);
+    sample.tilt_error_deg = TiltErrorOf(run, i);
+    sample.sigma_deg = roi.slope_sigma_deg;
+    pool.Add(sample);
   }
   SlopeErrorStats stats;
-  stats.count = static_cast<int>(errors.size());
-  if (errors.empty()) return stats;
-  std::sort(errors.begin(), errors.end());
-  std::sort(tilts.begin(), tilts.end());
+  stats.count = pool.count();
+  if (stats.count == 0) return stats;
+  const ErrorStats slope = pool.Slope();
+  const ErrorStats tilt = pool.Tilt();
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  stats.median_abs_deg = util::Quantile(errors, 0.5);
-  stats.p90_abs_deg = util::Quantile(errors, 0.9);
-  stats.within_two_sigma_fraction = within / static_cast<double>(errors.size());
-  stats.median_tilt_deg = tilts.empty() ? nan : util::Quantile(tilts, 0.5);
-  stats.p90_tilt_deg = tilts.empty() ? nan : util::Quantile(tilts, 0.9);
-  stats.bias_deg = signed_sum / static_cast<double>(errors.size());
+  stats.median_abs_deg = slope.median;
+  stats.p90_abs_deg = slope.p90;
+  stats.within_two_sigma_fraction = pool.WithinTwoSigmaShare();
+  stats.median_tilt_deg = tilt.count == 0 ? nan : tilt.median;
+  stats.p90_tilt_deg = tilt.count == 0 ? nan : tilt.p90;
+  stats.bias_deg = pool.Bias();
   return stats;
 }
 

@@ -14,17 +14,13 @@
 #include "hda/hda_options.h"
 #include "hda/pipeline.h"
 #include "reference/flight/flight_run.h"
+#include "reference/flight/slope_statistics.h"
 
 namespace hdabench::reference {
 
 inline constexpr char kFlightResultFormatName[] = "hdabench-flight-result";
 inline constexpr char kFlightTimingsFormatName[] = "hdabench-flight-timings";
 inline constexpr int kFlightResultFormatVersion = 1;
-
-// ROIs with fewer points than this are left out of the slope error statistics
-// (the paper's table lists ROIs down to 15 points; its two largest errors are
-// both 15-point ROIs).
-inline constexpr int kMinPointsForSlopeStats = 20;
 
 // result.json: the deterministic record of the run (no wall times), doubles
 // printed so they read back identical, null for what does not apply and for

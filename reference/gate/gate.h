@@ -190,6 +190,10 @@ struct GateRunOptions {
   std::string colmap_executable = "colmap";
   double processor_scale = 0.1;       // hda::HdaOptions::processor_scale
   util::Shard shard;                  // the entries to run: entry i when shard.Holds(i)
+  // The build the cached datasets and entries must come from: a dataset or
+  // entry folder made by another is made again. Empty: the running program's
+  // (util::BuildIdentity).
+  std::string build_identity;
 
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;

@@ -480,9 +480,7 @@ void FillRunPage(const Json& result, Page* page) {
   table.id = "roi-table";
   table.header = {"ROI", "status", "truth slope (deg)", "est. slope (deg)", "sigma (deg)",
                   "# points", "truth rough. RMS (m)", "est. relief (m)", "score", "rank"};
-  std::vector<double> errors, tilts;
-  double signed_sum = 0.0;
-  int within_two_sigma = 0;
+  SlopeErrorPool pool;
   for (const Json& roi : rois) {
     const Json& truth = Member(roi, "truth");
     const bool has_truth = Member(truth, "available") == true;
@@ -501,36 +499,23 @@ void FillRunPage(const Json& result, Page* page) {
         {Fixed(Member(roi, "score"), 3), "", ""},
         {Member(roi, "rank").is_number() ? Text(Member(roi, "rank")) : "-", "", ""},
     });
-    const Json& error = Member(roi, "slope_error_deg");
-    const Json& tilt = Member(roi, "tilt_error_deg");
-    const bool has_slope = status == "evaluated" || status == "unsafe slope" || status == "unsafe roughness";
-    if (has_slope && IsNumber(error) && points >= kMinPointsForSlopeStats) {
-      const double e = std::abs(error.get<double>());
-      errors.push_back(e);
-      if (IsNumber(tilt)) tilts.push_back(tilt.get<double>());  // runs written before the tilt error have none
-      signed_sum += error.get<double>();
-      const Json& sigma = Member(fit, "slope_sigma_deg");
-      if (IsNumber(sigma) && e <= 2.0 * sigma.get<double>()) ++within_two_sigma;
-    }
+    pool.Add(SampleOfFlightRecord(roi));
   }
-  if (errors.empty()) {
+  if (pool.count() == 0) {
     page->summary_lines.push_back("Slope error: no ROI has a slope, truth and at least " +
                                   std::to_string(kMinPointsForSlopeStats) + " points.");
   } else {
-    std::sort(errors.begin(), errors.end());
+    const ErrorStats errors = pool.Slope();
+    const ErrorStats tilts = pool.Tilt();
     page->summary_lines.push_back(
-        "Slope error over " + std::to_string(errors.size()) + " ROI(s) with a slope, truth and at least " +
+        "Slope error over " + std::to_string(errors.count) + " ROI(s) with a slope, truth and at least " +
         std::to_string(kMinPointsForSlopeStats) + " points: median |error| " +
-        util::FixedCell(util::Quantile(errors, 0.5), 2) + " deg, 90th percentile " +
-        util::FixedCell(util::Quantile(errors, 0.9), 2) + " deg, " +
-        util::FixedCell(100.0 * within_two_sigma / static_cast<double>(errors.size()), 0) +
-        " % within 2 predicted sigmas.");
-    std::sort(tilts.begin(), tilts.end());
-    if (!tilts.empty()) page->summary_lines.push_back(
-        "Tilt error (angle to the true plane): median " + util::FixedCell(util::Quantile(tilts, 0.5), 2) +
-        " deg, 90th percentile " + util::FixedCell(util::Quantile(tilts, 0.9), 2) +
-        " deg; slope bias (mean of estimated - true) " +
-        util::SignedCell(signed_sum / static_cast<double>(errors.size()), 2) + " deg.");
+        util::FixedCell(errors.median, 2) + " deg, 90th percentile " + util::FixedCell(errors.p90, 2) + " deg, " +
+        util::FixedCell(100.0 * pool.WithinTwoSigmaShare(), 0) + " % within 2 predicted sigmas.");
+    if (tilts.count > 0) page->summary_lines.push_back(
+        "Tilt error (angle to the true plane): median " + util::FixedCell(tilts.median, 2) +
+        " deg, 90th percentile " + util::FixedCell(tilts.p90, 2) +
+        " deg; slope bias (mean of estimated - true) " + util::SignedCell(pool.Bias(), 2) + " deg.");
   }
 }
 
@@ -656,8 +641,7 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
       const std::string status = Text(Member(v, "status"));
       const std::string reason = Text(Member(v, "reason"));
       if (IsNumber(Member(v, "slope_deg"))) {
-        const bool confident = status == "ok" || status == "evaluated" || status == "unsafe slope" ||
-                               status == "unsafe roughness";
+        const bool confident = StatusHasSlope(name == kMethodFlight, status);
         row.push_back({Fixed(Member(v, "slope_deg"), 2) + " (" + Text(Member(v, "num_points")) + ")" +
                            (confident ? "" : " " + status),
                        StatusClass(status), reason});
@@ -809,8 +793,69 @@ struct Plots {
   std::string error;  // empty when the figures are there
 };
 
-// Runs report_plots.py on the folder of `kind` ("run" or "compare").
-Plots DrawPlots(const fs::path& run_dir, const std::string& kind, const ReportOptions& options) {
+}  // namespace
+
+// The compare record's methods come in its order, so that each keeps its
+// colour when it has no slope.
+std::string PlotSeriesJson(const Json& result, const std::string& kind) {
+  const auto sample = [](const Json& roi_id, const Json& slope, const Json& truth_deg, const Json& sigma,
+                         int num_points, bool counts) {
+    return Json{{"roi", roi_id},
+                {"slope_deg", slope},
+                {"truth_deg", IsNumber(truth_deg) ? truth_deg : Json(nullptr)},
+                {"sigma_deg", IsNumber(sigma) ? sigma : Json(nullptr)},
+                {"num_points", num_points},
+                {"counts", counts}};
+  };
+  Json series = Json::array();
+  if (kind == "compare") {
+    std::vector<std::string> names;
+    for (const Json& m : Member(result, "methods")) names.push_back(Text(Member(m, "name")));
+    std::map<std::string, Json> samples;
+    for (const Json& roi : Member(result, "rois")) {
+      const Json& truth = Member(roi, "truth");
+      const Json& values = Member(roi, "methods");
+      if (!values.is_object()) continue;
+      for (const auto& item : values.items()) {
+        const Json& v = item.value();
+        if (!IsNumber(Member(v, "slope_deg"))) continue;
+        if (std::find(names.begin(), names.end(), item.key()) == names.end()) names.push_back(item.key());
+        bool counts = false;
+        try {
+          counts = SampleOfCompareRecord(item.key(), v, truth).Counts();
+        } catch (const Json::exception&) {  // a method entry without its status or count: not counted
+        }
+        samples[item.key()].push_back(sample(Member(roi, "id"), Member(v, "slope_deg"), Member(truth, "slope_deg"),
+                                             Member(v, "slope_sigma_deg"), IntOr(Member(v, "num_points"), 0),
+                                             counts));
+      }
+    }
+    for (const std::string& name : names) {
+      series.push_back({{"method", name}, {"samples", samples.count(name) ? samples[name] : Json::array()}});
+    }
+  } else {
+    Json flight = Json::array();
+    for (const Json& roi : Member(result, "rois")) {
+      const Json& fit = Member(roi, "fit");
+      if (!IsNumber(Member(fit, "slope_deg"))) continue;
+      const Json& truth = Member(roi, "truth");
+      flight.push_back(sample(Member(roi, "id"), Member(fit, "slope_deg"),
+                              Member(truth, "available") == true ? Member(truth, "slope_deg") : Json(nullptr),
+                              Member(fit, "slope_sigma_deg"),
+                              IntOr(Member(Member(roi, "counts"), "depth_inliers"), 0),
+                              SampleOfFlightRecord(roi).Counts()));
+    }
+    series.push_back({{"method", kMethodFlight}, {"samples", flight}});
+  }
+  return Json{{"min_points", kMinPointsForSlopeStats}, {"series", series}}.dump(1) + "\n";
+}
+
+namespace {
+
+// Runs report_plots.py on the folder of `kind` ("run" or "compare"), with
+// the slopes to draw (PlotSeriesJson).
+Plots DrawPlots(const fs::path& run_dir, const std::string& kind, const std::string& series,
+                const ReportOptions& options) {
   Plots plots;
   const std::string python = util::FindExecutable(options.python);
   if (python.empty()) {
@@ -829,7 +874,15 @@ Plots DrawPlots(const fs::path& run_dir, const std::string& kind, const ReportOp
   run.log_file = log.string();
   run.working_dir = script.folder().string();
   run.timeout_s = options.plot_timeout_s;
-  const util::ProcessResult result = script.Run({kind, fs::absolute(run_dir).string(), out.string()}, run);
+  const fs::path series_file = script.folder() / "series.json";
+  try {
+    util::WriteFileAtomically(series_file, series);
+  } catch (const InputError& e) {
+    plots.error = std::string("the plots' series could not be written: ") + e.what();
+    return plots;
+  }
+  const util::ProcessResult result =
+      script.Run({kind, fs::absolute(run_dir).string(), out.string(), series_file.string()}, run);
   if (!result.Ok()) {
     const std::string last_line = util::LastLineOfLog(log.string());
     if (result.started && !result.timed_out && result.exit_code == kPlotsExitNoMatplotlib) {
@@ -1110,8 +1163,10 @@ ReportResult WriteReportOrThrow(const std::string& run_dir, const ReportOptions&
   // page holds does not depend on which finishes first. (When reading the
   // folder throws, the future's destructor waits for the plots, then the
   // error goes on. Without a thread to spare, they are drawn when asked for.)
-  std::future<Plots> plots =
-      util::StartBeside("report plots", [dir, kind = page.kind, options] { return DrawPlots(dir, kind, options); });
+  std::future<Plots> plots = util::StartBeside(
+      "report plots", [dir, kind = page.kind, series = PlotSeriesJson(folder_result, page.kind), options] {
+        return DrawPlots(dir, kind, series, options);
+      });
   FillFromFolder(dir, folder_result, &page);
 
   const fs::path dataset_dir = FindDataset(dir, page.dataset_name, options.dataset_dir, &page.notes);

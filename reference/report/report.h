@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 namespace hdabench::reference {
 
 struct ReportOptions {
@@ -70,6 +72,15 @@ ReportResult WriteReport(const std::string& run_dir, const ReportOptions& option
 // WriteReport does for the folder and its files (the fuzzing harness
 // report_records drives it).
 int CheckReportFolder(const std::string& run_dir);
+
+// The slopes the plots draw, decided by the bench (report_plots.py applies no
+// rule of its own): every fitted slope of every method of a folder's
+// result.json (kind "run") or compare.json ("compare"), as read by
+// WriteReport, each with its truth, sigma, points and whether the statistics
+// count it (SlopeSample::Counts). JSON: {"min_points", "series": [{"method",
+// "samples": [{"roi", "slope_deg", "truth_deg", "sigma_deg", "num_points",
+// "counts"}]}]}.
+std::string PlotSeriesJson(const nlohmann::json& result, const std::string& kind);
 
 // The text of reference/report/report_plots.py as built into the library.
 const std::string& ReportPlotsScript();

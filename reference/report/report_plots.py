@@ -1,9 +1,14 @@
 # The plots of `hdabench report` (reference/report/report.h, docs/report.md), drawn
 # with matplotlib's Agg backend from the files of a run or compare folder.
 #
-#   report_plots.py run|compare RUN_DIR OUT_DIR
+#   report_plots.py run|compare RUN_DIR OUT_DIR SERIES_JSON
 #
-# Reads result.json and timings.json (run), or compare.json,
+# SERIES_JSON holds the slopes to draw, already decided by the bench
+# (reference/report/report.cc PlotSeriesJson, with the one rule of
+# reference/flight/slope_statistics.h): {"min_points": N, "series": [{"method",
+# "samples": [{"roi", "slope_deg", "truth_deg", "sigma_deg", "num_points",
+# "counts"}]}]}, "counts" true for a slope that enters the statistics. This
+# script applies no rule of its own. It reads timings.json (run), or
 # compare_timings.json and flight/timings.json (compare). Writes one PNG per
 # plot that has data into OUT_DIR and OUT_DIR/plots.json, the list of the
 # plots written in page order: [{"file", "title", "caption"}]. A plot without
@@ -62,50 +67,31 @@ def finite(value):
 
 
 class Sample:
-    """One ROI of one method with a fitted slope, degrees, and its number of points."""
+    """One ROI of one method with a fitted slope, degrees, its number of points, and whether the
+    bench counts it in the statistics."""
 
-    def __init__(self, roi_id, slope_deg, truth_deg, sigma_deg, num_points):
-        self.roi_id = roi_id
-        self.slope_deg = slope_deg
-        self.truth_deg = truth_deg    # None without truth
-        self.sigma_deg = sigma_deg    # None when not predicted or infinite
-        self.num_points = num_points
+    def __init__(self, record):
+        self.roi_id = record.get("roi")
+        self.slope_deg = record["slope_deg"]
+        truth, sigma = record.get("truth_deg"), record.get("sigma_deg")
+        self.truth_deg = truth if finite(truth) else None    # None without truth
+        self.sigma_deg = sigma if finite(sigma) else None    # None when not predicted or infinite
+        self.num_points = record.get("num_points") or 0
+        self.counts = record.get("counts") is True
 
     def error_deg(self):
         return None if self.truth_deg is None else self.slope_deg - self.truth_deg
 
 
-def run_series(result):
-    """{"flight": [Sample]} from result.json."""
-    samples = []
-    for roi in result.get("rois", []):
-        fit = roi.get("fit")
-        if not isinstance(fit, dict) or not finite(fit.get("slope_deg")):
-            continue
-        truth = roi.get("truth") or {}
-        truth_deg = truth.get("slope_deg") if truth.get("available") else None
-        sigma = fit.get("slope_sigma_deg")
-        samples.append(Sample(roi.get("id"), fit["slope_deg"],
-                              truth_deg if finite(truth_deg) else None,
-                              sigma if finite(sigma) else None,
-                              (roi.get("counts") or {}).get("depth_inliers", 0) or 0))
-    return {"flight": samples}
-
-
-def compare_series(compare):
-    """{method: [Sample]} from compare.json, methods in the file's order."""
-    series = {m.get("name"): [] for m in compare.get("methods", [])}
-    for roi in compare.get("rois", []):
-        truth = roi.get("truth") or {}
-        truth_deg = truth.get("slope_deg") if finite(truth.get("slope_deg")) else None
-        for name, value in (roi.get("methods") or {}).items():
-            if not isinstance(value, dict) or not finite(value.get("slope_deg")):
-                continue
-            sigma = value.get("slope_sigma_deg")
-            series.setdefault(name, []).append(
-                Sample(roi.get("id"), value["slope_deg"], truth_deg,
-                       sigma if finite(sigma) else None, value.get("num_points") or 0))
-    return series
+def read_series(path):
+    """({method: [Sample]} in the file's order, min_points) from the bench's series file."""
+    data = read_json(path)
+    try:
+        series = {entry["method"]: [Sample(r) for r in entry["samples"] if finite(r.get("slope_deg"))]
+                  for entry in data["series"]}
+        return series, int(data["min_points"])
+    except (KeyError, TypeError, ValueError) as error:
+        fail_input("%s: not a series file of the bench (%s: %s)" % (path, type(error).__name__, error))
 
 
 def method_colours(names):
@@ -133,11 +119,9 @@ def new_axes():
     return fig, fig.add_subplot(1, 1, 1)
 
 
-def marker_sets(samples, min_points):
-    """Samples split into those used by the statistics (>= min_points) and the others."""
-    full = [s for s in samples if s.num_points >= min_points]
-    few = [s for s in samples if s.num_points < min_points]
-    return full, few
+def marker_sets(samples):
+    """Samples split into those the statistics count and the others."""
+    return [s for s in samples if s.counts], [s for s in samples if not s.counts]
 
 
 def plot_slope_scatter(plots, series, colours, min_points):
@@ -149,7 +133,7 @@ def plot_slope_scatter(plots, series, colours, min_points):
     for method, samples in with_truth.items():
         if not samples:
             continue
-        full, few = marker_sets(samples, min_points)
+        full, few = marker_sets(samples)
         colour = colours[method]
         if full:
             ax.scatter([s.truth_deg for s in full], [s.slope_deg for s in full], s=28,
@@ -157,7 +141,7 @@ def plot_slope_scatter(plots, series, colours, min_points):
         if few:
             ax.scatter([s.truth_deg for s in few], [s.slope_deg for s in few], s=28,
                        facecolors="none", edgecolors=colour,
-                       label="%s, < %d points (%d)" % (method, min_points, len(few)))
+                       label="%s, not counted (%d)" % (method, len(few)))
         top = max(top, max(max(s.truth_deg, s.slope_deg) for s in samples))
     top = max(1.0, top * 1.05)
     ax.plot([0.0, top], [0.0, top], color="black", linewidth=1.0, linestyle="--", label="y = x")
@@ -169,8 +153,8 @@ def plot_slope_scatter(plots, series, colours, min_points):
     ax.legend(fontsize=8, loc="best")
     plots.save(fig, "slope_scatter.png", "Estimated against true slope",
                "One point per ROI with a fitted plane and truth, one colour per method; hollow "
-               "markers: fewer than %d points (left out of the statistics); dashed: y = x."
-               % min_points)
+               "markers: left out of the statistics (fewer than %d points, or a status without a "
+               "slope the method stands by); dashed: y = x." % min_points)
 
 
 def plot_error_histograms(plots, series, colours):
@@ -312,25 +296,18 @@ def plot_method_timings(plots, compare_timings, colours):
 
 
 def main(argv):
-    if len(argv) != 4 or argv[1] not in ("run", "compare"):
-        sys.stderr.write("usage: report_plots.py run|compare RUN_DIR OUT_DIR\n")
+    if len(argv) != 5 or argv[1] not in ("run", "compare"):
+        sys.stderr.write("usage: report_plots.py run|compare RUN_DIR OUT_DIR SERIES_JSON\n")
         return 2
     kind, run_dir, out_dir = argv[1], argv[2], argv[3]
     plt.style.use("default")
     plt.rcParams["svg.hashsalt"] = "hdabench"
     plots = Plots(out_dir)
+    series, min_points = read_series(argv[4])
     if kind == "run":
-        result = read_json(os.path.join(run_dir, "result.json"))
-        series = run_series(result)
-        min_points = 20
         timings = read_json_if_present(os.path.join(run_dir, "timings.json"))
         compare_timings = None
     else:
-        compare = read_json(os.path.join(run_dir, "compare.json"))
-        series = compare_series(compare)
-        min_points = compare.get("min_points_for_stats")
-        if not isinstance(min_points, int):
-            min_points = 20  # a record without it (the bench's kMinPointsForSlopeStats)
         timings = read_json_if_present(os.path.join(run_dir, "flight", "timings.json"))
         compare_timings = read_json_if_present(os.path.join(run_dir, "compare_timings.json"))
     colours = method_colours(list(series.keys()))

@@ -20,6 +20,7 @@
 #include "tools/util/random_vectors.h"
 #include "hda/geometry.h"
 #include "reference/compare/compare_outputs.h"
+#include "reference/compare/method.h"
 #include "tests/support/synth_scene.h"
 #include "tests/support/test_support.h"
 
@@ -437,6 +438,104 @@ TEST_F(CompareOnSyntheticScene, AMissingColmapFailsItsColumnsAndKeepsTheOthers) 
   }
   EXPECT_GT(flight_fits, 0);
   EXPECT_TRUE(fs::exists(out / "cmp" / "flight" / "result.json"));
+}
+
+// Every method runs inside the guard: one of each family made to throw (a
+// table entry of the same name replacing it) fails its own column with the
+// message, and every other column is what it is without the failure.
+TEST_F(CompareOnSyntheticScene, AMethodThatThrowsFailsOnlyItsOwnColumn) {
+  const datasets::Dataset dataset = Load();
+  CompareOptions options;
+  options.methods = {kMethodFlight, kMethodFlightRefined, kMethodColmapNav, "opengv-two-point",
+                     kMethodDenseNav, kMethodPlaneNav};
+  options.colmap.executable = "/nonexistent/colmap";  // its column fails on its own; no COLMAP run here
+  const fs::path out = FreshTestDir();
+  const CompareRun clean = RunCompare(dataset, 0, 6, options, (out / "clean").string());
+  const std::string clean_json = CompareResultJson(clean);
+  for (const std::string& thrower : {std::string(kMethodFlightRefined), std::string(kMethodColmapNav),
+                                     std::string("opengv-two-point"), std::string(kMethodDenseNav),
+                                     std::string(kMethodPlaneNav)}) {
+    SCOPED_TRACE(thrower);
+    const std::unique_ptr<MethodEntry> original = FindMethod(thrower);
+    ASSERT_NE(original, nullptr);
+    MethodEntry failing = *original;
+    // It reads what it needs first (the pair's matches, COLMAP's results),
+    // then throws.
+    failing.run = [run = original->run, thrower](const PairContext& ctx, std::vector<MethodRoi>* rois,
+                                                 MethodSummary* summary) {
+      run(ctx, rois, summary);
+      throw std::runtime_error(thrower + " broke here");
+    };
+    const ScopedMethodRegistration registration(failing);
+    const CompareRun run = RunCompare(dataset, 0, 6, options, (out / thrower).string());
+    ASSERT_EQ(run.methods, clean.methods);
+    for (size_t m = 0; m < run.methods.size(); ++m) {
+      ASSERT_EQ(run.rois[m].size(), clean.flight.result.rois.size());
+      if (run.methods[m] != thrower) {
+        EXPECT_EQ(run.summaries[m].ok, clean.summaries[m].ok) << run.methods[m];
+        continue;
+      }
+      EXPECT_FALSE(run.summaries[m].ok);
+      EXPECT_EQ(run.summaries[m].failure, thrower + " broke here");
+      for (const MethodRoi& roi : run.rois[m]) {
+        EXPECT_EQ(roi.status, MethodRoiStatus::kFailed);
+        EXPECT_FALSE(roi.has_fit);
+      }
+    }
+    // The other columns are byte for byte those of the clean run.
+    nlohmann::json broken = nlohmann::json::parse(CompareResultJson(run));
+    nlohmann::json expected = nlohmann::json::parse(clean_json);
+    for (nlohmann::json* j : {&broken, &expected}) {
+      for (nlohmann::json& m : (*j)["methods"]) {
+        if (m["name"] == thrower) m = nullptr;
+      }
+      for (nlohmann::json& roi : (*j)["rois"]) roi["methods"].erase(thrower);
+    }
+    EXPECT_EQ(broken.dump(), expected.dump());
+  }
+}
+
+// A method of a test's own joins compare through the table alone: it is
+// listed, parsed by --methods, run in the guarded loop with the pair's
+// context, written to compare.json and summarised by the one rule.
+TEST_F(CompareOnSyntheticScene, AMethodRegisteredInTheTableJoinsCompare) {
+  MethodEntry level;
+  level.name = "level-ground";
+  level.summary = "every ROI level, from the flight method's own points (a test's method)";
+  level.run = [](const PairContext& ctx, std::vector<MethodRoi>* rois, MethodSummary* summary) {
+    for (const hda::RoiResult& r : ctx.flight().result.rois) {
+      MethodRoi roi;
+      roi.num_points = static_cast<int>(r.points_in_local_m.size());
+      roi.status = roi.num_points >= 3 ? MethodRoiStatus::kOk : MethodRoiStatus::kTooFewPoints;
+      roi.has_fit = roi.status == MethodRoiStatus::kOk;
+      roi.slope_deg = 0.0;
+      roi.reason = "level by assumption";
+      rois->push_back(roi);
+    }
+    summary->note = "a test's method";
+  };
+  const ScopedMethodRegistration registration(level);
+  EXPECT_EQ(AllMethodNames().back(), "level-ground");
+  EXPECT_NE(MethodListText().find("level-ground"), std::string::npos);
+  CompareOptions options;
+  options.methods = ParseMethodList("flight,level-ground");
+  ASSERT_EQ(options.methods, (std::vector<std::string>{"flight", "level-ground"}));
+  const CompareRun run = RunCompare(Load(), 0, 6, options, (FreshTestDir() / "colmap").string());
+  ASSERT_EQ(run.summaries.size(), 2u);
+  EXPECT_TRUE(run.summaries[1].ok) << run.summaries[1].failure;
+  EXPECT_EQ(run.summaries[1].note, "a test's method");
+  int level_rois = 0;
+  for (size_t i = 0; i < run.rois[1].size(); ++i) {
+    const MethodRoi& roi = run.rois[1][i];
+    if (roi.has_fit) ++level_rois;
+    EXPECT_EQ(roi.num_points, static_cast<int>(run.flight.result.rois[i].points_in_local_m.size()));
+  }
+  EXPECT_GT(level_rois, 0);
+  EXPECT_EQ(run.summaries[1].rois_with_fit, level_rois);
+  EXPECT_GT(run.summaries[1].slope_vs_truth_deg.count, 0);  // the truth's own slopes are its errors
+  const nlohmann::json json = nlohmann::json::parse(CompareResultJson(run));
+  EXPECT_EQ(json["methods"][1]["name"], "level-ground");
+  EXPECT_EQ(json["rois"][0]["methods"]["level-ground"]["reason"], "level by assumption");
 }
 
 // Every method is deterministic: the same bytes on a second run, COLMAP's

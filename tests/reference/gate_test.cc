@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "tools/util/build_identity.h"
 #include "tools/util/error.h"
 #include "tests/support/synth_scene.h"
 #include "tests/support/test_support.h"
@@ -795,9 +796,74 @@ TEST_F(GateCommand, EntriesOfOneSourceShareItsDataset) {
   const nlohmann::json record =
       nlohmann::json::parse(ReadText(dir / "out" / "entries" / "late" / "gate_entry.json"));
   EXPECT_EQ(record.at("entry").at("fault"), "clock-offset=0.05");
-  EXPECT_FALSE(nlohmann::json::parse(ReadText(dir / "out" / "entries" / "clean" / "gate_entry.json"))
-                   .at("entry")
-                   .contains("fault"));
+  EXPECT_TRUE(nlohmann::json::parse(ReadText(dir / "out" / "entries" / "clean" / "gate_entry.json"))
+                  .at("entry")
+                  .at("fault")
+                  .is_null());
+}
+
+// Both caches are keyed on the build: the same build reuses the dataset it
+// made and the entry's folder; another build (a new scene generator, say)
+// makes the dataset again, redoes the entry and removes the old dataset.
+TEST(RunGateSuite, ANewBuildRegeneratesItsDatasetsAndTheSameBuildReusesThem) {
+  const fs::path dir = FreshTestDir();
+  WriteText(dir / "suite.json",
+            nlohmann::json({{"format", "hdabench-gate-suite"},
+                            {"format_version", 1},
+                            {"methods", {"flight"}},
+                            {"entries",
+                             {{{"name", "scene"},
+                               {"synth", {{"preset", "novac-lateral"}, {"seed", 3}, {"image_size", 128}}}}}}})
+                .dump(1));
+  const GateSuite suite = ReadGateSuite((dir / "suite.json").string());
+  GateRunOptions options;
+  options.out_dir = (dir / "out").string();
+  options.jobs = 1;
+  const auto run = [&](const std::string& build) {
+    options.build_identity = build;
+    const std::vector<GateEntryOutcome> outcomes = RunGateSuite(suite, options, nullptr);
+    EXPECT_EQ(outcomes.size(), 1u);
+    EXPECT_TRUE(outcomes.at(0).ok) << outcomes.at(0).error;
+    return outcomes.at(0);
+  };
+  const auto datasets = [&] {
+    std::vector<std::string> names;
+    for (const auto& item : fs::directory_iterator(dir / "out" / "datasets")) {
+      names.push_back(item.path().filename().string());
+    }
+    return names;
+  };
+
+  EXPECT_FALSE(run("build-a").reused);
+  const std::vector<std::string> first = datasets();
+  ASSERT_EQ(first.size(), 1u);
+  // A mark in the made dataset: reuse keeps the folder as it is.
+  const fs::path mark = dir / "out" / "datasets" / first[0] / "made-by-build-a";
+  WriteText(mark, "");
+  EXPECT_TRUE(run("build-a").reused);
+  EXPECT_EQ(datasets(), first);
+  EXPECT_TRUE(fs::exists(mark));
+
+  // Another build: the entry is redone on a dataset made anew (the mark is
+  // not in it), whose folder replaces the old one.
+  EXPECT_FALSE(run("build-b").reused);
+  const std::vector<std::string> second = datasets();
+  ASSERT_EQ(second.size(), 1u);
+  EXPECT_NE(second[0], first[0]);
+  EXPECT_EQ(second[0].rfind("scene-", 0), 0u) << second[0];
+  EXPECT_FALSE(fs::exists(dir / "out" / "datasets" / second[0] / "made-by-build-a"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "datasets" / second[0] / "manifest.json"));
+  const nlohmann::json record = nlohmann::json::parse(ReadText(dir / "out" / "entries" / "scene" / "gate_entry.json"));
+  EXPECT_EQ(record.at("build"), "build-b");
+}
+
+// Without a build given, the running program's identity keys the caches: the
+// GNU build ID the linker wrote into the test binary.
+TEST(BuildIdentity, IsTheProgramsBuildIdAndStable) {
+  const std::string& id = util::BuildIdentity();
+  EXPECT_EQ(id.rfind("gnu-build-id:", 0), 0u) << id;
+  EXPECT_GT(id.size(), std::string("gnu-build-id:").size() + 16) << id;
+  EXPECT_EQ(util::BuildIdentity(), id);
 }
 
 TEST_F(GateCommand, BadFilesAndFlagsHaveTheirExitCodes) {

@@ -15,6 +15,7 @@
 #include "datasets/dataset.h"
 #include "hda/hda_options.h"
 #include "reference/compare/compare.h"
+#include "reference/compare/method.h"
 #include "reference/compare/compare_outputs.h"
 #include "reference/flight/flight_outputs.h"
 #include "reference/flight/flight_run.h"
@@ -143,9 +144,8 @@ Command AddCompareCommand(CLI::App& app) {
   compare->add_option("--frames", args->frames_text,
                       "Two different frame indices i,j (default: as hdabench run)");
   compare->add_option("--methods", options.methods,
-                      "Comma-separated methods, or all: flight, flight-refined, colmap-nav,\n"
-                      "colmap-free, opengv-stewenius, opengv-nister, opengv-eight-point,\n"
-                      "opengv-eigensolver, opengv-two-point, dense-nav, plane-nav (flight always runs)")
+                      "Comma-separated methods, or all (flight always runs):\n" +
+                          reference::MethodListText())
       ->capture_default_str();
   compare->add_option("--out", options.out_dir,
                       "Output folder (created if missing; files replaced)")

@@ -1,0 +1,80 @@
+// The table of methods: the order of compare's columns, of `--methods`, of
+// the CLI's help. Adding a method is one line here and its own file.
+#include <algorithm>
+#include <map>
+#include <mutex>
+
+#include "reference/compare/method.h"
+
+namespace hdabench::reference {
+
+namespace {
+
+std::vector<MethodEntry> BuiltInMethods() {
+  std::vector<MethodEntry> table = {FlightMethod(), FlightRefinedMethod(), ColmapNavMethod(), ColmapFreeMethod()};
+  for (const OpenGvSolver solver : AllOpenGvSolvers()) table.push_back(OpenGvMethod(solver));
+  table.push_back(DenseNavMethod());
+  table.push_back(PlaneNavMethod());
+  return table;
+}
+
+// The methods registered by ScopedMethodRegistration, in the order registered.
+std::mutex g_registered_mutex;
+std::vector<MethodEntry>& Registered() {
+  static std::vector<MethodEntry> registered;
+  return registered;
+}
+
+}  // namespace
+
+std::vector<MethodEntry> MethodTable() {
+  std::vector<MethodEntry> table = BuiltInMethods();
+  const std::lock_guard<std::mutex> lock(g_registered_mutex);
+  for (const MethodEntry& entry : Registered()) {
+    const auto same = std::find_if(table.begin(), table.end(),
+                                   [&](const MethodEntry& m) { return m.name == entry.name; });
+    if (same != table.end()) {
+      *same = entry;
+    } else {
+      table.push_back(entry);
+    }
+  }
+  return table;
+}
+
+std::unique_ptr<MethodEntry> FindMethod(const std::string& name) {
+  for (MethodEntry& entry : MethodTable()) {
+    if (entry.name == name) return std::make_unique<MethodEntry>(std::move(entry));
+  }
+  return nullptr;
+}
+
+std::string MethodListText() {
+  const std::vector<MethodEntry> table = MethodTable();
+  size_t width = 0;
+  for (const MethodEntry& m : table) width = std::max(width, m.name.size());
+  std::string text;
+  for (const MethodEntry& m : table) {
+    text += "  " + m.name + std::string(width + 2 - m.name.size(), ' ') + m.summary + "\n";
+  }
+  return text;
+}
+
+ScopedMethodRegistration::ScopedMethodRegistration(MethodEntry entry) : name_(entry.name) {
+  const std::lock_guard<std::mutex> lock(g_registered_mutex);
+  Registered().push_back(std::move(entry));
+}
+
+ScopedMethodRegistration::~ScopedMethodRegistration() {
+  const std::lock_guard<std::mutex> lock(g_registered_mutex);
+  std::vector<MethodEntry>& registered = Registered();
+  for (auto it = registered.end(); it != registered.begin();) {
+    --it;
+    if (it->name == name_) {
+      registered.erase(it);
+      break;
+    }
+  }
+}
+
+}  // namespace hdabench::reference

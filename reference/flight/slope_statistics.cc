@@ -1,0 +1,113 @@
+#include "reference/flight/slope_statistics.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tools/util/statistics.h"
+
+namespace hdabench::reference {
+
+namespace {
+
+using Json = nlohmann::json;
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// A record's number, NaN where it is null or absent (a value that does not apply).
+double NumberOrNaN(const Json& object, const char* key) {
+  if (!object.is_object()) return kNaN;
+  const auto it = object.find(key);
+  return it != object.end() && it->is_number() ? it->get<double>() : kNaN;
+}
+
+// A record's member, null where it is absent or the record is no object.
+const Json& Member(const Json& object, const char* key) {
+  static const Json null;
+  if (!object.is_object()) return null;
+  const auto it = object.find(key);
+  return it == object.end() ? null : *it;
+}
+
+}  // namespace
+
+bool StatusHasSlope(bool is_flight, const std::string& status) {
+  if (is_flight) return status == "evaluated" || status == "unsafe slope" || status == "unsafe roughness";
+  return status == "ok";
+}
+
+bool WithinTwoSigma(double abs_error, double sigma) { return std::isfinite(sigma) && abs_error <= 2.0 * sigma; }
+
+ErrorStats ComputeErrorStats(std::vector<double> values) {
+  ErrorStats stats;
+  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return !std::isfinite(v); }),
+               values.end());
+  if (values.empty()) return stats;
+  std::sort(values.begin(), values.end());
+  stats.count = static_cast<int>(values.size());
+  stats.median = util::Quantile(values, 0.5);
+  stats.p90 = util::Quantile(values, 0.9);
+  stats.max = values.back();
+  return stats;
+}
+
+bool SlopeSample::Counts() const {
+  return has_slope && std::isfinite(error_deg) && num_points >= kMinPointsForSlopeStats;
+}
+
+SlopeSample SampleOfCompareRecord(const std::string& method, const Json& entry, const Json& truth) {
+  SlopeSample s;
+  const double slope = NumberOrNaN(entry, "slope_deg");
+  s.has_slope = std::isfinite(slope) && StatusHasSlope(method == kMethodFlight, entry.at("status").get<std::string>());
+  s.num_points = entry.at("num_points").get<int>();
+  if (truth.is_object()) {
+    // The record's own difference (the in-memory values' difference, printed
+    // to read back exactly); slope - truth for a record without it.
+    s.error_deg = entry.contains("slope_error_deg") ? NumberOrNaN(entry, "slope_error_deg")
+                                                    : slope - NumberOrNaN(truth, "slope_deg");
+    s.roughness_error_m = std::abs(NumberOrNaN(entry, "roughness_rms_m") - NumberOrNaN(truth, "roughness_rms_m"));
+  }
+  s.tilt_error_deg = NumberOrNaN(entry, "tilt_error_deg");
+  s.sigma_deg = NumberOrNaN(entry, "slope_sigma_deg");
+  return s;
+}
+
+SlopeSample SampleOfFlightRecord(const Json& roi) {
+  SlopeSample s;
+  const Json& fit = Member(roi, "fit");
+  const double slope = NumberOrNaN(fit, "slope_deg");
+  const Json& status = Member(roi, "status");
+  s.has_slope = std::isfinite(slope) && status.is_string() && StatusHasSlope(true, status.get<std::string>());
+  const Json& points = Member(Member(roi, "counts"), "depth_inliers");
+  s.num_points = points.is_number_integer() ? points.get<int>() : 0;
+  const Json& truth = Member(roi, "truth");
+  s.error_deg = NumberOrNaN(roi, "slope_error_deg");
+  s.tilt_error_deg = NumberOrNaN(roi, "tilt_error_deg");
+  if (Member(truth, "available") == true) {
+    s.roughness_error_m = std::abs(NumberOrNaN(fit, "roughness_rms_m") - NumberOrNaN(truth, "roughness_rms_m"));
+  }
+  s.sigma_deg = NumberOrNaN(fit, "slope_sigma_deg");
+  return s;
+}
+
+void SlopeErrorPool::Add(const SlopeSample& sample) {
+  ++rois_;
+  if (sample.has_slope) ++rois_with_slope_;
+  if (!sample.Counts()) return;
+  const double error = std::abs(sample.error_deg);
+  slope_errors_.push_back(error);
+  signed_sum_ += sample.error_deg;
+  if (std::isfinite(sample.tilt_error_deg)) tilt_errors_.push_back(sample.tilt_error_deg);
+  if (std::isfinite(sample.roughness_error_m)) roughness_errors_.push_back(sample.roughness_error_m);
+  if (WithinTwoSigma(error, sample.sigma_deg)) ++within_two_sigma_;
+}
+
+double SlopeErrorPool::Bias() const {
+  return slope_errors_.empty() ? 0.0 : signed_sum_ / static_cast<double>(slope_errors_.size());
+}
+
+double SlopeErrorPool::WithinTwoSigmaShare() const {
+  return slope_errors_.empty() ? 0.0
+                               : static_cast<double>(within_two_sigma_) / static_cast<double>(slope_errors_.size());
+}
+
+}  // namespace hdabench::reference

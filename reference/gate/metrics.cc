@@ -1,0 +1,241 @@
+// The gate's metrics: every entry's results read back from its files and
+// pooled per method and fault by the one rule of
+// reference/flight/slope_statistics.h, checked against thresholds and a
+// baseline, and their file.
+#include "reference/gate/gate.h"
+
+#include <map>
+
+#include "reference/compare/compare.h"
+#include "reference/flight/slope_statistics.h"
+#include "reference/gate/internal/common.h"
+
+namespace hdabench::reference {
+
+using namespace gate_internal;  // NOLINT(google-build-using-namespace): the gate's own helpers
+
+namespace {
+
+// An observability setting whose plane is missing in more than 5 % of the
+// trials has no finite p95: it counts as the largest slope error there is.
+constexpr double kObservabilityUnjudgedDeg = 90.0;
+
+// One method's ROIs, failures and time over the entries of one pool.
+struct MetricPool {
+  SlopeErrorPool slopes;
+  int failed = 0;
+  double flight_seconds = -1.0;
+};
+
+// A pool: a method and a fault (empty: the entries without one).
+using PoolKey = std::pair<std::string, std::string>;
+
+struct MetricPools {
+  std::map<PoolKey, MetricPool> by_key;
+  std::vector<PoolKey> order;  // the pools with metrics, in the order first met
+
+  // The pool of a method that ran, listed among the metrics.
+  MetricPool& Listed(const PoolKey& key) {
+    if (by_key.count(key) == 0) order.push_back(key);
+    return by_key[key];
+  }
+};
+
+// The worst setting of any of the suite's observability entries.
+struct StudyWorst {
+  bool present = false;
+  double p95 = 0.0, median = 0.0, sigma_ratio = 1.0;
+};
+
+// An observability entry's settings.csv into the worst setting so far.
+void AddStudyEntry(const fs::path& dir, StudyWorst* study) {
+  const std::string path = (dir / "settings.csv").string();
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read the file");
+  std::stringstream text;
+  text << in.rdbuf();
+  for (const SettingStats& s : ParseSettingsCsv(text.str(), path)) {
+    study->present = true;
+    const bool judged = s.fits >= 0.95 * s.trials;
+    study->p95 = std::max(study->p95, judged ? s.p95_abs_error_deg : kObservabilityUnjudgedDeg);
+    study->median = std::max(study->median, std::isfinite(s.median_abs_error_deg) ? s.median_abs_error_deg
+                                                                                   : kObservabilityUnjudgedDeg);
+    if (s.sd_error_deg > 0.0 && s.rms_sigma_deg > 0.0) {
+      study->sigma_ratio = std::max({study->sigma_ratio, s.sd_error_deg / s.rms_sigma_deg,
+                                     s.rms_sigma_deg / s.sd_error_deg});
+    }
+  }
+}
+
+// An entry's fault, from its record (empty for a folder without one).
+std::string EntryFault(const fs::path& dir) {
+  const fs::path record = dir / kEntryRecord;
+  if (!fs::exists(record)) return "";
+  const Json r = ReadJsonFile(record.string());
+  if (!r.contains("entry") || !r["entry"].contains("fault") || r["entry"]["fault"].is_null()) return "";
+  return StringField(r["entry"], "fault", record.string());
+}
+
+// A comparison entry (compare.json and compare_timings.json) into the pools
+// of its fault.
+void AddCompareEntry(const fs::path& dir, double processor_scale, MetricPools* pools) {
+  const std::string fault = EntryFault(dir);
+  const std::string path = (dir / "compare.json").string();
+  const Json j = ReadJsonFile(path);
+  for (const Json& m : j.at("methods")) {
+    MetricPool& pool = pools->Listed({m.at("name").get<std::string>(), fault});
+    if (!m.at("ok").get<bool>()) ++pool.failed;
+  }
+  for (const Json& roi : j.at("rois")) {
+    for (const auto& item : roi.at("methods").items()) {
+      pools->by_key[{item.key(), fault}].slopes.Add(
+          SampleOfCompareRecord(item.key(), item.value(), roi.at("truth")));
+    }
+  }
+  const Json t = ReadJsonFile((dir / "compare_timings.json").string());
+  for (const Json& m : t.at("methods")) {
+    if (m.at("name") != kMethodFlight || m.at("seconds").is_null()) continue;
+    MetricPool& pool = pools->by_key[{kMethodFlight, fault}];
+    pool.flight_seconds = std::max(pool.flight_seconds, m.at("seconds").get<double>() / processor_scale);
+  }
+}
+
+// The metrics of one pool (docs/gate.md), those without data left out.
+void AddPoolMetrics(const PoolKey& key, const MetricPool& pool, const StudyWorst& study,
+                    std::vector<GateMetric>* metrics) {
+  const std::string& method = key.first;
+  const auto add = [&](const std::string& metric, double value) {
+    metrics->push_back({method, metric, value, key.second});
+  };
+  const SlopeErrorPool& slopes = pool.slopes;
+  if (slopes.count() > 0) {
+    const ErrorStats errors = slopes.Slope();
+    add("slope_error_median_deg", errors.median);
+    add("slope_error_p90_deg", errors.p90);
+    add("slope_error_max_deg", errors.max);
+    add("slope_bias_abs_deg", std::abs(slopes.Bias()));
+  }
+  const ErrorStats tilts = slopes.Tilt();
+  if (tilts.count > 0) {
+    add("tilt_error_median_deg", tilts.median);
+    add("tilt_error_p90_deg", tilts.p90);
+  }
+  const ErrorStats roughness = slopes.Roughness();
+  if (roughness.count > 0) add("roughness_error_median_m", roughness.median);
+  if (slopes.rois() > 0) {
+    add("rois_with_slope_share", static_cast<double>(slopes.rois_with_slope()) / slopes.rois());
+  }
+  if (method == kMethodFlight && slopes.count() > 0) add("within_two_sigma_share", slopes.WithinTwoSigmaShare());
+  if (method == kMethodFlight && pool.flight_seconds >= 0.0) add("flight_seconds_per_pair", pool.flight_seconds);
+  add("failed_entries", pool.failed);
+  add("slope_error_rois", static_cast<double>(slopes.count()));
+  if (method == kMethodFlight && key.second.empty() && study.present) {
+    add("observability_p95_deg", study.p95);
+    add("observability_median_deg", study.median);
+    add("observability_sigma_ratio", study.sigma_ratio);
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> GateMetricNames() { return MetricNames(); }
+
+std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
+                                           double processor_scale) {
+  MetricPools pools;
+  StudyWorst study;
+  for (const std::string& dir : entry_dirs) {
+    if (fs::exists(fs::path(dir) / "study.json")) {
+      AddStudyEntry(dir, &study);
+      // The study's metrics are the flight method's.
+      if (study.present) pools.Listed({kMethodFlight, ""});
+    } else {
+      AddCompareEntry(dir, processor_scale, &pools);
+    }
+  }
+  std::vector<GateMetric> metrics;
+  for (const PoolKey& key : pools.order) AddPoolMetrics(key, pools.by_key[key], study, &metrics);
+  return metrics;
+}
+
+std::string GateCheck::Summary() const {
+  const std::string name = MethodLabel(threshold.method, threshold.fault) + " " + threshold.metric;
+  if (!has_value) return name + ": no value in this run (no data for the metric)";
+  std::string text = name + " = " + FormatValue(value);
+  if (!passed) {
+    text += threshold.max ? " > " + FormatValue(*threshold.max) + " (threshold)"
+                          : " < " + FormatValue(*threshold.min) + " (threshold)";
+  }
+  if (regressed) {
+    text += std::string(passed ? "" : ";") + " regressed from the baseline's " + FormatValue(baseline) +
+            " by more than " + FormatValue(threshold.tolerance);
+  }
+  return text;
+}
+
+std::vector<GateCheck> CheckGate(const std::vector<GateMetric>& metrics,
+                                 const GateThresholds& thresholds,
+                                 const std::vector<GateMetric>* baseline) {
+  const auto find = [](const std::vector<GateMetric>& list, const GateThreshold& t) -> const GateMetric* {
+    for (const GateMetric& m : list) {
+      if (m.method == t.method && m.metric == t.metric && m.fault == t.fault) return &m;
+    }
+    return nullptr;
+  };
+  std::vector<GateCheck> checks;
+  for (const GateThreshold& t : thresholds.thresholds) {
+    GateCheck check;
+    check.threshold = t;
+    const GateMetric* m = find(metrics, t);
+    if (m != nullptr) {
+      check.has_value = true;
+      check.value = m->value;
+      check.margin = t.max ? *t.max - m->value : m->value - *t.min;
+      check.passed = check.margin >= 0.0;
+    }
+    if (baseline != nullptr && m != nullptr) {
+      if (const GateMetric* b = find(*baseline, t)) {
+        check.has_baseline = true;
+        check.baseline = b->value;
+        const double worse = HigherIsBetter(t.metric) ? b->value - m->value : m->value - b->value;
+        check.regressed = worse > t.tolerance;
+      }
+    }
+    checks.push_back(check);
+  }
+  return checks;
+}
+
+std::string GateMetricsJson(const std::vector<GateMetric>& metrics) {
+  Json j;
+  j["format"] = kGateMetricsFormatName;
+  j["format_version"] = kGateFormatVersion;
+  Json list = Json::array();
+  for (const GateMetric& m : metrics) {
+    Json item = {{"method", m.method}, {"metric", m.metric}, {"value", m.value}};
+    if (!m.fault.empty()) item["fault"] = m.fault;  // only then: the baselines without faults keep their bytes
+    list.push_back(item);
+  }
+  j["metrics"] = list;
+  return j.dump(1) + "\n";
+}
+
+std::vector<GateMetric> ReadGateMetrics(const std::string& path) {
+  const Json j = ReadJsonFile(path);
+  CheckFormat(j, kGateMetricsFormatName, path);
+  std::vector<GateMetric> metrics;
+  if (!j.contains("metrics") || !j["metrics"].is_array()) {
+    throw InputError(path + ": field 'metrics' must be a list");
+  }
+  for (size_t i = 0; i < j["metrics"].size(); ++i) {
+    const Json& m = j["metrics"][i];
+    const std::string where = path + ": metrics[" + std::to_string(i) + "]";
+    if (!m.is_object()) throw InputError(where + ": expected an object");
+    metrics.push_back({StringField(m, "method", where), StringField(m, "metric", where),
+                       NumberField(m, "value", where),
+                       m.contains("fault") ? StringField(m, "fault", where) : std::string()});
+  }
+  return metrics;
+}
+
+}  // namespace hdabench::reference

@@ -21,7 +21,6 @@
 #include "datasets/internal/files.h"
 #include "tools/util/files.h"
 #include "datasets/internal/png.h"
-#include "tools/images/huge_pages.h"
 #include "tools/util/text.h"
 #include "datasets/npy.h"
 
@@ -1024,7 +1023,7 @@ class TruthPointsReader {
       return false;
     }
     if (!read_values) return true;
-    cv::Mat points = images::MatOnHugePages(camera->HeightPx(), camera->WidthPx(), CV_32FC3);
+    cv::Mat points(camera->HeightPx(), camera->WidthPx(), CV_32FC3);
     if (!ReadNpyValues(context_, file, note, opened, &points)) return false;
     if (!CheckPointValues(file, points.ptr<float>(), points.total())) return false;
     if (context_->options.keep_truth) truth->points_in_local_m = points;
@@ -1152,7 +1151,7 @@ class TruthDemReader {
     dem->height_cells = static_cast<int>(array.shape[0]);
     dem->width_cells = static_cast<int>(array.shape[1]);
     if (!read_values) return true;
-    cv::Mat heights = images::MatOnHugePages(dem->height_cells, dem->width_cells, CV_32FC1);
+    cv::Mat heights(dem->height_cells, dem->width_cells, CV_32FC1);
     if (!ReadNpyValues(context_, dem->file, note, opened, &heights)) return false;
     if (!CheckHeightValues(*dem, heights.ptr<float>(), heights.total())) return false;
     if (context_->options.keep_truth) dem->height_in_local_m = heights;

@@ -425,7 +425,6 @@ class StepRunner {
     process.log_file = step.log_file;
     process.timeout_s = options_.timeout_s;
     process.environment = {{"GLOG_log_dir", logs_.string()}, {"GLOG_logtostderr", "1"}};
-    process.huge_page_malloc = true;  // medians 13-17 % lower (util::kHugePageMallocTunables)
     const util::ProcessResult run = util::RunProcess(argv, process);
     step.wall_s = run.wall_s;
     step.ok = run.Ok();

@@ -109,59 +109,6 @@ TEST(RunProcess, WorkingFolderAndEnvironment) {
             fs::canonical(dir / "work").string() + "\nforty two\n/elsewhere\n");
 }
 
-TEST(RunProcess, HugePageMallocAddsGlibcsTunableUnlessTheEnvironmentNamesIt) {
-  const fs::path dir = FreshTestDir();
-  const char* const callers = std::getenv("GLIBC_TUNABLES");
-  const std::string saved = callers != nullptr ? callers : "";
-  // What the program sees of GLIBC_TUNABLES, with `environment` added.
-  const auto seen = [&](bool huge_page_malloc,
-                        const std::vector<std::pair<std::string, std::string>>& environment) {
-    util::ProcessOptions options;
-    options.log_file = (dir / "log.txt").string();
-    options.environment = environment;
-    options.huge_page_malloc = huge_page_malloc;
-    fs::remove(dir / "log.txt");
-    const util::ProcessResult result =
-        util::RunProcess({"/bin/sh", "-c", "echo \"${GLIBC_TUNABLES-unset}\""}, options);
-    EXPECT_TRUE(result.Ok()) << result.error;
-    return ReadText(dir / "log.txt");
-  };
-  ::unsetenv("GLIBC_TUNABLES");
-  EXPECT_EQ(seen(false, {}), "unset\n");
-  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb=1\n");
-  EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.arena_max=1"}}),
-            "glibc.malloc.arena_max=1:glibc.malloc.hugetlb=1\n");
-  EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.hugetlb=0"}}), "glibc.malloc.hugetlb=0\n");
-  ::setenv("GLIBC_TUNABLES", "glibc.malloc.tcache_count=0", 1);
-  EXPECT_EQ(seen(true, {}), "glibc.malloc.tcache_count=0:glibc.malloc.hugetlb=1\n");
-  EXPECT_EQ(seen(false, {}), "glibc.malloc.tcache_count=0\n");
-  // The call's value replaces the caller's.
-  EXPECT_EQ(seen(true, {{"GLIBC_TUNABLES", "glibc.malloc.arena_max=1"}}),
-            "glibc.malloc.arena_max=1:glibc.malloc.hugetlb=1\n");
-  // Named anywhere, with any value, the tunable stands as it is.
-  const std::string three =
-      "glibc.malloc.arena_max=2:glibc.malloc.hugetlb=0:glibc.malloc.tcache_count=0";
-  ::setenv("GLIBC_TUNABLES", three.c_str(), 1);
-  EXPECT_EQ(seen(true, {}), three + "\n");
-  ::setenv("GLIBC_TUNABLES", "glibc.malloc.hugetlb=2", 1);
-  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb=2\n");
-  // A name that only begins like it is another tunable.
-  ::setenv("GLIBC_TUNABLES", "glibc.malloc.hugetlbx=0", 1);
-  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlbx=0:glibc.malloc.hugetlb=1\n");
-  // An item without '=' sets nothing (glibc skips it); a trailing ':' is kept single.
-  ::setenv("GLIBC_TUNABLES", "glibc.malloc.hugetlb", 1);
-  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb:glibc.malloc.hugetlb=1\n");
-  ::setenv("GLIBC_TUNABLES", "glibc.malloc.arena_max=1:", 1);
-  EXPECT_EQ(seen(true, {}), "glibc.malloc.arena_max=1:glibc.malloc.hugetlb=1\n");
-  ::setenv("GLIBC_TUNABLES", "", 1);  // empty: no tunables, so it is the only one
-  EXPECT_EQ(seen(true, {}), "glibc.malloc.hugetlb=1\n");
-  if (callers != nullptr) {
-    ::setenv("GLIBC_TUNABLES", saved.c_str(), 1);
-  } else {
-    ::unsetenv("GLIBC_TUNABLES");
-  }
-}
-
 TEST(RunProcess, ASignalIsReported) {
   const util::ProcessResult result = util::RunProcess({"/bin/sh", "-c", "kill -9 $$"}, util::ProcessOptions());
   EXPECT_TRUE(result.started);

@@ -78,26 +78,8 @@ double SecondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Whether a GLIBC_TUNABLES value ("name=value" items, colon-separated) sets
-// glibc's huge-page tunable (glibc skips an item without '=').
-bool NamesHugePageTunable(std::string_view tunables) {
-  const std::string_view setting(kHugePageMallocTunables);
-  const std::string_view name = setting.substr(0, setting.find('='));
-  for (std::size_t begin = 0; begin <= tunables.size();) {
-    const std::size_t end = std::min(tunables.find(':', begin), tunables.size());
-    const std::string_view item = tunables.substr(begin, end - begin);
-    const std::size_t equals = item.find('=');
-    if (equals != std::string_view::npos && item.substr(0, equals) == name) return true;
-    begin = end + 1;
-  }
-  return false;
-}
-
-// The caller's environment with `extra` added or replaced, as "NAME=value",
-// and, when `huge_page_malloc`, kHugePageMallocTunables added to its
-// GLIBC_TUNABLES unless that sets the tunable already.
-std::vector<std::string> MergedEnvironment(
-    const std::vector<std::pair<std::string, std::string>>& extra, bool huge_page_malloc) {
+// The caller's environment with `extra` added or replaced, as "NAME=value".
+std::vector<std::string> MergedEnvironment(const std::vector<std::pair<std::string, std::string>>& extra) {
   std::vector<std::string> merged;
   for (char** entry = environ; entry != nullptr && *entry != nullptr; ++entry) {
     const std::string text(*entry);
@@ -107,17 +89,6 @@ std::vector<std::string> MergedEnvironment(
     if (!replaced) merged.push_back(text);
   }
   for (const auto& [key, value] : extra) merged.push_back(key + "=" + value);
-  if (!huge_page_malloc) return merged;
-  const std::string prefix = "GLIBC_TUNABLES=";
-  const auto tunables = std::find_if(merged.begin(), merged.end(), [&](const std::string& text) {
-    return text.compare(0, prefix.size(), prefix) == 0;
-  });
-  if (tunables == merged.end()) {
-    merged.push_back(prefix + kHugePageMallocTunables);
-  } else if (!NamesHugePageTunable(tunables->substr(prefix.size()))) {
-    if (tunables->size() > prefix.size() && tunables->back() != ':') *tunables += ":";
-    *tunables += kHugePageMallocTunables;
-  }
   return merged;
 }
 
@@ -333,7 +304,7 @@ ProcessResult RunProcess(const std::vector<std::string>& argv, const ProcessOpti
   // Everything the child needs is prepared before fork().
   std::vector<std::string> arg_strings = argv;
   std::vector<char*> arg_pointers = CStrings(&arg_strings);
-  std::vector<std::string> env_strings = MergedEnvironment(options.environment, options.huge_page_malloc);
+  std::vector<std::string> env_strings = MergedEnvironment(options.environment);
   std::vector<char*> env_pointers = CStrings(&env_strings);
   const char* working_dir = options.working_dir.empty() ? nullptr : options.working_dir.c_str();
 

@@ -11,17 +11,6 @@
 
 namespace hdabench::util {
 
-// glibc's tunable that makes malloc ask the kernel for transparent huge pages
-// for its heap and its large blocks (glibc 2.35 and later; earlier ones ignore
-// it). It matters where the kernel's setting is `madvise`; under `always` the
-// kernel gives huge pages unasked, under `never` not at all. Where page faults
-// are dear (docs/architecture.md, "Page faults") it takes COLMAP's steps for
-// `compare --methods colmap-nav` on the default dataset from 690 000 faults to
-// 83 000 and from 30-32 s to 26-29 s, with the same results. Not every program
-// gains: GCC compiling one of the bench's files took 13-14 s without and
-// 16-18 s with it.
-inline constexpr const char* kHugePageMallocTunables = "glibc.malloc.hugetlb=1";
-
 struct ProcessOptions {
   // Working folder of the program; empty: the caller's.
   std::string working_dir;
@@ -34,11 +23,6 @@ struct ProcessOptions {
   double kill_grace_s = 1.0;  // seconds between SIGTERM and SIGKILL, >= 0
   // Variables added to (or replacing those of) the caller's environment.
   std::vector<std::pair<std::string, std::string>> environment;
-  // Whether the program's malloc asks for huge pages: kHugePageMallocTunables
-  // is added to the GLIBC_TUNABLES the program gets (the caller's, or the one
-  // in `environment`), after the tunables already there, unless they set
-  // glibc.malloc.hugetlb themselves (=0 turns it off).
-  bool huge_page_malloc = false;
 
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;

@@ -181,6 +181,14 @@ std::vector<cv::Rect> OverlapTiles(int image_width_px, int image_height_px,
   return tiles;
 }
 
+void ColmapSettings::ApplyTo(ColmapOptions* options) const {
+  if (max_features) options->sift_max_num_features = *max_features;
+  if (first_octave) options->sift_first_octave = *first_octave;
+  if (octave_resolution) options->sift_octave_resolution = *octave_resolution;
+  if (peak_threshold) options->sift_peak_threshold = *peak_threshold;
+  if (nav_band_px) options->nav_guided_max_error_px = *nav_band_px;
+}
+
 CeresRefineOptions DefaultRefineOptions() {
   const hda::HdaOptions flight;
   CeresRefineOptions refine;

@@ -18,6 +18,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -59,6 +60,19 @@ std::vector<std::string> AllMethodNames();
 // not listed. Throws InputError naming an unknown or repeated method and
 // listing the valid names.
 std::vector<std::string> ParseMethodList(const std::string& comma_separated);
+
+// The COLMAP settings a user gives by name: compare's --colmap-* flags and a
+// gate suite's "colmap" object (docs/gate.md); unset: ColmapOptions' own.
+struct ColmapSettings {
+  std::optional<int> max_features;       // --colmap-max-features: ColmapOptions::sift_max_num_features
+  std::optional<int> first_octave;       // --colmap-first-octave: sift_first_octave
+  std::optional<int> octave_resolution;  // --colmap-octave-resolution: sift_octave_resolution
+  std::optional<double> peak_threshold;  // --colmap-peak-threshold: sift_peak_threshold
+  std::optional<double> nav_band_px;     // --colmap-nav-band-px: nav_guided_max_error_px
+  // The settings given, over *options: the one place their names meet
+  // ColmapOptions' fields.
+  void ApplyTo(ColmapOptions* options) const;
+};
 
 // The refinement's defaults for the comparison: the nav prior with the flight
 // method's own nav sigmas (hda::PredictionOptions) and the pixel noise its

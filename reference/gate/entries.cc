@@ -288,7 +288,7 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     compare.hda.Set("processor_scale", o.processor_scale, "gate");
     compare.hda.Set("compute_budget_s", kGateComputeBudgetS, "gate");
     compare.colmap.executable = o.colmap_executable;
-    ApplyColmapOptions(suite.colmap, &compare.colmap);
+    suite.colmap.ApplyTo(&compare.colmap);
     // The entries that run at once share the cores: each entry's own thread
     // pools (the exact matcher, the figures) get its share, not every core.
     // Neither changes what they compute.

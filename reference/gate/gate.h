@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "datasets/faults.h"
+#include "reference/compare/compare.h"
 #include "reference/flight/hda_params.h"
 #include "reference/observability/observability.h"
 #include "tools/util/parallel_for.h"
@@ -68,22 +69,11 @@ struct GateEntry {
   std::vector<std::string> methods;
 };
 
-// COLMAP's options for every entry of a suite ("colmap": {...}, docs/gate.md),
-// each as compare's flag of the same name; unset: compare's default
-// (ColmapOptions).
-struct GateColmapOptions {
-  std::optional<int> max_features;       // --colmap-max-features: sift_max_num_features
-  std::optional<int> first_octave;       // --colmap-first-octave: sift_first_octave
-  std::optional<int> octave_resolution;  // --colmap-octave-resolution: sift_octave_resolution
-  std::optional<double> peak_threshold;  // --colmap-peak-threshold: sift_peak_threshold
-  std::optional<double> nav_band_px;     // --colmap-nav-band-px: nav_guided_max_error_px
-};
-
 struct GateSuite {
   std::string file;                      // where it was read from
   std::string description;
   std::vector<std::string> methods;      // compared on every entry (reference::ParseMethodList)
-  GateColmapOptions colmap;              // COLMAP's options for every entry
+  ColmapSettings colmap;                 // COLMAP's settings for every entry ("colmap": {...})
   std::vector<GateEntry> entries;
 };
 

@@ -18,10 +18,10 @@ namespace {
 
 // A suite's "colmap" object: its fields typed here, their ranges those of
 // ColmapOptions::Validate.
-GateColmapOptions ReadColmapOptions(const Json& c, const std::string& where) {
+ColmapSettings ReadColmapOptions(const Json& c, const std::string& where) {
   if (!c.is_object()) throw InputError(where + ": expected an object");
   OnlyKeys(c, {"max_features", "first_octave", "octave_resolution", "peak_threshold", "nav_band_px"}, where);
-  GateColmapOptions out;
+  ColmapSettings out;
   if (c.contains("max_features")) {
     if (!c["max_features"].is_number_integer() || c["max_features"].get<std::int64_t>() < 10 ||
         c["max_features"].get<std::int64_t>() > 1000000) {
@@ -41,7 +41,7 @@ GateColmapOptions ReadColmapOptions(const Json& c, const std::string& where) {
   if (c.contains("peak_threshold")) out.peak_threshold = NumberField(c, "peak_threshold", where);
   if (c.contains("nav_band_px")) out.nav_band_px = NumberField(c, "nav_band_px", where);
   ColmapOptions options;
-  ApplyColmapOptions(out, &options);
+  out.ApplyTo(&options);
   ThrowIfInvalid(where + ": ", options.Validate());
   return out;
 }

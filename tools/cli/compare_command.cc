@@ -48,11 +48,13 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
   compare.colmap.executable = options.colmap_executable;
   compare.colmap.timeout_s = options.colmap_timeout_s;
   compare.colmap.use_all_frames = options.colmap_all_frames;
-  compare.colmap.sift_max_num_features = options.colmap_max_features;
-  compare.colmap.sift_first_octave = options.colmap_first_octave;
-  compare.colmap.sift_octave_resolution = options.colmap_octave_resolution;
-  compare.colmap.sift_peak_threshold = options.colmap_peak_threshold;
-  compare.colmap.nav_guided_max_error_px = options.colmap_nav_band_px;
+  reference::ColmapSettings colmap;
+  colmap.max_features = options.colmap_max_features;
+  colmap.first_octave = options.colmap_first_octave;
+  colmap.octave_resolution = options.colmap_octave_resolution;
+  colmap.peak_threshold = options.colmap_peak_threshold;
+  colmap.nav_band_px = options.colmap_nav_band_px;
+  colmap.ApplyTo(&compare.colmap);
   compare.opengv_dense_features = options.opengv_dense;
   compare.opengv_overlap_tiles = options.opengv_overlap_tiles;
   const std::vector<std::string> invalid = compare.Validate();

@@ -75,15 +75,6 @@ inline bool ValidName(const std::string& name) {
   }) && name != "." && name != "..";
 }
 
-// A suite's COLMAP options over compare's.
-inline void ApplyColmapOptions(const GateColmapOptions& from, ColmapOptions* to) {
-  if (from.max_features) to->sift_max_num_features = *from.max_features;
-  if (from.first_octave) to->sift_first_octave = *from.first_octave;
-  if (from.octave_resolution) to->sift_octave_resolution = *from.octave_resolution;
-  if (from.peak_threshold) to->sift_peak_threshold = *from.peak_threshold;
-  if (from.nav_band_px) to->nav_guided_max_error_px = *from.nav_band_px;
-}
-
 inline const std::vector<std::string>& MetricNames() {
   static const std::vector<std::string> names = {
       "slope_error_median_deg", "slope_error_p90_deg",   "slope_error_max_deg",

@@ -4,8 +4,8 @@
 // the guarded loop of RunCompare: every method runs inside it, so a method
 // that throws fails its own column only.
 //
-// Adding a method: one file in reference/compare/methods/ that defines its
-// MethodEntry, and one line in methods/method_table.cc.
+// Adding a method: one file in reference/compare/methods/ that defines a
+// function returning its MethodEntry, and its line in methods/method_table.cc.
 #pragma once
 
 #include <functional>
@@ -142,14 +142,5 @@ class ScopedMethodRegistration {
  private:
   std::string name_;
 };
-
-// The built-in methods, each defined in its file of methods/.
-MethodEntry FlightMethod();
-MethodEntry FlightRefinedMethod();
-MethodEntry ColmapNavMethod();
-MethodEntry ColmapFreeMethod();
-MethodEntry OpenGvMethod(OpenGvSolver solver);
-MethodEntry DenseNavMethod();
-MethodEntry PlaneNavMethod();
 
 }  // namespace hdabench::reference

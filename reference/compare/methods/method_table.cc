@@ -8,13 +8,27 @@
 
 namespace hdabench::reference {
 
+MethodEntry FlightMethod();
+MethodEntry FlightRefinedMethod();
+MethodEntry ColmapNavMethod();
+MethodEntry ColmapFreeMethod();
+MethodEntry OpenGvMethod(OpenGvSolver solver);
+MethodEntry DenseNavMethod();
+MethodEntry PlaneNavMethod();
+
 namespace {
 
+// The table, one line per method in column order; each function is defined
+// in the method's own file of methods/.
 std::vector<MethodEntry> BuiltInMethods() {
-  std::vector<MethodEntry> table = {FlightMethod(), FlightRefinedMethod(), ColmapNavMethod(), ColmapFreeMethod()};
-  for (const OpenGvSolver solver : AllOpenGvSolvers()) table.push_back(OpenGvMethod(solver));
-  table.push_back(DenseNavMethod());
-  table.push_back(PlaneNavMethod());
+  std::vector<MethodEntry> table;
+  table.push_back(FlightMethod());         // methods/flight.cc
+  table.push_back(FlightRefinedMethod());  // methods/flight_refined.cc
+  table.push_back(ColmapNavMethod());      // methods/colmap.cc
+  table.push_back(ColmapFreeMethod());     // methods/colmap.cc
+  for (const OpenGvSolver solver : AllOpenGvSolvers()) table.push_back(OpenGvMethod(solver));  // methods/opengv.cc
+  table.push_back(DenseNavMethod());       // methods/dense_nav.cc
+  table.push_back(PlaneNavMethod());       // methods/plane_nav.cc
   return table;
 }
 

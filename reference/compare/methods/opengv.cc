@@ -98,8 +98,10 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const PairMatches& pair_m
 MethodEntry OpenGvMethod(OpenGvSolver solver) {
   MethodEntry m;
   m.name = std::string(kOpenGvMethodPrefix) + ToString(solver);
-  m.summary = std::string("OpenGV's ") + ToString(solver) +
-              " solver: one relative pose from the pair's ORB matches, scaled by the nav baseline";
+  m.summary = std::string("OpenGV's ") + ToString(solver) + " solver: one relative pose from the pair's ORB " +
+              (solver == OpenGvSolver::kTwoPointKnownRotation ? "matches with the nav rotation held"
+                                                              : "matches") +
+              ", scaled by the nav baseline";
   m.needs.pair_matches = true;
   m.run = [solver](const PairContext& ctx, std::vector<MethodRoi>* rois, MethodSummary* summary) {
     ctx.Say(std::string(kOpenGvMethodPrefix) + ToString(solver));

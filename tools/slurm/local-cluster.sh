@@ -8,7 +8,7 @@
 #   tools/slurm/local-cluster.sh start DIR [CPUS]   prints "export SLURM_CONF=DIR/slurm.conf"
 #   tools/slurm/local-cluster.sh stop DIR
 # Needs root (slurmd runs jobs as their user) and Debian's slurmctld, slurmd,
-# slurm-client and munge (tools/debian-packages.txt). Ports: 16817 (slurmctld)
+# slurm-client and munge (tools/debian-packages.txt); util-linux's unshare. Ports: 16817 (slurmctld)
 # and 16818 (slurmd) unless HDABENCH_SLURM_PORT_BASE gives another base.
 set -euo pipefail
 die() { echo "local-cluster.sh: $1" >&2; exit "${2:-1}"; }
@@ -85,8 +85,16 @@ NodeName=localhost NodeAddr=127.0.0.1 CPUs=$cpus State=UNKNOWN
 PartitionName=bench Nodes=localhost Default=YES MaxTime=INFINITE State=UP
 CONF
     export SLURM_CONF=$dir/slurm.conf
-    slurmctld -f "$SLURM_CONF" || { stop; die "slurmctld did not start (see $dir/log/slurmctld.log)" 4; }
-    slurmd -f "$SLURM_CONF" -N localhost || { stop; die "slurmd did not start (see $dir/log/slurmd.log)" 4; }
+    # With NoInAddrAny the daemons listen on the address of the machine's host
+    # name, which Debian's /etc/hosts gives as 127.0.1.1, where the clients'
+    # localhost does not reach them: they run where the host name is
+    # localhost (a UTS namespace of their own), when the kernel allows one.
+    local_host=()
+    if unshare --uts true 2>/dev/null; then local_host=(unshare --uts sh -c 'echo localhost >/proc/sys/kernel/hostname && exec "$0" "$@"'); fi
+    "${local_host[@]}" slurmctld -f "$SLURM_CONF" ||
+      { stop; die "slurmctld did not start (see $dir/log/slurmctld.log)" 4; }
+    "${local_host[@]}" slurmd -f "$SLURM_CONF" -N localhost ||
+      { stop; die "slurmd did not start (see $dir/log/slurmd.log)" 4; }
     for _ in $(seq 100); do
       if sinfo -h -o %T 2>/dev/null | grep -qx idle; then
         echo "export SLURM_CONF=$SLURM_CONF"

@@ -7,17 +7,18 @@
 
 namespace hdabench::reference {
 
-namespace {
+// Named, not anonymous: the unity build puts this file beside others of the
+// module that have helpers of their own.
+namespace slope_records {
 
 using Json = nlohmann::json;
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
 // A record's number, NaN where it is null or absent (a value that does not apply).
 double NumberOrNaN(const Json& object, const char* key) {
-  if (!object.is_object()) return kNaN;
+  constexpr double kNoValue = std::numeric_limits<double>::quiet_NaN();
+  if (!object.is_object()) return kNoValue;
   const auto it = object.find(key);
-  return it != object.end() && it->is_number() ? it->get<double>() : kNaN;
+  return it != object.end() && it->is_number() ? it->get<double>() : kNoValue;
 }
 
 // A record's member, null where it is absent or the record is no object.
@@ -28,7 +29,7 @@ const Json& Member(const Json& object, const char* key) {
   return it == object.end() ? null : *it;
 }
 
-}  // namespace
+}  // namespace slope_records
 
 bool StatusHasSlope(bool is_flight, const std::string& status) {
   if (is_flight) return status == "evaluated" || status == "unsafe slope" || status == "unsafe roughness";
@@ -54,38 +55,42 @@ bool SlopeSample::Counts() const {
   return has_slope && std::isfinite(error_deg) && num_points >= kMinPointsForSlopeStats;
 }
 
-SlopeSample SampleOfCompareRecord(const std::string& method, const Json& entry, const Json& truth) {
+SlopeSample SampleOfCompareRecord(const std::string& method, const nlohmann::json& entry,
+                                  const nlohmann::json& truth) {
   SlopeSample s;
-  const double slope = NumberOrNaN(entry, "slope_deg");
-  s.has_slope = std::isfinite(slope) && StatusHasSlope(method == kMethodFlight, entry.at("status").get<std::string>());
+  const double slope = slope_records::NumberOrNaN(entry, "slope_deg");
+  s.has_slope =
+      std::isfinite(slope) && StatusHasSlope(method == kMethodFlight, entry.at("status").get<std::string>());
   s.num_points = entry.at("num_points").get<int>();
   if (truth.is_object()) {
     // The record's own difference (the in-memory values' difference, printed
     // to read back exactly); slope - truth for a record without it.
-    s.error_deg = entry.contains("slope_error_deg") ? NumberOrNaN(entry, "slope_error_deg")
-                                                    : slope - NumberOrNaN(truth, "slope_deg");
-    s.roughness_error_m = std::abs(NumberOrNaN(entry, "roughness_rms_m") - NumberOrNaN(truth, "roughness_rms_m"));
+    s.error_deg = entry.contains("slope_error_deg") ? slope_records::NumberOrNaN(entry, "slope_error_deg")
+                                                    : slope - slope_records::NumberOrNaN(truth, "slope_deg");
+    s.roughness_error_m = std::abs(slope_records::NumberOrNaN(entry, "roughness_rms_m") -
+                                   slope_records::NumberOrNaN(truth, "roughness_rms_m"));
   }
-  s.tilt_error_deg = NumberOrNaN(entry, "tilt_error_deg");
-  s.sigma_deg = NumberOrNaN(entry, "slope_sigma_deg");
+  s.tilt_error_deg = slope_records::NumberOrNaN(entry, "tilt_error_deg");
+  s.sigma_deg = slope_records::NumberOrNaN(entry, "slope_sigma_deg");
   return s;
 }
 
-SlopeSample SampleOfFlightRecord(const Json& roi) {
+SlopeSample SampleOfFlightRecord(const nlohmann::json& roi) {
   SlopeSample s;
-  const Json& fit = Member(roi, "fit");
-  const double slope = NumberOrNaN(fit, "slope_deg");
-  const Json& status = Member(roi, "status");
+  const nlohmann::json& fit = slope_records::Member(roi, "fit");
+  const double slope = slope_records::NumberOrNaN(fit, "slope_deg");
+  const nlohmann::json& status = slope_records::Member(roi, "status");
   s.has_slope = std::isfinite(slope) && status.is_string() && StatusHasSlope(true, status.get<std::string>());
-  const Json& points = Member(Member(roi, "counts"), "depth_inliers");
+  const nlohmann::json& points = slope_records::Member(slope_records::Member(roi, "counts"), "depth_inliers");
   s.num_points = points.is_number_integer() ? points.get<int>() : 0;
-  const Json& truth = Member(roi, "truth");
-  s.error_deg = NumberOrNaN(roi, "slope_error_deg");
-  s.tilt_error_deg = NumberOrNaN(roi, "tilt_error_deg");
-  if (Member(truth, "available") == true) {
-    s.roughness_error_m = std::abs(NumberOrNaN(fit, "roughness_rms_m") - NumberOrNaN(truth, "roughness_rms_m"));
+  const nlohmann::json& truth = slope_records::Member(roi, "truth");
+  s.error_deg = slope_records::NumberOrNaN(roi, "slope_error_deg");
+  s.tilt_error_deg = slope_records::NumberOrNaN(roi, "tilt_error_deg");
+  if (slope_records::Member(truth, "available") == true) {
+    s.roughness_error_m = std::abs(slope_records::NumberOrNaN(fit, "roughness_rms_m") -
+                                   slope_records::NumberOrNaN(truth, "roughness_rms_m"));
   }
-  s.sigma_deg = NumberOrNaN(fit, "slope_sigma_deg");
+  s.sigma_deg = slope_records::NumberOrNaN(fit, "slope_sigma_deg");
   return s;
 }
 

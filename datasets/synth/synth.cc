@@ -167,7 +167,7 @@ std::vector<std::string> SynthOptions::Validate() const {
 }
 
 std::vector<std::string> SynthPresetNames() {
-  return {"novac-lateral", "novac-boresight", "truck", "aircraft"};
+  return {"novac-lateral", "novac-boresight", "truck", "aircraft", "helicopter"};
 }
 
 SynthOptions SynthPreset(const std::string& name) {
@@ -203,6 +203,20 @@ SynthOptions SynthPreset(const std::string& name) {
     o.lrf_noise_m = 0.5;
     o.nav_velocity_bias_mps = 0.1;
     o.nav_position_noise_m = 0.1;
+    return o;
+  }
+  if (name == "helicopter") {
+    // The helicopter campaign over KSC's boulder field (paper, Helicopter
+    // Testing Campaign), which gives no geometry; assumptions: 150 m above
+    // the ground and 150 m short of the site (the camera 45 deg off nadir,
+    // as the lander's), 5 m/s sideways, so that the pair's baseline over
+    // its 212 m of range is the NOVA-C ratio (0.053) within the 2.4 s
+    // window. The boulders are real: the terrain at full scale.
+    o.altitude_m = 150.0;
+    o.standoff_m = 150.0;
+    o.speed_mps = 5.0;
+    o.collection_s = 2.4;
+    o.terrain = "boulders";
     return o;
   }
   std::string names;

@@ -28,7 +28,7 @@ enum class Motion {
 
 struct SynthOptions {
   std::string preset = "novac-lateral";  // the preset these values came from (recorded in the dataset)
-  std::string terrain = "cratered";      // TerrainPreset name: mare, cratered, rocky
+  std::string terrain = "cratered";      // TerrainPreset name: mare, cratered, rocky, flank, boulders
 
   // Camera: the default is a square imager with mild OPENCV8 distortion.
   int image_size_px = 1024;              // imager side, pixels (the 2048 variant: 2048)
@@ -73,7 +73,7 @@ struct SynthOptions {
 // with mild barrel distortion (about 1.5 px at the corners of a 1024 imager).
 calib::CameraModel DefaultSynthCamera(int image_size_px, double horizontal_fov_deg);
 
-// The named presets: novac-lateral (default), novac-boresight, truck, aircraft.
+// The named presets: novac-lateral (default), novac-boresight, truck, aircraft, helicopter.
 // Throws InputError for an unknown name, listing the valid ones.
 SynthOptions SynthPreset(const std::string& name);
 std::vector<std::string> SynthPresetNames();

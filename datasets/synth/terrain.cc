@@ -649,7 +649,7 @@ double CumulativeRocksPerM2(const TerrainOptions& o, double d_m) {
   return 4.0 * k * q / util::kPi * (std::exp(-qd) / d_m - q * e1);
 }
 
-std::vector<std::string> TerrainPresetNames() { return {"mare", "cratered", "rocky"}; }
+std::vector<std::string> TerrainPresetNames() { return {"mare", "cratered", "rocky", "flank", "boulders"}; }
 
 TerrainOptions TerrainPreset(const std::string& name) {
   TerrainOptions options;
@@ -666,6 +666,30 @@ TerrainOptions TerrainPreset(const std::string& name) {
     options.crater_depth_to_diameter = 0.12;
     options.crater_depth_to_diameter_spread = 0.07;
     ApplyRockLaw("viper", &options);
+  } else if (name == "flank") {
+    // The flank of a massif or a large crater's wall, as at the south-pole
+    // sites: a regional slope of 8 deg under relief of 0.8 m RMS up to
+    // 128 m wavelengths, so that the sites' slopes spread over about
+    // 5-20 deg, across the lander's 10 deg limit (docs/synthetic-scenes.md,
+    // "Terrain"). It falls toward the east, where the default sun is: at a
+    // 9 deg sun, ground falling away from the sun by more than 9 deg lies in
+    // shadow, and the quadtree never offers it.
+    options.relief_rms_m = 0.8;
+    options.relief_largest_wavelength_m = 128.0;
+    options.regional_slope_deg = 8.0;
+    options.regional_slope_downhill_azimuth_deg = 90.0;
+    options.crater_k = 0.03;
+    ApplyRockLaw("viper", &options);
+  } else if (name == "boulders") {
+    // A boulder field such as the helicopter campaign's at KSC: rocks cover
+    // 12 % of the ground, by the exponential law of pydem (q = 1.863 +
+    // 0.153 / k), so that many are 0.2-1 m across, around the lander's
+    // 0.30 m clearance (docs/synthetic-scenes.md, "Terrain"). The cover is
+    // an assumption: no source gives KSC's.
+    options.relief_rms_m = 0.3;
+    options.crater_k = 0.03;
+    options.rock_area_fraction = 0.12;
+    ApplyRockLaw("exponential-pydem", &options);
   } else if (name == "rocky") {
     // A blocky surface such as the surroundings of a fresh crater.
     options.relief_rms_m = 0.3;

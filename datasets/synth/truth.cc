@@ -11,6 +11,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "datasets/map_preview.h"
+#include "datasets/synth/lander_truth.h"
 #include "tools/images/png.h"
 #include "tools/util/error.h"
 #include "tools/util/files.h"
@@ -151,10 +152,17 @@ void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double m
     cv::circle(hazards, cv::Point(static_cast<int>(std::lround(col)), static_cast<int>(std::lround(row))),
                radius, cv::Scalar(0, 220, 255), cv::FILLED);
   }
+  // Every cell about a metre apart as a landing point of the default lander
+  // (lander_truth.h), the map at the DEM's size.
+  const int stride = std::max(1, static_cast<int>(std::lround(1.0 / dem.spacing_m)));
+  const cv::Mat safety_classes = SafetyMap(SurfaceOfTruth(dataset.truth), LanderGeometry(), stride);
+  cv::Mat safety_small = SafetyMapImage(safety_classes), safety;
+  cv::resize(safety_small, safety, z.size(), 0, 0, cv::INTER_NEAREST);
   const std::filesystem::path dir(out_dir);
   for (const auto& [name, map] : {std::pair<const char*, const cv::Mat*>{"elevation.png", &elevation_color},
                                   {"slope.png", &slope_color},
-                                  {"hazards.png", &hazards}}) {
+                                  {"hazards.png", &hazards},
+                                  {"safety.png", &safety}}) {
     util::WriteFileAtomically(dir / name, images::EncodePng(*map));
     // Its preview for the report (the bytes a report would make from the
     // written PNG, which decodes to this image), when the map is larger.

@@ -43,9 +43,11 @@ struct RoiTruth {
 // points (or only collinear ones) fall inside it.
 RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi);
 
-// Writes elevation.png, slope.png and hazards.png (slope over max_slope_deg
-// measured over a 1 m baseline, or a rock taller than max_hazard_m) of the
-// dataset's truth DEM into out_dir, each atomically, and each one's preview
+// Writes elevation.png, slope.png, hazards.png (slope over max_slope_deg
+// measured over a 1 m baseline, or a rock taller than max_hazard_m) and
+// safety.png (the default lander on every cell about 1 m apart,
+// lander_truth.h's SafetyMap, drawn at the DEM's size) of the dataset's truth
+// DEM into out_dir, each atomically, and each one's preview
 // for the report into out_dir/preview/ (datasets/map_preview.h) when the map
 // is larger than a preview. Throws InputError when
 // the dataset has no DEM in memory or a file cannot be written.

@@ -2,6 +2,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
@@ -16,6 +17,7 @@
 
 #include "tools/util/error.h"
 #include "tools/util/parallel_for.h"
+#include "tools/util/text.h"
 #include "calib/camera_model.h"
 #include "datasets/dataset.h"
 #include "datasets/faults.h"
@@ -123,10 +125,12 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
     out << "applied " << labels << " to frames " << pair.first << "," << pair.second << "\n";
   }
   datasets::WriteDataset(dataset, options.out_dir);
+  const auto maps_start = std::chrono::steady_clock::now();
   synth::WriteTruthMaps(dataset, (fs::path(options.out_dir) / "maps").string());
+  const double maps_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - maps_start).count();
   out << "wrote synthetic dataset '" << dataset.name << "' to " << options.out_dir << "\n  "
       << summary.Summary() << "\n  maps: " << (fs::path(options.out_dir) / "maps").string()
-      << "/{elevation,slope,hazards}.png\n";
+      << "/{elevation,slope,hazards,safety}.png, " << util::FixedText(maps_s, 2) << " s\n";
   // Peak resident memory of this process so far (Linux reports kilobytes).
   rusage usage{};
   if (getrusage(RUSAGE_SELF, &usage) == 0) {
@@ -199,10 +203,10 @@ Command AddSynthCommand(CLI::App& app) {
   synth_app->add_option("--out", options->out_dir, "Folder to create (must not exist, or be empty)")
       ->required();
   synth_app->add_option("--preset", options->preset,
-                        "novac-lateral, novac-boresight, truck or aircraft")
+                        "novac-lateral, novac-boresight, truck, aircraft or helicopter")
       ->capture_default_str();
   synth_app->add_option("--terrain", options->terrain,
-                        "mare, cratered or rocky (default: the preset's)");
+                        "mare, cratered, rocky, flank or boulders (default: the preset's)");
   AddSeedOption(synth_app, &options->seed, "Random seed: same seed, same bytes");
   synth_app->add_option("--threads", options->threads,
                         "Worker threads (0: every core this process may use); output does not depend on it")

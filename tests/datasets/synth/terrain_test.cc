@@ -511,7 +511,7 @@ TEST(TerrainPreset, UnknownNameThrowsListingValidOnes) {
     FAIL() << "expected InputError";
   } catch (const InputError& error) {
     EXPECT_STREQ(error.what(),
-                 "unknown terrain preset \"highlands\": expected one of mare, cratered, rocky");
+                 "unknown terrain preset \"highlands\": expected one of mare, cratered, rocky, flank, boulders");
   }
 }
 

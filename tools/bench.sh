@@ -6,7 +6,8 @@
 #                          (the normal build, then the address + undefined-behaviour sanitizer build
 #                          without the tests labelled external), 30 s of each libFuzzer harness
 #                          (tools/fuzz.sh), then the merge gate on the CI-sized suite
-#                          (gate/suite-ci.json)
+#                          (gate/suite-ci.json), and the same gate with every site declared safe,
+#                          which must fail
 #   tools/bench.sh setup   install what is missing and build, nothing else
 #
 # Debian packages come from tools/debian-packages.txt (the one list). apt runs only
@@ -76,6 +77,19 @@ run_gate() {
   say "Gate (gate/suite-ci.json)"
   "$build_dir/tools/hdabench" gate --suite "$root/gate/suite-ci.json" \
     --thresholds "$root/gate/thresholds-ci.json" --out "$build_dir/gate-ci"
+  # The gate must catch a method that calls unsafe sites safe: the same suite
+  # with every site declared safe (the slope limit raised to 89 deg) must fail,
+  # on the landing decision of the steep pool (docs/gate.md, "Catching an
+  # unsafe change").
+  say "Gate with every site declared safe (--set hda.max_slope_deg=89): must fail"
+  local log="$build_dir/gate-ci-every-site-safe.log" status=0
+  "$build_dir/tools/hdabench" gate --suite "$root/gate/suite-ci.json" \
+    --thresholds "$root/gate/thresholds-ci.json" --out "$build_dir/gate-ci-every-site-safe" \
+    --set hda.max_slope_deg=89 --quiet 2>"$log" || status=$?
+  cat "$log"
+  [[ $status == 1 ]] || die "the gate with every site declared safe exited $status, expected 1 (a failed metric)"
+  grep -q "FAILED flight on steep unsafe_caught_rate = 0.000" "$log" ||
+    die "the gate with every site declared safe did not fail on the flight method's unsafe_caught_rate ($log)"
 }
 
 command=${1:-}

@@ -64,6 +64,7 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
   int accuracy_points = 0;
   double median_sum = 0.0, within01 = 0.0, within03 = 0.0, within1 = 0.0;
   SlopeErrorPool pool;
+  std::vector<DecisionSample> decisions;
   for (size_t i = 0; i < rois.size(); ++i) {
     const MethodRoi& roi = rois[i];
     if (roi.accuracy.available) {
@@ -80,6 +81,8 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
         i < run.flight.truths.size() && run.flight.truths[i].available ? &run.flight.truths[i] : nullptr;
     const SlopeSample sample = SampleOfMethodRoi(roi, truth);
     pool.Add(sample);
+    decisions.push_back(DecisionOfMethodRoi(roi, truth, run.flight.options.max_slope_deg,
+                                            run.flight.result.rois[i].rank));
     if (!sample.has_slope || sample.num_points < kMinPointsForSlopeStats) continue;
     if (colmap_nav_index < run.rois.size() && colmap_nav_index != m) {
       const SlopeSample ref = SampleOfMethodRoi(run.rois[colmap_nav_index][i], nullptr);
@@ -104,6 +107,8 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
   s->roughness_vs_truth_m = pool.Roughness();
   s->slope_vs_colmap_nav_deg = ComputeErrorStats(vs_colmap);
   s->time_ratio_to_flight = flight_seconds > 0.0 ? s->wall_s / flight_seconds : 0.0;
+  s->decision = DecisionPool();
+  s->decision.AddRun(decisions);
 }
 
 }  // namespace
@@ -112,6 +117,15 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
 
 bool MethodRoi::HasSlope() const {
   return has_fit && StatusHasSlope(status == MethodRoiStatus::kFlight, StatusName());
+}
+
+DecisionSample DecisionOfMethodRoi(const MethodRoi& roi, const RoiTruthValue* truth, double max_slope_deg,
+                                   int flight_rank) {
+  const bool is_flight = roi.status == MethodRoiStatus::kFlight;
+  const Verdict declared = DeclaredVerdict(is_flight, roi.StatusName(),
+                                           roi.has_fit ? roi.slope_deg : std::numeric_limits<double>::quiet_NaN(),
+                                           max_slope_deg);
+  return DecisionOfRoi(declared, truth, is_flight ? flight_rank : 0);
 }
 
 SlopeSample SampleOfMethodRoi(const MethodRoi& roi, const RoiTruthValue* truth) {

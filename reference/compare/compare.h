@@ -186,6 +186,13 @@ struct MethodRoi {
 // against its truth (nullptr: none).
 SlopeSample SampleOfMethodRoi(const MethodRoi& roi, const RoiTruthValue* truth);
 
+// The ROI's landing decision as the decision statistics see it
+// (reference/flight/decision_statistics.h): what the method declared under
+// the flight method's slope limit, against its truth (nullptr: none), with
+// the flight method's rank for the flight column.
+DecisionSample DecisionOfMethodRoi(const MethodRoi& roi, const RoiTruthValue* truth, double max_slope_deg,
+                                   int flight_rank);
+
 struct MethodSummary {
   std::string method;
   bool ok = true;               // false: the method failed for the run
@@ -205,6 +212,7 @@ struct MethodSummary {
   double translation_direction_error_deg = 0.0;
   double wall_s = 0.0;         // wall time of the method for the run
   double time_ratio_to_flight = 0.0;
+  DecisionPool decision;       // its landing decisions against the lander's truth
 };
 
 struct CompareRun {

@@ -98,6 +98,9 @@ std::string CompareResultJson(const CompareRun& run) {
   j["lrf_range_m"] = Number(f.lrf_range_m);
   j["truth"] = run.any_truth;
   j["min_points_for_stats"] = kMinPointsForSlopeStats;
+  // The slope limit every method's decision is taken under, and the lander of the truth.
+  j["max_slope_deg"] = Number(f.options.max_slope_deg);
+  j["lander"] = LanderJson(f.lander);
   Json methods = Json::array();
   for (size_t m = 0; m < run.methods.size(); ++m) {
     const MethodSummary& s = run.summaries[m];
@@ -115,6 +118,7 @@ std::string CompareResultJson(const CompareRun& run) {
     mj["rotation_error_deg"] = s.has_pose_error ? Number(s.rotation_error_deg) : Json(nullptr);
     mj["translation_direction_error_deg"] =
         s.has_pose_error ? Number(s.translation_direction_error_deg) : Json(nullptr);
+    if (run.any_truth) mj["decision"] = DecisionJson(s.decision);
     methods.push_back(mj);
   }
   j["methods"] = methods;
@@ -131,7 +135,10 @@ std::string CompareResultJson(const CompareRun& run) {
                                        {"roughness_max_m", Number(t->roughness_max_m)},
                                        {"normal", Json::array({Number(t->normal_in_local.x()),
                                                                Number(t->normal_in_local.y()),
-                                                               Number(t->normal_in_local.z())})}});
+                                                               Number(t->normal_in_local.z())})},
+                                       {"max_rock_height_m", Number(t->max_rock_height_m)},
+                                       {"landing", LandingJson(t->landing)}});
+    rj["rank"] = roi.rank > 0 ? Json(roi.rank) : Json(nullptr);
     Json per_method = Json::object();
     for (size_t m = 0; m < run.methods.size(); ++m) {
       Json mr = MethodRoiJson(run.rois[m][i]);
@@ -244,6 +251,18 @@ std::string CompareMarkdown(const CompareRun& run) {
                         StatsText(s.roughness_vs_truth_m, 3),
                         StatsText(s.slope_vs_colmap_nav_deg, 2), accuracy, pose,
                         util::FixedCell(s.wall_s, 3), util::FixedCell(s.time_ratio_to_flight, 1)});
+  }
+  if (run.any_truth) {
+    out << "\n## Landing decisions\n\nAgainst the lander's truth at each site (" << f.lander.legs
+        << " pads on a " << util::FixedText(f.lander.footprint_diameter_m, 1) << " m circle, limits "
+        << util::FixedText(f.lander.max_slope_deg, 1) << " deg and " << util::FixedText(f.lander.body_clearance_m, 2)
+        << " m). The flight method declares by its status; every other method by its slope against the "
+        << "flight method's " << util::FixedText(f.options.max_slope_deg, 1) << " deg, as it has no hazard "
+        << "estimate. False-safe: truly unsafe among the sites declared safe (Wilson 95 % interval); "
+        << "missed-safe: declared unsafe among the truly safe ones.\n\n";
+    out << MarkdownRow({"method", "decision"});
+    out << MarkdownRow({"---", "---"});
+    for (const MethodSummary& s : run.summaries) out << MarkdownRow({s.method, DecisionLine(s.decision)});
   }
   bool any_note = false;
   for (const MethodSummary& s : run.summaries) {

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <set>
 #include <sstream>
 #include <tuple>
 
@@ -40,7 +41,21 @@ void Measure(const FlightRun& run, const FlightRun* clean, FaultCase* c) {
                                                  [](const hda::RoiResult& r) { return hda::HasSlope(r.status); }));
   c->evaluated_share = c->rois > 0 ? c->with_slope / static_cast<double>(c->rois) : 0.0;
   c->stats = ComputeSlopeErrorStats(run);
+  c->decision = ComputeFlightDecisions(run);
   if (clean != nullptr) {
+    // A site is false-safe when the run calls it safe (evaluated) and the
+    // lander's truth says unsafe.
+    const auto false_safe = [](const FlightRun& r, size_t i) {
+      return r.result.rois[i].status == hda::RoiStatus::kEvaluated && i < r.truths.size() &&
+             r.truths[i].available && r.truths[i].landing.defined && !r.truths[i].landing.safe;
+    };
+    std::set<std::tuple<int, int, int, int>> clean_false_safe;
+    for (size_t i = 0; i < clean->result.rois.size(); ++i) {
+      if (false_safe(*clean, i)) clean_false_safe.insert(BoxKey(clean->result.rois[i]));
+    }
+    for (size_t i = 0; i < run.result.rois.size(); ++i) {
+      if (false_safe(run, i) && clean_false_safe.count(BoxKey(run.result.rois[i])) == 0) ++c->new_false_safe;
+    }
     if (!clean->result.rois.empty()) c->rois_vs_clean = c->rois / static_cast<double>(clean->result.rois.size());
     std::map<std::tuple<int, int, int, int>, double> clean_slopes;
     for (const hda::RoiResult& roi : clean->result.rois) {
@@ -225,7 +240,8 @@ std::string FaultStudyCsv(const FaultStudy& study) {
   std::ostringstream out;
   out << "case,fault,magnitude,unit,ran,rois,rois_vs_clean,with_slope,evaluated_share,slope_count,"
          "slope_error_median_deg,slope_error_p90_deg,within_two_sigma,slope_bias_deg,moved_count,moved_median_deg,"
-         "moved_max_deg,meets_median,meets_p90,meets_within,meets_evaluated,meets_rois,applied,range_source,error\n";
+         "moved_max_deg,meets_median,meets_p90,meets_within,meets_evaluated,meets_rois,applied,range_source,error,"
+         "declared_safe,false_safe_rate,new_false_safe\n";
   for (const FaultCase& c : study.cases) {
     const bool stats = c.ran && c.stats.count > 0;
     const FaultVerdicts meets = VerdictsOf(c, study.requirements);
@@ -249,6 +265,8 @@ std::string FaultStudyCsv(const FaultStudy& study) {
       for (const char ch : c.error) quoted += ch == '"' ? std::string("\"\"") : std::string(1, ch);
       out << '"' << quoted << '"';
     }
+    out << "," << c.decision.DeclaredSafe() << "," << number(c.ran, c.decision.FalseSafeRate()) << ","
+        << (c.ran ? std::to_string(c.new_false_safe) : "");
     out << "\n";
   }
   return out.str();
@@ -290,6 +308,21 @@ std::string FaultStudyJson(const FaultStudy& study) {
     row["moved_count"] = c.moved_count;
     row["moved_median_deg"] = c.moved_count > 0 ? Json(c.moved_median_deg) : Json(nullptr);
     row["moved_max_deg"] = c.moved_count > 0 ? Json(c.moved_max_deg) : Json(nullptr);
+    if (c.ran) {
+      const Interval interval = c.decision.FalseSafeInterval();
+      row["decision"] = {{"sites", c.decision.sites()},
+                         {"truly_unsafe", c.decision.truly_unsafe()},
+                         {"declared_safe", c.decision.DeclaredSafe()},
+                         {"false_safe", c.decision.Count(Verdict::kSafe, false)},
+                         {"false_safe_rate", NumberOrNull(c.decision.FalseSafeRate())},
+                         {"false_safe_rate_95", c.decision.DeclaredSafe() > 0
+                                                    ? Json::array({interval.low, interval.high})
+                                                    : Json(nullptr)},
+                         {"new_false_safe", c.new_false_safe},
+                         {"top_site_unsafe", c.decision.ranked_runs() > 0
+                                                 ? Json(c.decision.TopSiteUnsafeShare() > 0.0)
+                                                 : Json(nullptr)}};
+    }
     const FaultVerdicts meets = VerdictsOf(c, study.requirements);
     row["meets"] = {{"median", meets.median},
                     {"p90", meets.p90},
@@ -318,14 +351,16 @@ std::string FaultStudyMarkdown(const FaultStudy& study) {
   std::ostringstream out;
   out << "Faults on " << study.dataset_name << ", frames " << study.frame1 << "," << study.frame2
       << " (slope errors against the truth over the ROIs with a slope, truth and >= " << kMinPointsForSlopeStats
-      << " points; moved: |slope - clean slope| on the same boxes)\n\n";
+      << " points; moved: |slope - clean slope| on the same boxes; false-safe: sites declared safe that the "
+      << "lander's truth calls unsafe, of those declared safe; new false-safe: of them, those the clean run "
+      << "did not declare safe)\n\n";
   std::vector<std::vector<std::string>> rows = {{"case", "ROIs", "vs clean", "with slope", "share", "n",
                                                  "median (deg)",
                                                  "p90 (deg)", "within 2 sigma", "bias (deg)", "moved median",
-                                                 "moved max", "meets"}};
+                                                 "moved max", "false-safe", "new false-safe", "meets"}};
   for (const FaultCase& c : study.cases) {
     if (!c.ran) {
-      rows.push_back({c.label, "-", "-", "-", "-", "-", "-", "-", "-", "-", "-", "-",
+      rows.push_back({c.label, "-", "-", "-", "-", "-", "-", "-", "-", "-", "-", "-", "-", "-",
                       (c.applied ? "no result: " : "") + c.error});
       continue;
     }
@@ -353,10 +388,15 @@ std::string FaultStudyMarkdown(const FaultStudy& study) {
                     stats ? util::FixedCell(100.0 * c.stats.within_two_sigma_fraction, 0) + " %" : "-",
                     stats ? util::SignedCell(c.stats.bias_deg, 2) : "-",
                     moved ? util::FixedCell(c.moved_median_deg, 2) : "-",
-                    moved ? util::FixedCell(c.moved_max_deg, 2) : "-", meets});
+                    moved ? util::FixedCell(c.moved_max_deg, 2) : "-",
+                    c.decision.DeclaredSafe() > 0
+                        ? std::to_string(c.decision.Count(Verdict::kSafe, false)) + "/" +
+                              std::to_string(c.decision.DeclaredSafe())
+                        : "-",
+                    &c == &study.cases.front() ? "-" : std::to_string(c.new_false_safe), meets});
   }
   out << util::FormatTextTable(rows, {true, false, false, false, false, false, false, false, false, false, false,
-                                      false, true});
+                                      false, false, false, true});
   const FaultRequirements& r = study.requirements;
   out << "\nRequirements: slope error median <= " << util::ShortestText(r.max_median_deg) << " deg, p90 <= "
       << util::ShortestText(r.max_p90_deg) << " deg, within 2 sigma >= "

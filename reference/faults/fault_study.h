@@ -61,6 +61,11 @@ struct FaultCase {
   int moved_count = 0;
   double moved_median_deg = 0.0;
   double moved_max_deg = 0.0;
+  // The landing decisions against the lander's truth (decision_statistics.h),
+  // and the sites (same box in image 1) that are false-safe under the fault
+  // but were not in the clean run: the confident wrong decisions it made.
+  DecisionPool decision;
+  int new_false_safe = 0;
 };
 
 // Whether a case meets each requirement: a case without a result meets none;

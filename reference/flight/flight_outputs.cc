@@ -113,8 +113,10 @@ Json TruthJson(const FlightRun& run, size_t i) {
             {"roughness_rms_m", Number(t->roughness_rms_m)},
             {"roughness_max_m", Number(t->roughness_max_m)},
             {"hazard_height_m", Number(t->hazard_height_m)},
+            {"max_rock_height_m", Number(t->max_rock_height_m)},
             {"normal", Vector3Json(t->normal_in_local)},
-            {"num_points", t->num_points}};
+            {"num_points", t->num_points},
+            {"landing", LandingJson(t->landing)}};
   }
   const std::string why = i < run.truths.size() ? run.truths[i].why : "the run has no truth";
   return {{"available", false}, {"why", why}};
@@ -401,6 +403,8 @@ std::string FlightResultJson(const FlightRun& run) {
   }
   j["status_counts"] = status_counts;
   j["ranking"] = result.ranking;
+  j["lander"] = LanderJson(run.lander);
+  if (run.AnyTruth()) j["decision"] = DecisionJson(ComputeFlightDecisions(run));
   Json rois = Json::array();
   for (size_t i = 0; i < result.rois.size(); ++i) rois.push_back(RoiJson(run, i));
   j["rois"] = rois;
@@ -506,6 +510,18 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run) {
   return stats;
 }
 
+DecisionPool ComputeFlightDecisions(const FlightRun& run) {
+  std::vector<DecisionSample> samples;
+  for (size_t i = 0; i < run.result.rois.size(); ++i) {
+    const hda::RoiResult& roi = run.result.rois[i];
+    const Verdict declared = DeclaredVerdict(true, hda::ToString(roi.status), roi.slope_deg, run.options.max_slope_deg);
+    samples.push_back(DecisionOfRoi(declared, TruthOf(run, i), roi.rank));
+  }
+  DecisionPool pool;
+  pool.AddRun(samples);
+  return pool;
+}
+
 std::string FlightReport(const FlightRun& run) {
   std::ostringstream out;
   out << run.result.Summary() << "; frames " << run.frame1 << "," << run.frame2 << ", baseline "
@@ -550,34 +566,56 @@ std::string FlightReport(const FlightRun& run) {
         << " deg, 90th percentile " << util::FixedCell(stats.p90_tilt_deg, 2) << " deg; slope bias (mean of "
         << "estimated - true) " << util::SignedCell(stats.bias_deg, 2) << " deg\n";
   }
+  const DecisionPool decisions = ComputeFlightDecisions(run);
+  out << "landing decision: "
+      << (decisions.sites() > 0 ? DecisionLine(decisions) : "no site has a lander truth (no truth DEM)") << "\n";
   return out.str();
 }
 
-cv::Mat QuadtreeFigure(const cv::Mat& image1, const hda::HdaResult& result) {
-  const cv::Mat bgr = ToBgr(image1);
-  // Enlarged by a whole factor (at most 4) so that a minimum block is about
-  // 48 px; scaled to kFigureShownWidthPx where that is wider.
+namespace {
+
+// Image 1 enlarged as the whole-image figures show it (by a whole factor up
+// to 4 so that a minimum block is about 48 px, at most kFigureShownWidthPx
+// wide), and the label size that fits `widest_label` in `fill` of the
+// smallest ROI box.
+struct Image1Canvas {
+  Panel panel;
+  cv::Mat canvas;
+  double scale = 1.0;
+  double text_scale = 0.5;
+};
+Image1Canvas MakeImage1Canvas(const cv::Mat& bgr, const hda::HdaResult& result, const char* widest_label,
+                              double fill) {
+  Image1Canvas out;
   const int min_block = std::max(1, result.quadtree.min_block_px);
   const int factor = std::clamp((48 + min_block - 1) / min_block, 1, 4);
-  const double scale = bgr.cols * factor > kFigureShownWidthPx
-                           ? static_cast<double>(kFigureShownWidthPx) / bgr.cols
-                           : static_cast<double>(factor);
-  Panel panel{cv::Rect(0, 0, bgr.cols, bgr.rows), scale, cv::Point(0, 0)};
-  cv::Mat canvas(panel.CanvasSize(), CV_8UC3);
-  PastePanel(bgr, panel, &canvas);
+  out.scale = bgr.cols * factor > kFigureShownWidthPx ? static_cast<double>(kFigureShownWidthPx) / bgr.cols
+                                                      : static_cast<double>(factor);
+  out.panel = Panel{cv::Rect(0, 0, bgr.cols, bgr.rows), out.scale, cv::Point(0, 0)};
+  out.canvas = cv::Mat(out.panel.CanvasSize(), CV_8UC3);
+  PastePanel(bgr, out.panel, &out.canvas);
+  int smallest = static_cast<int>(std::lround(min_block * out.scale));
+  for (const hda::RoiResult& roi : result.rois) {
+    smallest = std::min({smallest, out.panel.Map(roi.box1_px).width, out.panel.Map(roi.box1_px).height});
+  }
+  int baseline = 0;
+  const double unit_width = cv::getTextSize(widest_label, kFont, 1.0, 1, &baseline).width;
+  out.text_scale = std::clamp(fill * smallest / unit_width, 0.3, 0.8);
+  return out;
+}
 
+}  // namespace
+
+cv::Mat QuadtreeFigure(const cv::Mat& image1, const hda::HdaResult& result) {
+  const cv::Mat bgr = ToBgr(image1);
+  Image1Canvas image = MakeImage1Canvas(bgr, result, "999", 0.8);
+  cv::Mat& canvas = image.canvas;
+  const Panel& panel = image.panel;
+  const double text_scale = image.text_scale;
   for (const cv::Rect& box : result.quadtree.rejected_boxes) {
     DrawLabelledBox(&canvas, panel.Map(box), kRejectedBlock, 1, "", 0.0);
   }
-  // The label size that fits "999" in 80 % of the smallest ROI box.
-  int smallest = static_cast<int>(std::lround(min_block * scale));
-  for (const hda::RoiResult& roi : result.rois) {
-    smallest = std::min({smallest, panel.Map(roi.box1_px).width, panel.Map(roi.box1_px).height});
-  }
-  int baseline = 0;
-  const double unit_width = cv::getTextSize("999", kFont, 1.0, 1, &baseline).width;
-  const double text_scale = std::clamp(0.8 * smallest / unit_width, 0.3, 0.8);
-  const int thickness = scale >= 2.0 ? 2 : 1;
+  const int thickness = image.scale >= 2.0 ? 2 : 1;
   std::vector<int> counts(kNumStatuses, 0);
   for (const hda::RoiResult& roi : result.rois) {
     ++counts[static_cast<size_t>(roi.status)];
@@ -593,6 +631,57 @@ cv::Mat QuadtreeFigure(const cv::Mat& image1, const hda::HdaResult& result) {
   }
   entries.emplace_back(kRejectedBlock, "rejected block (" +
                                            std::to_string(result.quadtree.rejected_boxes.size()) + ")");
+  const double legend_scale = std::clamp(canvas.cols / 1600.0, 0.4, 0.8);
+  cv::Mat figure;
+  cv::vconcat(canvas, LegendStrip(canvas.cols, entries, legend_scale), figure);
+  return figure;
+}
+
+namespace {
+
+// The decision classes in the legend's order, and their colours: green right
+// and safe, red false safe, orange missed safe, blue right and unsafe, light
+// grey no verdict, dark grey no truth.
+constexpr int kDecisionClasses = 6;
+int DecisionClass(const DecisionSample& s) {
+  if (!s.has_truth) return 5;
+  if (s.declared == Verdict::kNone) return 4;
+  if (s.declared == Verdict::kSafe) return s.truly_safe ? 0 : 1;
+  return s.truly_safe ? 2 : 3;
+}
+const Colour kDecisionColours[kDecisionClasses] = {Colour(0, 210, 0),   Colour(40, 40, 255),  Colour(0, 150, 255),
+                                                   Colour(255, 140, 0), Colour(200, 200, 200), Colour(90, 90, 90)};
+const char* const kDecisionNames[kDecisionClasses] = {"safe, truly safe", "FALSE SAFE", "missed safe",
+                                                      "unsafe, truly unsafe", "no verdict", "no lander truth"};
+
+}  // namespace
+
+const char* DecisionClassName(const DecisionSample& sample) { return kDecisionNames[DecisionClass(sample)]; }
+
+cv::Mat DecisionFigure(const cv::Mat& image1, const FlightRun& run) {
+  const hda::HdaResult& result = run.result;
+  Image1Canvas image = MakeImage1Canvas(ToBgr(image1), result, "+9.9", 0.85);
+  cv::Mat& canvas = image.canvas;
+  const Panel& panel = image.panel;
+  const double text_scale = image.text_scale;
+  const int thickness = image.scale >= 2.0 ? 3 : 2;
+  std::vector<int> counts(kDecisionClasses, 0);
+  for (size_t i = 0; i < result.rois.size(); ++i) {
+    const hda::RoiResult& roi = result.rois[i];
+    const DecisionSample sample = DecisionOfRoi(
+        DeclaredVerdict(true, hda::ToString(roi.status), roi.slope_deg, run.options.max_slope_deg), TruthOf(run, i), roi.rank);
+    const int c = DecisionClass(sample);
+    ++counts[static_cast<size_t>(c)];
+    const double error = SlopeErrorDeg(run, i);
+    const bool shown = roi.has_fit && hda::HasSlope(roi.status) && std::isfinite(error);
+    DrawLabelledBox(&canvas, panel.Map(roi.box1_px), kDecisionColours[c], thickness,
+                    shown ? util::SignedCell(error, 1) : "", text_scale);
+  }
+  std::vector<std::pair<Colour, std::string>> entries;
+  for (int c = 0; c < kDecisionClasses; ++c) {
+    entries.emplace_back(kDecisionColours[c], std::string(kDecisionNames[c]) + " (" +
+                                                  std::to_string(counts[static_cast<size_t>(c)]) + ")");
+  }
   const double legend_scale = std::clamp(canvas.cols / 1600.0, 0.4, 0.8);
   cv::Mat figure;
   cv::vconcat(canvas, LegendStrip(canvas.cols, entries, legend_scale), figure);
@@ -708,7 +797,9 @@ std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat&
     // Drawn and encoded on every core (each figure depends on its index
     // only), then written in order, so the files and what a failed write
     // leaves behind are those of one thread.
-    const int count = 2 + static_cast<int>(pairs.size());
+    // The decision figure, with truth, after the two whole-image figures.
+    const int decision = run.AnyTruth() ? 1 : 0;
+    const int count = 2 + decision + static_cast<int>(pairs.size());
     std::vector<std::string> names(static_cast<size_t>(count)), pngs(static_cast<size_t>(count));
     util::ParallelFor("flight figures", count, util::WorkerThreads(threads), [&](int i) {
       const size_t k = static_cast<size_t>(i);
@@ -719,8 +810,11 @@ std::vector<std::string> WriteFlightOutputs(const FlightRun& run, const cv::Mat&
       } else if (i == 1) {
         names[k] = "figures/matches.png";
         figure = MatchesFigure(bgr1, bgr2, run.result);
+      } else if (i == 2 && decision == 1) {
+        names[k] = "figures/decision.png";
+        figure = DecisionFigure(bgr1, run);
       } else {
-        const hda::RoiResult& roi = *pairs[k - 2];
+        const hda::RoiResult& roi = *pairs[k - 2 - static_cast<size_t>(decision)];
         names[k] = "figures/roi_pairs/" + RoiFileStem(roi.id) + ".png";
         figure = RoiPairFigure(bgr1, bgr2, roi);
       }

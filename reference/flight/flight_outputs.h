@@ -13,6 +13,7 @@
 
 #include "hda/hda_options.h"
 #include "hda/pipeline.h"
+#include "reference/flight/decision_statistics.h"
 #include "reference/flight/flight_run.h"
 #include "reference/flight/slope_statistics.h"
 
@@ -56,12 +57,17 @@ struct SlopeErrorStats {
 };
 SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run);
 
+// The run's landing decisions against the lander's truth
+// (reference/flight/decision_statistics.h).
+DecisionPool ComputeFlightDecisions(const FlightRun& run);
+
 // The report printed by `hdabench run`: the summary line (HdaResult::Summary,
 // frames, baseline), then a table with one row per ROI in id order
 //   ROI | status | truth slope (deg) | est. slope (deg) | sigma (deg) | # points |
 //   truth rough. RMS (m) | est. relief (m)
 // (without the truth columns when no ROI has truth; "-" where a value does not
-// apply), and with truth a last line with the SlopeErrorStats.
+// apply), and with truth a line with the SlopeErrorStats and one with the
+// landing decisions (DecisionLine).
 std::string FlightReport(const FlightRun& run);
 
 // The largest size at which the report (reference/report) shows a figure: its
@@ -77,6 +83,14 @@ constexpr int kFigureGridHeightPx = 320;
 // with its id, the rejected quadtree blocks thin and dark, and a legend strip
 // below.
 cv::Mat QuadtreeFigure(const cv::Mat& image1, const hda::HdaResult& result);
+// Image 1 as QuadtreeFigure shows it, every ROI box coloured by its landing
+// decision against the lander's truth (DecisionClassName) and labelled with
+// its slope error (estimated - true, degrees) where it has one, and a
+// legend strip with the counts below. For a run with truth.
+cv::Mat DecisionFigure(const cv::Mat& image1, const FlightRun& run);
+// The confusion class of a site: "safe, truly safe", "FALSE SAFE",
+// "missed safe", "unsafe, truly unsafe", "no verdict", "no lander truth".
+const char* DecisionClassName(const DecisionSample& sample);
 // One ROI, kFigureGridHeightPx high: a title, then the image-1 box with some
 // context beside the image-2 search box, each scaled to the same height
 // (nearest neighbour when enlarging), the surviving matches as points joined

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -140,11 +141,17 @@ hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int fra
 }
 
 std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int frame1,
-                                       const hda::HdaResult& result) {
+                                       const hda::HdaResult& result,
+                                       const datasets::synth::LanderGeometry& lander) {
   std::vector<RoiTruthValue> truths(result.rois.size());
   const bool has_points =
       std::any_of(dataset.truth.points.begin(), dataset.truth.points.end(),
                   [&](const datasets::TruthPoints& p) { return p.frame == frame1; });
+  const bool has_dem = dataset.truth.dem.has_value() && !dataset.truth.dem->height_in_local_m.empty();
+  std::optional<datasets::synth::LanderOnSurface> on_surface;
+  if (has_points && has_dem && !result.rois.empty()) {
+    on_surface.emplace(datasets::synth::SurfaceOfTruth(dataset.truth), lander);
+  }
   for (size_t i = 0; i < result.rois.size(); ++i) {
     RoiTruthValue& truth = truths[i];
     if (!has_points) {
@@ -161,7 +168,13 @@ std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int fra
       truth.roughness_rms_m = roi_truth.roughness_rms_m;
       truth.roughness_max_m = roi_truth.roughness_max_m;
       truth.hazard_height_m = roi_truth.hazard_height_m;
+      truth.max_rock_height_m = roi_truth.max_rock_height_m;
       truth.normal_in_local = roi_truth.normal_in_local;
+      if (on_surface.has_value()) {
+        truth.landing = on_surface->Evaluate(roi_truth.centroid_in_local_m.head<2>());
+      } else {
+        truth.landing.why = "the dataset has no truth DEM";
+      }
     } catch (const InputError& e) {
       truth.why = e.what();
     }
@@ -171,7 +184,8 @@ std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int fra
 
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
                     const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px,
-                    const hda::RoiProgress& progress) {
+                    const hda::RoiProgress& progress, const datasets::synth::LanderGeometry& lander) {
+  ThrowIfInvalid("the lander: ", lander.Validate());
   FlightRun run;
   hda::HdaInput input = MakeHdaInput(dataset, frame1, frame2, &run.range_source);
   input.given_rois_px = given_rois_px;
@@ -186,7 +200,8 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   run.options = options;
   run.given_rois = !given_rois_px.empty();
   run.result = hda::RunHda(input, dataset.camera, options, hda::SteadySeconds, progress);
-  run.truths = TruthOfRois(dataset, frame1, run.result);
+  run.lander = lander;
+  run.truths = TruthOfRois(dataset, frame1, run.result, lander);
   return run;
 }
 
@@ -195,7 +210,8 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
                     const hda::RoiProgress& progress) {
   const int n = static_cast<int>(dataset.frames.size());
   if (frame1 < 0 || frame1 >= n || frame2 < 0 || frame2 >= n) {
-    return RunFlight(dataset, frame1, frame2, settings.options, given_rois_px, progress);  // MakeHdaInput names the frame
+    return RunFlight(dataset, frame1, frame2, settings.options, given_rois_px, progress,
+                     settings.lander);  // MakeHdaInput names the frame
   }
   PairGeometry geometry;
   geometry.lrf_range_m = RangeAtFrame(dataset, frame1).range_m;
@@ -211,7 +227,7 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   ThrowIfInvalid("flight-method parameters for frames " + std::to_string(frame1) + "," +
                      std::to_string(frame2) + ": ",
                  options.Validate());
-  FlightRun run = RunFlight(dataset, frame1, frame2, options, given_rois_px, progress);
+  FlightRun run = RunFlight(dataset, frame1, frame2, options, given_rois_px, progress, settings.lander);
   run.derived_options = std::move(derived);
   return run;
 }

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include "datasets/dataset.h"
+#include "datasets/synth/lander_truth.h"
 #include "hda/hda_options.h"
 #include "hda/pipeline.h"
 #include "reference/flight/hda_params.h"
@@ -59,7 +60,12 @@ struct RoiTruthValue {
   double roughness_rms_m = 0.0;
   double roughness_max_m = 0.0;
   double hazard_height_m = 0.0;
+  double max_rock_height_m = 0.0;  // tallest rock whose centre is in the ROI; 0 none
   Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();  // unit, up: the true plane's normal
+  // The lander at the centre of the ROI's true points (datasets/synth/lander_truth.h):
+  // the decision's truth. Not defined without a truth DEM, or when the
+  // footprint leaves it (landing.why says which).
+  datasets::synth::LandingVerdict landing;
 };
 
 // The tilt error: the angle between an estimated plane and the true one
@@ -70,10 +76,12 @@ struct RoiTruthValue {
 double TiltErrorDeg(const Eigen::Vector3d& normal, const Eigen::Vector3d& true_normal);
 
 // The truth of every ROI of `result` (same order as result.rois), from the
-// dataset's truth points of frame1 (LoadOptions::keep_truth). Every ROI gets an
+// dataset's truth points of frame1 (LoadOptions::keep_truth), and the
+// `lander`'s truth on its truth DEM with the rocks. Every ROI gets an
 // entry; without truth points they are all unavailable, with the reason.
 std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int frame1,
-                                       const hda::HdaResult& result);
+                                       const hda::HdaResult& result,
+                                       const datasets::synth::LanderGeometry& lander = {});
 
 // Everything one run produced and what it was run on.
 struct FlightRun {
@@ -87,6 +95,7 @@ struct FlightRun {
   double lrf_range_m = 0.0;       // slant range at frame 1, metres: the LRF's, or see range_source
   RangeSource range_source = RangeSource::kLrf;
   hda::HdaOptions options;        // the options RunHda was given
+  datasets::synth::LanderGeometry lander;  // the lander of the truth's decision (HdaSettings::lander)
   // The values of `options` set from the pair's geometry (ResolveHdaOptions);
   // empty when the options were given whole.
   std::vector<DerivedParam> derived_options;
@@ -101,19 +110,20 @@ struct FlightRun {
 
 // Runs the flight method on frames (frame1, frame2) of a dataset loaded with
 // its images (and its truth, for the truth of the ROIs): MakeHdaInput, RunHda,
-// TruthOfRois, and what the run was made on. Throws InputError as
-// MakeHdaInput and RunHda do.
+// TruthOfRois with `lander`, and what the run was made on. Throws InputError
+// as MakeHdaInput and RunHda do, and for an invalid lander.
 // `given_rois_px`, when not empty, are the ROIs instead of the quadtree's
 // (hda::HdaInput::given_rois_px).
 // `progress` is told after each ROI the method evaluates (hda::RunHda).
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
                     const hda::HdaOptions& options, const std::vector<cv::Rect>& given_rois_px = {},
-                    const hda::RoiProgress& progress = {});
+                    const hda::RoiProgress& progress = {},
+                    const datasets::synth::LanderGeometry& lander = {});
 
 // The same with the options resolved for this pair (ResolveHdaOptions: the
 // keys not given follow the LRF range at frame 1 and the navigation
-// baseline), recorded in FlightRun::derived_options. Throws InputError also
-// when the resolved options are unusable.
+// baseline), recorded in FlightRun::derived_options, and the settings'
+// lander. Throws InputError also when the resolved options are unusable.
 FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
                     const HdaSettings& settings, const std::vector<cv::Rect>& given_rois_px = {},
                     const hda::RoiProgress& progress = {});

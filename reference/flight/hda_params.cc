@@ -77,9 +77,22 @@ void ForEachField(Options& o, Visit&& visit) {
   visit("fault_match_noise_px", o.fault_match_noise_px);
 }
 
+// The same for the lander's fields.
+template <class Lander, class Visit>
+void ForEachLanderField(Lander& l, Visit&& visit) {
+  visit("lander.legs", l.legs);
+  visit("lander.footprint_diameter_m", l.footprint_diameter_m);
+  visit("lander.pad_diameter_m", l.pad_diameter_m);
+  visit("lander.max_slope_deg", l.max_slope_deg);
+  visit("lander.body_clearance_m", l.body_clearance_m);
+  visit("lander.chooses_yaw", l.chooses_yaw);
+  visit("lander.yaw_step_deg", l.yaw_step_deg);
+}
+
 std::string KnownKeys() {
   std::string list;
   for (const std::string& key : HdaParamKeys()) list += (list.empty() ? "" : ", ") + key;
+  for (const std::string& key : LanderParamKeys()) list += ", " + key;
   return list;
 }
 
@@ -162,6 +175,22 @@ const std::vector<std::string>& HdaParamKeys() {
   return keys;
 }
 
+const std::vector<std::string>& LanderParamKeys() {
+  static const std::vector<std::string> keys = [] {
+    std::vector<std::string> list;
+    datasets::synth::LanderGeometry lander;
+    ForEachLanderField(lander, [&](const char* key, auto&) { list.emplace_back(key); });
+    return list;
+  }();
+  return keys;
+}
+
+Json LanderJson(const datasets::synth::LanderGeometry& lander) {
+  Json j = Json::object();
+  ForEachLanderField(lander, [&](const std::string& key, const auto& value) { j[key.substr(key.find('.') + 1)] = value; });
+  return j;
+}
+
 Json HdaOptionsJson(const hda::HdaOptions& options) {
   Json j = Json::object();
   ForEachField(options, [&](const std::string& key, const auto& value) {
@@ -178,6 +207,11 @@ Json HdaOptionsJson(const hda::HdaOptions& options) {
 void HdaSettings::Set(const std::string& key, const Json& value, const std::string& where) {
   bool found = false;
   ForEachField(options, [&](const char* name, auto& field) {
+    if (key != name) return;
+    found = true;
+    SetField(&field, value, where + ": " + key);
+  });
+  ForEachLanderField(lander, [&](const char* name, auto& field) {
     if (key != name) return;
     found = true;
     SetField(&field, value, where + ": " + key);
@@ -212,6 +246,9 @@ Json HdaSettings::GivenJson() const {
   ForEachField(options, [&](const std::string& key, const auto& value) {
     if (given.count(key) > 0) j[key] = value;
   });
+  ForEachLanderField(lander, [&](const std::string& key, const auto& value) {
+    if (given.count(key) > 0) j[key] = value;
+  });
   return j;
 }
 
@@ -243,7 +280,9 @@ void HdaSettings::ReadFile(const std::string& path) {
 }
 
 void HdaSettings::Validate(const std::string& where) const {
-  ThrowIfInvalid(where + ": unusable flight-method parameters: ", options.Validate());
+  std::vector<std::string> errors = options.Validate();
+  for (std::string& e : lander.Validate()) errors.push_back(std::move(e));
+  ThrowIfInvalid(where + ": unusable flight-method parameters: ", errors);
 }
 
 double OrbKeypointDensity(const cv::Mat& image, const hda::MatchingOptions& matching, double min_lit_dn) {

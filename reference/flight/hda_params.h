@@ -14,12 +14,19 @@
 #include <opencv2/core/mat.hpp>
 
 #include "calib/camera_model.h"
+#include "datasets/synth/lander_truth.h"
 #include "hda/hda_options.h"
 
 namespace hdabench::reference {
 
 // Every key of HdaOptions, in the order of result.json's "options".
 const std::vector<std::string>& HdaParamKeys();
+// Every key of the lander ("lander.legs", ...), in the order of result.json's
+// "lander": the truth's footprint and limits (datasets/synth/lander_truth.h),
+// set in the same files and flags as the method's keys.
+const std::vector<std::string>& LanderParamKeys();
+// The lander as JSON, in the order of LanderParamKeys (result.json's "lander").
+nlohmann::ordered_json LanderJson(const datasets::synth::LanderGeometry& lander);
 
 // The options as JSON: nested objects for the nested options, in the order
 // of HdaParamKeys (result.json's "options").
@@ -27,9 +34,10 @@ nlohmann::ordered_json HdaOptionsJson(const hda::HdaOptions& options);
 
 // The flight method's options and which of them the user gave; a key not
 // given and listed in GeometryScaledKeys follows the pair's geometry
-// (ResolveHdaOptions).
+// (ResolveHdaOptions). The lander's keys ("lander.*") set `lander`.
 struct HdaSettings {
   hda::HdaOptions options;
+  datasets::synth::LanderGeometry lander;
   std::set<std::string> given;
 
   // Sets one key from a JSON value (a number for the numeric fields, true or
@@ -49,8 +57,8 @@ struct HdaSettings {
   // The given keys and their values, dotted keys in HdaParamKeys' order
   // ({"quadtree.site_size_m": 40}): what SetAll takes back.
   nlohmann::ordered_json GivenJson() const;
-  // The options' own check (HdaOptions::Validate), as one InputError naming
-  // `where`.
+  // The options' own check (HdaOptions::Validate) and the lander's, as one
+  // InputError naming `where`.
   void Validate(const std::string& where) const;
 };
 

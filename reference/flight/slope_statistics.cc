@@ -7,13 +7,10 @@
 
 namespace hdabench::reference {
 
-// Named, not anonymous: the unity build puts this file beside others of the
-// module that have helpers of their own.
 namespace slope_records {
 
 using Json = nlohmann::json;
 
-// A record's number, NaN where it is null or absent (a value that does not apply).
 double NumberOrNaN(const Json& object, const char* key) {
   constexpr double kNoValue = std::numeric_limits<double>::quiet_NaN();
   if (!object.is_object()) return kNoValue;
@@ -21,7 +18,6 @@ double NumberOrNaN(const Json& object, const char* key) {
   return it != object.end() && it->is_number() ? it->get<double>() : kNoValue;
 }
 
-// A record's member, null where it is absent or the record is no object.
 const Json& Member(const Json& object, const char* key) {
   static const Json null;
   if (!object.is_object()) return null;

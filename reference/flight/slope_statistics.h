@@ -62,6 +62,14 @@ struct SlopeSample {
   bool Counts() const;
 };
 
+// The records' readers share these. A record's number, NaN where it is null
+// or absent (a value that does not apply); a record's member, null where it
+// is absent or the record is no object.
+namespace slope_records {
+double NumberOrNaN(const nlohmann::json& object, const char* key);
+const nlohmann::json& Member(const nlohmann::json& object, const char* key);
+}  // namespace slope_records
+
 // One ROI's method entry of compare.json ("rois"[i]."methods"[name]) with
 // the ROI's "truth", and one ROI of result.json ("rois"[i]), read into a
 // sample. Throws nlohmann::json's errors on a record of the wrong shape (the

@@ -68,6 +68,7 @@ Json EntrySpecJson(const GateEntry& e) {
   Json j = EntryDatasetSpecJson(e);
   j["hda"] = e.hda.GivenJson();
   j["fault"] = e.fault ? Json(datasets::FaultLabel(*e.fault)) : Json(nullptr);
+  if (!e.pool.empty()) j["pool"] = e.pool;  // only then: the records without one keep their bytes
   j["methods"] = e.methods;
   return j;
 }

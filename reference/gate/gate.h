@@ -65,6 +65,11 @@ struct GateEntry {
   // metrics are pooled apart from the entries without a fault, per fault
   // (GateMetric::fault).
   std::optional<datasets::Fault> fault;
+  // A pool of its own ("pool": "NAME"): its metrics are pooled apart from the
+  // other entries', with the other entries of that pool (GateMetric::pool),
+  // so that scenes of another kind (the steep ground of the landing decision)
+  // have thresholds of their own. Empty: the suite's main pool.
+  std::string pool;
   // The methods compared on this entry ("methods"); empty: the suite's.
   std::vector<std::string> methods;
 };
@@ -93,8 +98,10 @@ struct GateThreshold {
   double tolerance = 0.0;
   std::string why;  // where the number comes from (measured value and margin)
   // The pool it checks: empty, the entries without a fault; else the entries
-  // under this fault (datasets::FaultLabel, "lrf-scale=0.05").
+  // under this fault (datasets::FaultLabel, "lrf-scale=0.05"); and of the
+  // named pool `pool` (empty: the main one).
   std::string fault;
+  std::string pool;
 };
 
 struct GateThresholds {
@@ -124,14 +131,22 @@ GateThresholds ReadGateThresholds(const std::string& path);
 //   observability_sigma_ratio   flight: the largest ratio between the Monte
 //                               Carlo standard deviation and the RMS predicted
 //                               sigma, either way up (>= 1; 1 is agreement)
+//   decision_sites              sites with a lander truth (decision_statistics.h)
+//   truly_unsafe_share          of those, the share the lander's truth calls unsafe
+//   false_safe_rate             truly unsafe among the sites the method declares safe
+//   false_safe_upper_95         its Wilson 95 % upper bound
+//   missed_safe_rate            declared unsafe among the truly safe sites with a verdict
+//   unsafe_caught_rate          declared unsafe among the truly unsafe sites with a verdict
+//   top_site_unsafe_share       flight: the share of entries whose top-ranked site is unsafe
 // A metric without data (no ROI with truth, say) is absent. The entries with
 // a fault are pooled per method and fault (GateEntry::fault), apart from the
-// others.
+// others, and those of a named pool per pool (GateEntry::pool).
 struct GateMetric {
   std::string method;
   std::string metric;
   double value = 0.0;
   std::string fault;  // the pool: empty, the entries without a fault; else the fault's label
+  std::string pool;   // and the named pool (GateEntry::pool); empty: the main one
 };
 std::vector<std::string> GateMetricNames();
 

@@ -1,12 +1,15 @@
 // The gate's metrics: every entry's results read back from its files and
 // pooled per method and fault by the one rule of
-// reference/flight/slope_statistics.h, checked against thresholds and a
-// baseline, and their file.
+// reference/flight/slope_statistics.h (the slopes) and
+// reference/flight/decision_statistics.h (the landing decisions), checked
+// against thresholds and a baseline, and their file.
 #include "reference/gate/gate.h"
 
 #include <map>
+#include <tuple>
 
 #include "reference/compare/compare.h"
+#include "reference/flight/decision_statistics.h"
 #include "reference/flight/slope_statistics.h"
 #include "reference/gate/internal/common.h"
 
@@ -23,12 +26,19 @@ constexpr double kObservabilityUnjudgedDeg = 90.0;
 // One method's ROIs, failures and time over the entries of one pool.
 struct MetricPool {
   SlopeErrorPool slopes;
+  DecisionPool decisions;
   int failed = 0;
   double flight_seconds = -1.0;
 };
 
-// A pool: a method and a fault (empty: the entries without one).
-using PoolKey = std::pair<std::string, std::string>;
+// A pool: a method, a fault (empty: the entries without one) and a named
+// pool (empty: the main one).
+struct PoolKey {
+  std::string method, fault, pool;
+  bool operator<(const PoolKey& o) const {
+    return std::tie(method, fault, pool) < std::tie(o.method, o.fault, o.pool);
+  }
+};
 
 struct MetricPools {
   std::map<PoolKey, MetricPool> by_key;
@@ -67,35 +77,47 @@ void AddStudyEntry(const fs::path& dir, StudyWorst* study) {
   }
 }
 
-// An entry's fault, from its record (empty for a folder without one).
-std::string EntryFault(const fs::path& dir) {
+// An entry's record's field ("fault", "pool"), empty for a folder without
+// one or a record without it.
+std::string EntryRecordField(const fs::path& dir, const char* field) {
   const fs::path record = dir / kEntryRecord;
   if (!fs::exists(record)) return "";
   const Json r = ReadJsonFile(record.string());
-  if (!r.contains("entry") || !r["entry"].contains("fault") || r["entry"]["fault"].is_null()) return "";
-  return StringField(r["entry"], "fault", record.string());
+  if (!r.contains("entry") || !r["entry"].contains(field) || r["entry"][field].is_null()) return "";
+  return StringField(r["entry"], field, record.string());
 }
 
 // A comparison entry (compare.json and compare_timings.json) into the pools
 // of its fault.
 void AddCompareEntry(const fs::path& dir, double processor_scale, MetricPools* pools) {
-  const std::string fault = EntryFault(dir);
+  const std::string fault = EntryRecordField(dir, "fault");
+  const std::string named_pool = EntryRecordField(dir, "pool");
   const std::string path = (dir / "compare.json").string();
   const Json j = ReadJsonFile(path);
   for (const Json& m : j.at("methods")) {
-    MetricPool& pool = pools->Listed({m.at("name").get<std::string>(), fault});
+    MetricPool& pool = pools->Listed({m.at("name").get<std::string>(), fault, named_pool});
     if (!m.at("ok").get<bool>()) ++pool.failed;
   }
+  // A record without the slope limit (written before the decisions were
+  // scored) gives the references no verdict.
+  const double max_slope_deg = j.contains("max_slope_deg") && j["max_slope_deg"].is_number()
+                                   ? j["max_slope_deg"].get<double>()
+                                   : std::numeric_limits<double>::quiet_NaN();
+  std::map<std::string, std::vector<DecisionSample>> decisions;
   for (const Json& roi : j.at("rois")) {
     for (const auto& item : roi.at("methods").items()) {
-      pools->by_key[{item.key(), fault}].slopes.Add(
+      pools->by_key[{item.key(), fault, named_pool}].slopes.Add(
           SampleOfCompareRecord(item.key(), item.value(), roi.at("truth")));
+      decisions[item.key()].push_back(DecisionOfCompareRecord(item.key(), item.value(), roi, max_slope_deg));
     }
+  }
+  for (const auto& [method, samples] : decisions) {
+    pools->by_key[{method, fault, named_pool}].decisions.AddRun(samples);
   }
   const Json t = ReadJsonFile((dir / "compare_timings.json").string());
   for (const Json& m : t.at("methods")) {
     if (m.at("name") != kMethodFlight || m.at("seconds").is_null()) continue;
-    MetricPool& pool = pools->by_key[{kMethodFlight, fault}];
+    MetricPool& pool = pools->by_key[{kMethodFlight, fault, named_pool}];
     pool.flight_seconds = std::max(pool.flight_seconds, m.at("seconds").get<double>() / processor_scale);
   }
 }
@@ -103,9 +125,9 @@ void AddCompareEntry(const fs::path& dir, double processor_scale, MetricPools* p
 // The metrics of one pool (docs/gate.md), those without data left out.
 void AddPoolMetrics(const PoolKey& key, const MetricPool& pool, const StudyWorst& study,
                     std::vector<GateMetric>* metrics) {
-  const std::string& method = key.first;
+  const std::string& method = key.method;
   const auto add = [&](const std::string& metric, double value) {
-    metrics->push_back({method, metric, value, key.second});
+    metrics->push_back({method, metric, value, key.fault, key.pool});
   };
   const SlopeErrorPool& slopes = pool.slopes;
   if (slopes.count() > 0) {
@@ -127,9 +149,21 @@ void AddPoolMetrics(const PoolKey& key, const MetricPool& pool, const StudyWorst
   }
   if (method == kMethodFlight && slopes.count() > 0) add("within_two_sigma_share", slopes.WithinTwoSigmaShare());
   if (method == kMethodFlight && pool.flight_seconds >= 0.0) add("flight_seconds_per_pair", pool.flight_seconds);
+  const DecisionPool& decisions = pool.decisions;
+  if (decisions.sites() > 0) {
+    add("decision_sites", decisions.sites());
+    add("truly_unsafe_share", static_cast<double>(decisions.truly_unsafe()) / decisions.sites());
+    if (decisions.DeclaredSafe() > 0) {
+      add("false_safe_rate", decisions.FalseSafeRate());
+      add("false_safe_upper_95", decisions.FalseSafeInterval().high);
+    }
+    if (std::isfinite(decisions.MissedSafeRate())) add("missed_safe_rate", decisions.MissedSafeRate());
+    if (std::isfinite(decisions.UnsafeCaughtRate())) add("unsafe_caught_rate", decisions.UnsafeCaughtRate());
+    if (decisions.ranked_runs() > 0) add("top_site_unsafe_share", decisions.TopSiteUnsafeShare());
+  }
   add("failed_entries", pool.failed);
   add("slope_error_rois", static_cast<double>(slopes.count()));
-  if (method == kMethodFlight && key.second.empty() && study.present) {
+  if (method == kMethodFlight && key.fault.empty() && key.pool.empty() && study.present) {
     add("observability_p95_deg", study.p95);
     add("observability_median_deg", study.median);
     add("observability_sigma_ratio", study.sigma_ratio);
@@ -148,7 +182,7 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
     if (fs::exists(fs::path(dir) / "study.json")) {
       AddStudyEntry(dir, &study);
       // The study's metrics are the flight method's.
-      if (study.present) pools.Listed({kMethodFlight, ""});
+      if (study.present) pools.Listed({kMethodFlight, "", ""});
     } else {
       AddCompareEntry(dir, processor_scale, &pools);
     }
@@ -159,7 +193,7 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
 }
 
 std::string GateCheck::Summary() const {
-  const std::string name = MethodLabel(threshold.method, threshold.fault) + " " + threshold.metric;
+  const std::string name = MethodLabel(threshold.method, threshold.fault, threshold.pool) + " " + threshold.metric;
   if (!has_value) return name + ": no value in this run (no data for the metric)";
   std::string text = name + " = " + FormatValue(value);
   if (!passed) {
@@ -178,7 +212,7 @@ std::vector<GateCheck> CheckGate(const std::vector<GateMetric>& metrics,
                                  const std::vector<GateMetric>* baseline) {
   const auto find = [](const std::vector<GateMetric>& list, const GateThreshold& t) -> const GateMetric* {
     for (const GateMetric& m : list) {
-      if (m.method == t.method && m.metric == t.metric && m.fault == t.fault) return &m;
+      if (m.method == t.method && m.metric == t.metric && m.fault == t.fault && m.pool == t.pool) return &m;
     }
     return nullptr;
   };
@@ -214,6 +248,7 @@ std::string GateMetricsJson(const std::vector<GateMetric>& metrics) {
   for (const GateMetric& m : metrics) {
     Json item = {{"method", m.method}, {"metric", m.metric}, {"value", m.value}};
     if (!m.fault.empty()) item["fault"] = m.fault;  // only then: the baselines without faults keep their bytes
+    if (!m.pool.empty()) item["pool"] = m.pool;
     list.push_back(item);
   }
   j["metrics"] = list;
@@ -233,7 +268,8 @@ std::vector<GateMetric> ReadGateMetrics(const std::string& path) {
     if (!m.is_object()) throw InputError(where + ": expected an object");
     metrics.push_back({StringField(m, "method", where), StringField(m, "metric", where),
                        NumberField(m, "value", where),
-                       m.contains("fault") ? StringField(m, "fault", where) : std::string()});
+                       m.contains("fault") ? StringField(m, "fault", where) : std::string(),
+                       m.contains("pool") ? StringField(m, "pool", where) : std::string()});
   }
   return metrics;
 }

@@ -16,7 +16,7 @@ std::string GateTable(const std::vector<GateCheck>& checks) {
     const std::string threshold = t.max ? "<= " + FormatValue(*t.max) : ">= " + FormatValue(*t.min);
     std::string verdict = !c.has_value ? "FAIL (no data)" : c.passed ? "pass" : "FAIL";
     if (c.regressed) verdict += c.passed ? " but REGRESSED" : ", REGRESSED";
-    out << "| " << MethodLabel(t.method, t.fault) << " | " << t.metric << " | " << (c.has_value ? FormatValue(c.value) : "-")
+    out << "| " << MethodLabel(t.method, t.fault, t.pool) << " | " << t.metric << " | " << (c.has_value ? FormatValue(c.value) : "-")
         << " | " << threshold << " | " << (c.has_value ? FormatValue(c.margin) : "-") << " | "
         << (c.has_baseline ? FormatValue(c.baseline) : "-") << " | " << verdict << " |\n";
   }
@@ -45,7 +45,7 @@ std::string GateHtml(const std::string& suite_file, const std::vector<GateCheck>
     std::string verdict = !c.has_value ? "FAIL (no data)" : c.passed ? "pass" : "FAIL";
     if (c.regressed) verdict += c.passed ? " but REGRESSED" : ", REGRESSED";
     out << "<tr" << (ok ? "" : " class=\"fail\"") << " title=\"" << util::HtmlEscape(t.why) << "\"><td>"
-        << util::HtmlEscape(MethodLabel(t.method, t.fault)) << "</td><td>" << util::HtmlEscape(t.metric) << "</td><td>"
+        << util::HtmlEscape(MethodLabel(t.method, t.fault, t.pool)) << "</td><td>" << util::HtmlEscape(t.metric) << "</td><td>"
         << (c.has_value ? FormatValue(c.value) : "-") << "</td><td>"
         << (t.max ? "&lt;= " + FormatValue(*t.max) : "&gt;= " + FormatValue(*t.min)) << "</td><td>"
         << (c.has_value ? FormatValue(c.margin) : "-") << "</td><td>"

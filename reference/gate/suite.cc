@@ -174,7 +174,9 @@ GateSuite ReadGateSuite(const std::string& path) {
     const Json& ej = j["entries"][i];
     const std::string where = path + ": entries[" + std::to_string(i) + "]";
     if (!ej.is_object()) throw InputError(where + ": expected an object");
-    OnlyKeys(ej, {"name", "synth", "dataset", "stereolunar", "observability", "site_size_m", "hda", "fault", "methods"},
+    OnlyKeys(ej,
+             {"name", "synth", "dataset", "stereolunar", "observability", "site_size_m", "hda", "fault", "pool",
+              "methods"},
              where);
     GateEntry e;
     e.name = StringField(ej, "name", where);
@@ -253,6 +255,13 @@ GateSuite ReadGateSuite(const std::string& path) {
       if (e.observability) throw InputError(where + ": 'fault' applies to a dataset, not to an observability study");
       e.fault = ReadOneFault(StringField(ej, "fault", where), where + ": fault");
     }
+    if (ej.contains("pool")) {
+      if (e.observability) throw InputError(where + ": 'pool' applies to a dataset, not to an observability study");
+      e.pool = StringField(ej, "pool", where);
+      if (!ValidName(e.pool)) {
+        throw InputError(where + ": pool '" + e.pool + "' must be letters, digits, '.', '_' or '-'");
+      }
+    }
     if (ej.contains("methods")) {
       if (e.observability) throw InputError(where + ": 'methods' applies to a dataset, not to an observability study");
       e.methods = ReadMethods(ej["methods"], where);
@@ -278,7 +287,7 @@ GateThresholds ReadGateThresholds(const std::string& path) {
     const Json& t = j["thresholds"][i];
     const std::string where = path + ": thresholds[" + std::to_string(i) + "]";
     if (!t.is_object()) throw InputError(where + ": expected an object");
-    OnlyKeys(t, {"method", "metric", "fault", "max", "min", "tolerance", "why"}, where);
+    OnlyKeys(t, {"method", "metric", "fault", "pool", "max", "min", "tolerance", "why"}, where);
     GateThreshold th;
     th.method = StringField(t, "method", where);
     th.metric = StringField(t, "metric", where);
@@ -301,8 +310,10 @@ GateThresholds ReadGateThresholds(const std::string& path) {
     if (t.contains("fault")) {
       th.fault = datasets::FaultLabel(ReadOneFault(StringField(t, "fault", where), where + ": fault"));
     }
-    if (!seen.insert(MethodLabel(th.method, th.fault) + " " + th.metric).second) {
-      throw InputError(where + ": " + MethodLabel(th.method, th.fault) + " " + th.metric + " is given twice");
+    if (t.contains("pool")) th.pool = StringField(t, "pool", where);
+    const std::string label = MethodLabel(th.method, th.fault, th.pool);
+    if (!seen.insert(label + " " + th.metric).second) {
+      throw InputError(where + ": " + label + " " + th.metric + " is given twice");
     }
     result.thresholds.push_back(th);
   }

@@ -97,6 +97,8 @@ int IntOr(const Json& j, int fallback) { return j.is_number_integer() ? j.get<in
 // width, and in a grid (the ROI pairs, the maps) also the grid's height.
 const cv::Size kPageWide(reference::kFigureShownWidthPx, std::numeric_limits<int>::max());
 const cv::Size kInGrid(reference::kFigureShownWidthPx, reference::kFigureGridHeightPx);
+// The landing decisions and the safety map, side by side at the top of the page.
+const cv::Size kHalfPage(reference::kFigureShownWidthPx / 2 - 16, 720);
 
 // A PNG fitted into `shown`: area-averaged (datasets::PreviewPng) to the
 // largest size that fits when it is larger; the bytes unchanged when it fits
@@ -210,6 +212,12 @@ struct Page {
   std::vector<Figure> roi_pairs;       // figures/roi_pairs/*.png
   std::vector<Figure> maps;            // the dataset's maps
   std::string dataset_dir;             // where the maps come from
+  // What a person looks at first: the landing decisions against the
+  // lander's truth, in one line (run) or one row per method (compare), and
+  // image 1 with every site in its decision class beside the truth's safety map.
+  std::vector<std::string> decision_lines;
+  Table decisions;
+  std::vector<Figure> decision_figures;
 };
 
 std::string StatsText(const Json& stats, int digits) {
@@ -481,6 +489,7 @@ void FillRunPage(const Json& result, Page* page) {
   table.header = {"ROI", "status", "truth slope (deg)", "est. slope (deg)", "sigma (deg)",
                   "# points", "truth rough. RMS (m)", "est. relief (m)", "score", "rank"};
   SlopeErrorPool pool;
+  std::vector<DecisionSample> decision_samples;
   for (const Json& roi : rois) {
     const Json& truth = Member(roi, "truth");
     const bool has_truth = Member(truth, "available") == true;
@@ -500,7 +509,11 @@ void FillRunPage(const Json& result, Page* page) {
         {Member(roi, "rank").is_number() ? Text(Member(roi, "rank")) : "-", "", ""},
     });
     pool.Add(SampleOfFlightRecord(roi));
+    decision_samples.push_back(DecisionOfFlightRecord(roi));
   }
+  DecisionPool decisions;
+  decisions.AddRun(decision_samples);
+  if (decisions.sites() > 0) page->decision_lines.push_back("Landing decision: " + DecisionLine(decisions) + ".");
   if (pool.count() == 0) {
     page->summary_lines.push_back("Slope error: no ROI has a slope, truth and at least " +
                                   std::to_string(kMinPointsForSlopeStats) + " points.");
@@ -627,6 +640,51 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
       " points; the tilt error is the angle between the fitted and the true plane, the slope bias the "
       "mean of slope - truth.");
 
+  // The landing decisions per method, read from the record by the one rule.
+  const Json& limit = Member(compare, "max_slope_deg");
+  const double max_slope_deg = IsNumber(limit) ? limit.get<double>() : std::numeric_limits<double>::quiet_NaN();
+  std::map<std::string, std::vector<DecisionSample>> decided;
+  for (const Json& roi : rois) {
+    const Json& values = Member(roi, "methods");
+    for (const std::string& name : names) {
+      const Json& v = Member(values, name.c_str());
+      if (v.is_object() && Member(v, "status").is_string()) {
+        decided[name].push_back(DecisionOfCompareRecord(name, v, roi, max_slope_deg));
+      }
+    }
+  }
+  Table& decisions = page->decisions;
+  decisions.id = "decision-table";
+  decisions.header = {"method", "sites with a lander truth", "truly unsafe", "declared safe", "false-safe",
+                      "false-safe 95 %", "missed-safe", "top site unsafe"};
+  for (const std::string& name : names) {
+    DecisionPool pool;
+    pool.AddRun(decided[name]);
+    if (pool.sites() == 0) continue;
+    const auto percent = [](double v) { return std::isfinite(v) ? util::FixedCell(100.0 * v, 1) + " %" : "-"; };
+    const Interval interval = pool.FalseSafeInterval();
+    decisions.rows.push_back({
+        {name, "", ""},
+        {std::to_string(pool.sites()), "", ""},
+        {std::to_string(pool.truly_unsafe()), "", ""},
+        {std::to_string(pool.DeclaredSafe()), "", ""},
+        {percent(pool.FalseSafeRate()), "", ""},
+        {pool.DeclaredSafe() > 0 ? util::FixedCell(100.0 * interval.low, 1) + " - " +
+                                       util::FixedCell(100.0 * interval.high, 1) + " %"
+                                 : "-",
+         "", ""},
+        {percent(pool.MissedSafeRate()), "", ""},
+        {pool.ranked_runs() > 0 ? (pool.TopSiteUnsafeShare() > 0.0 ? "yes" : "no") : "-", "", ""},
+    });
+  }
+  if (!decisions.rows.empty()) {
+    page->decision_lines.push_back(
+        "Against the lander's truth at each site. The flight method declares by its status; every other "
+        "method by its slope against the flight method's " + Fixed(limit, 1) +
+        " deg (it has no hazard estimate). False-safe: truly unsafe among the sites declared safe; "
+        "missed-safe: declared unsafe among the truly safe ones with a verdict.");
+  }
+
   Table& table = page->rois;
   table.id = "roi-table";
   table.header = {"ROI", "truth slope (deg)"};
@@ -683,6 +741,14 @@ void AddRunFigures(const fs::path& figures_dir, Page* page) {
                "evaluated, orange unsafe slope, yellow unsafe roughness, red degenerate, greys: "
                "too few points, not in image 2, not evaluated); rejected blocks thin dark blue.",
                kPageWide, &page->flight_figures, &page->notes);
+  }
+  const fs::path decision = figures_dir / "decision.png";
+  if (fs::is_regular_file(decision)) {
+    AddPngFile(decision, "fig-decision", "Landing decisions",
+               "Image 1 with every site coloured by its decision against the lander's truth (green safe and "
+               "truly safe, red FALSE SAFE, orange missed safe, blue unsafe and truly unsafe, light grey no "
+               "verdict, dark grey no lander truth), labelled with its slope error (estimated - true, deg).",
+               kHalfPage, &page->decision_figures, &page->notes);
   }
   const fs::path matches = figures_dir / "matches.png";
   if (fs::is_regular_file(matches)) {
@@ -764,6 +830,9 @@ void AddMaps(const fs::path& dataset_dir, Page* page) {
       {"elevation.png", "Elevation", "The synthetic scene's elevation map (maps/elevation.png)."},
       {"slope.png", "Slope", "The synthetic scene's slope map (maps/slope.png)."},
       {"hazards.png", "Hazards", "The synthetic scene's hazard map (maps/hazards.png)."},
+      {"safety.png", "Safety for the lander",
+       "Every point about 1 m apart as a landing point of the default lander (maps/safety.png): green safe, "
+       "orange unsafe by clearance, red unsafe by slope, grey no verdict (the footprint leaves the DEM)."},
   };
   int found = 0;
   for (const auto& map : maps) {
@@ -779,6 +848,13 @@ void AddMaps(const fs::path& dataset_dir, Page* page) {
       page->maps.back().png = MapAsShown(page->maps.back().png,
                                          dataset_dir / "maps" / datasets::kMapPreviewFolder / map.file, &shrunk);
       if (!shrunk.empty()) page->maps.back().caption += " (" + shrunk + ")";
+      // The safety map is shown again beside the decisions, at the grid's height.
+      if (std::string(map.file) == "safety.png") {
+        Figure beside = page->maps.back();
+        beside.id = "decision-safety-map";
+        beside.png = FittedPng(beside.png, kHalfPage);
+        page->decision_figures.push_back(std::move(beside));
+      }
     }
   }
   if (found == 0) {
@@ -945,6 +1021,8 @@ figcaption { font-size: 13px; color: #444; margin-top: 4px; }
 .scroll { overflow-x: auto; }
 .grid { display: flex; flex-wrap: wrap; gap: 12px; }
 .grid figure { margin: 0; }
+.pair { display: flex; gap: 12px; align-items: flex-start; }
+.pair figure { margin: 0; flex: 1 1 0; }
 .grid figure img { max-height: )css" +
          std::to_string(reference::kFigureGridHeightPx) + R"css(px; }
 )css";
@@ -992,6 +1070,16 @@ std::string BuildHtml(const Page& page) {
     html += "</ul></div>\n";
   }
 
+  if (!page.decision_lines.empty() || !page.decision_figures.empty()) {
+    html += "<h2>Landing decision</h2>\n";
+    for (const std::string& line : page.decision_lines) html += "<p>" + util::HtmlEscape(line) + "</p>\n";
+    if (!page.decisions.rows.empty()) AppendTable(page.decisions, &html);
+    if (!page.decision_figures.empty()) {
+      html += "<div class=\"pair\">\n";
+      for (const Figure& f : page.decision_figures) AppendFigure(f, &html);
+      html += "</div>\n";
+    }
+  }
   html += page.kind == "compare" ? "<h2>Per method</h2>\n" : "<h2>Statuses</h2>\n";
   AppendTable(page.summary, &html);
   for (const std::string& line : page.summary_lines) html += "<p>" + util::HtmlEscape(line) + "</p>\n";
@@ -1057,6 +1145,14 @@ std::string BuildMarkdown(const Page& page, int num_figures) {
     md += "## Failed methods\n\n";
     for (const std::string& f : page.failures) md += "- " + f + "\n";
     md += "\n";
+  }
+  if (!page.decision_lines.empty()) {
+    md += "## Landing decision\n\n";
+    for (const std::string& line : page.decision_lines) md += line + "\n\n";
+    if (!page.decisions.rows.empty()) {
+      AppendMarkdownTable(page.decisions, &md);
+      md += "\n";
+    }
   }
   md += page.kind == "compare" ? "## Per method\n\n" : "## Statuses\n\n";
   AppendMarkdownTable(page.summary, &md);

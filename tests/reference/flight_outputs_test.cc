@@ -317,7 +317,7 @@ TEST(FlightOutputs, PlyHeaderCountsThePoints) {
 TEST(FlightOutputs, ReportTableWithTruth) {
   const std::string report = FlightReport(MakeRun());
   const std::vector<std::string> lines = SplitLines(report);
-  ASSERT_EQ(lines.size(), 8u) << report;
+  ASSERT_EQ(lines.size(), 9u) << report;
   EXPECT_EQ(lines[0].rfind("hda: 3 ROIs, 1 evaluated", 0), 0u) << lines[0];
   EXPECT_NE(lines[0].find("frames 0,6, baseline 31.25 m"), std::string::npos) << lines[0];
   EXPECT_EQ(lines[1],
@@ -341,6 +341,8 @@ TEST(FlightOutputs, ReportTableWithTruth) {
   EXPECT_EQ(lines[7],
             "tilt error (angle to the true plane) median 0.50 deg, 90th percentile 0.50 deg; slope bias "
             "(mean of estimated - true) +0.50 deg");
+  // The run's truth has no DEM: no lander truth, and the line says so.
+  EXPECT_EQ(lines[8], "landing decision: no site has a lander truth (no truth DEM)");
 }
 
 TEST(FlightOutputs, ReportTableWithoutTruthDropsTheTruthColumns) {
@@ -396,11 +398,12 @@ TEST(FlightOutputs, WritesEveryFileAndRemovesStaleRoiFiles) {
       WriteFlightOutputs(run, TestImage(CV_8U), TestImage(CV_16U), dir.string(), true);
   for (const char* name : {"result.json", "timings.json", "rois.csv", "points/roi_001.ply",
                            "points/roi_003.ply", "figures/quadtree.png", "figures/matches.png",
-                           "figures/roi_pairs/roi_001.png", "figures/roi_pairs/roi_003.png"}) {
+                           "figures/roi_pairs/roi_001.png", "figures/roi_pairs/roi_003.png",
+                           "figures/decision.png"}) {
     EXPECT_TRUE(fs::is_regular_file(dir / name)) << name;
     EXPECT_NE(std::find(written.begin(), written.end(), name), written.end()) << name;
   }
-  EXPECT_EQ(written.size(), 9u);
+  EXPECT_EQ(written.size(), 10u);
   EXPECT_FALSE(fs::exists(dir / "points" / "roi_002.ply"));
   EXPECT_FALSE(fs::exists(dir / "figures" / "roi_pairs" / "roi_002.png"));
   EXPECT_TRUE(fs::exists(dir / "points" / "notes.txt"));

@@ -18,6 +18,7 @@
 
 #include "tools/util/build_identity.h"
 #include "tools/util/error.h"
+#include "tools/util/files.h"
 #include "tests/support/synth_scene.h"
 #include "tests/support/test_support.h"
 
@@ -73,6 +74,15 @@ TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
             std::string::npos);
   EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a"}])")
                 .find("entries[0]: give exactly one of 'synth', 'dataset', 'stereolunar', 'observability'"),
+            std::string::npos);
+  // A named pool: a plain name, for a dataset entry.
+  EXPECT_EQ(suite(R"("methods": ["flight"], "entries": [{"name": "a", "synth": {"preset": "novac-lateral"}, )"
+                  R"("pool": "steep"}])"),
+            "no error");
+  EXPECT_EQ(ReadGateSuite((dir / "suite.json").string()).entries[0].pool, "steep");
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "synth": {"preset": "novac-lateral"}, )"
+                  R"("pool": "a b"}])")
+                .find("entries[0]: pool 'a b' must be letters, digits"),
             std::string::npos);
   // An observability entry: the study's options, checked when read.
   EXPECT_EQ(suite(R"("methods": ["flight"], "entries": [{"name": "o", "observability": )"
@@ -226,7 +236,7 @@ TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {
 // every threshold is for a method its suite compares.
 TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
   const fs::path gate = fs::path(HDABENCH_SOURCE_DIR) / "gate";
-  for (const std::string name : {"", "-ci", "-lateral"}) {
+  for (const std::string name : {"", "-ci", "-lateral", "-decision"}) {
     SCOPED_TRACE("gate/suite" + name + ".json");
     const GateSuite suite = ReadGateSuite((gate / ("suite" + name + ".json")).string());
     const GateThresholds thresholds = ReadGateThresholds((gate / ("thresholds" + name + ".json")).string());
@@ -236,11 +246,17 @@ TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
       EXPECT_NE(std::find(suite.methods.begin(), suite.methods.end(), threshold.method), suite.methods.end())
           << threshold.method << " " << threshold.metric;
       EXPECT_FALSE(threshold.why.empty()) << threshold.method << " " << threshold.metric;
+      // A named pool's threshold: an entry of the suite is in that pool.
+      if (!threshold.pool.empty()) {
+        EXPECT_TRUE(std::any_of(suite.entries.begin(), suite.entries.end(),
+                                [&](const GateEntry& e) { return e.pool == threshold.pool; }))
+            << threshold.method << " on " << threshold.pool << " " << threshold.metric;
+      }
       if (threshold.fault.empty()) continue;
       // A fault's threshold: an entry of the suite runs the method under that fault.
       const bool under_fault = std::any_of(suite.entries.begin(), suite.entries.end(), [&](const GateEntry& e) {
         const std::vector<std::string>& methods = e.methods.empty() ? suite.methods : e.methods;
-        return e.fault && datasets::FaultLabel(*e.fault) == threshold.fault &&
+        return e.fault && datasets::FaultLabel(*e.fault) == threshold.fault && e.pool == threshold.pool &&
                std::find(methods.begin(), methods.end(), threshold.method) != methods.end();
       });
       EXPECT_TRUE(under_fault) << threshold.method << " under " << threshold.fault << " " << threshold.metric;
@@ -337,8 +353,8 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
   }
   // A threshold on the fault's pool checks that pool, and says so by name.
   GateThresholds thresholds;
-  thresholds.thresholds = {{"flight", "slope_error_max_deg", 8.0, std::nullopt, 0.0, "", "lrf-scale=0.05"},
-                           {"flight", "slope_error_max_deg", 8.0, std::nullopt, 0.0, "", ""}};
+  thresholds.thresholds = {{"flight", "slope_error_max_deg", 8.0, std::nullopt, 0.0, "", "lrf-scale=0.05", ""},
+                           {"flight", "slope_error_max_deg", 8.0, std::nullopt, 0.0, "", "", ""}};
   const std::vector<GateCheck> checks = CheckGate(with_fault, thresholds, nullptr);
   ASSERT_EQ(checks.size(), 2u);
   EXPECT_EQ(checks[0].Summary(), "flight under lrf-scale=0.05 slope_error_max_deg = 9.000 > 8.000 (threshold)");
@@ -346,15 +362,42 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
   EXPECT_NE(GateTable(checks).find("| flight under lrf-scale=0.05 | slope_error_max_deg | 9.000 |"), std::string::npos);
 }
 
+// A named pool (a suite entry's "pool") is checked apart from the main one
+// and from a fault's, and named so; its metrics keep their pool through the
+// metrics file.
+TEST(CheckGate, ANamedPoolIsCheckedApartAndNamed) {
+  const std::vector<GateMetric> metrics = {{"flight", "false_safe_rate", 0.01, "", ""},
+                                           {"flight", "false_safe_rate", 0.45, "", "steep"},
+                                           {"flight", "false_safe_rate", 0.50, "lrf-absent", "steep"}};
+  GateThresholds thresholds;
+  thresholds.thresholds = {{"flight", "false_safe_rate", 0.03, std::nullopt, 0.0, "", "", ""},
+                           {"flight", "false_safe_rate", 0.37, std::nullopt, 0.0, "", "", "steep"},
+                           {"flight", "false_safe_rate", 0.60, std::nullopt, 0.0, "", "lrf-absent", "steep"}};
+  const std::vector<GateCheck> checks = CheckGate(metrics, thresholds, nullptr);
+  ASSERT_EQ(checks.size(), 3u);
+  EXPECT_TRUE(checks[0].passed);
+  EXPECT_FALSE(checks[1].passed);
+  EXPECT_EQ(checks[1].Summary(), "flight on steep false_safe_rate = 0.450 > 0.370 (threshold)");
+  EXPECT_TRUE(checks[2].passed);
+  EXPECT_EQ(checks[2].Summary(), "flight on steep under lrf-absent false_safe_rate = 0.500");
+  const fs::path dir = FreshTestDir();
+  util::WriteFileAtomically(dir / "metrics.json", GateMetricsJson(metrics));
+  const std::vector<GateMetric> read = ReadGateMetrics((dir / "metrics.json").string());
+  ASSERT_EQ(read.size(), 3u);
+  EXPECT_EQ(read[1].pool, "steep");
+  EXPECT_EQ(read[2].fault, "lrf-absent");
+  EXPECT_EQ(read[2].pool, "steep");
+}
+
 TEST(CheckGate, ThresholdsMarginsAndRegressions) {
   GateThresholds thresholds;
-  thresholds.thresholds = {{"flight", "slope_error_p90_deg", 5.0, std::nullopt, 0.5, "", ""},
-                           {"flight", "within_two_sigma_share", std::nullopt, 0.8, 0.05, "", ""},
-                           {"flight", "slope_error_max_deg", 20.0, std::nullopt, 1.0, "", ""}};
-  const std::vector<GateMetric> metrics = {{"flight", "slope_error_p90_deg", 4.0, ""},
-                                           {"flight", "within_two_sigma_share", 0.7, ""}};
-  const std::vector<GateMetric> baseline = {{"flight", "slope_error_p90_deg", 3.4, ""},
-                                            {"flight", "within_two_sigma_share", 0.72, ""}};
+  thresholds.thresholds = {{"flight", "slope_error_p90_deg", 5.0, std::nullopt, 0.5, "", "", ""},
+                           {"flight", "within_two_sigma_share", std::nullopt, 0.8, 0.05, "", "", ""},
+                           {"flight", "slope_error_max_deg", 20.0, std::nullopt, 1.0, "", "", ""}};
+  const std::vector<GateMetric> metrics = {{"flight", "slope_error_p90_deg", 4.0, "", ""},
+                                           {"flight", "within_two_sigma_share", 0.7, "", ""}};
+  const std::vector<GateMetric> baseline = {{"flight", "slope_error_p90_deg", 3.4, "", ""},
+                                            {"flight", "within_two_sigma_share", 0.72, "", ""}};
   const std::vector<GateCheck> checks = CheckGate(metrics, thresholds, &baseline);
   ASSERT_EQ(checks.size(), 3u);
   EXPECT_TRUE(checks[0].passed);

@@ -92,8 +92,28 @@ Eigen::Vector3d Normal(double slope_deg, double yaw_deg) {
   return Eigen::Vector3d(std::sin(s) * std::sin(y), std::sin(s) * std::cos(y), std::cos(s));
 }
 
+// The lander's truth at ROI i: undefined at every fifth ROI; unsafe by slope
+// from ROI 9 on (6 + 0.5 i deg over 10), by clearance at ROIs 1, 5, 9, 13.
+datasets::synth::LandingVerdict Landing(int i) {
+  datasets::synth::LandingVerdict v;
+  if (i % 5 == 4) {
+    v.why = "the lander's footprint leaves the truth DEM";
+    return v;
+  }
+  v.defined = true;
+  v.slope_deg = 6.0 + 0.5 * i;
+  v.clearance_m = i % 4 == 1 ? 0.4 : 0.1;
+  v.unsafe_by_slope = v.slope_deg > 10.0;
+  v.unsafe_by_clearance = v.clearance_m > 0.3;
+  v.safe = !v.unsafe_by_slope && !v.unsafe_by_clearance;
+  return v;
+}
+
 // Every flight status twice (30 and 10 points), each with a plane; one
 // evaluated ROI without truth, and one whose predicted sigma is infinite.
+// The evaluated ROIs are ranked in order; every truth has a Landing(i) and
+// a rock of 0.1 (i % 6) m. The slope limit is 4 deg, so that the
+// reference's slopes (1.5 + 0.29 i) fall on both sides of it.
 // The reference column (plane-nav) has every status of the table, each with
 // a plane, at 30 points, and one ok at 10.
 CompareRun EveryStatusRun() {
@@ -113,6 +133,8 @@ CompareRun EveryStatusRun() {
   f.lrf_range_m = 566.0;
   f.result.budget_s = 10.0;
   f.result.times.total_s = 0.2;
+  f.options.max_slope_deg = 4.0;
+  int rank = 0;
   const auto add_flight = [&](hda::RoiStatus status, int points, double sigma_deg, bool truth) {
     const int i = static_cast<int>(f.result.rois.size());
     hda::RoiResult roi;
@@ -128,10 +150,16 @@ CompareRun EveryStatusRun() {
     roi.normal_in_local = Normal(roi.slope_deg, 3.0 * i);
     roi.slope_sigma_deg = sigma_deg;
     roi.roughness_rms_m = 0.04 + 0.01 * i;
+    if (status == hda::RoiStatus::kEvaluated) roi.rank = ++rank;
     f.result.rois.push_back(roi);
     RoiTruthValue t;
     t.why = "no truth here";
-    f.truths.push_back(truth ? Truth(2.0 + 0.11 * i * (i % 3 == 0 ? -1.0 : 1.0)) : t);
+    if (truth) {
+      t = Truth(2.0 + 0.11 * i * (i % 3 == 0 ? -1.0 : 1.0));
+      t.landing = Landing(i);
+      t.max_rock_height_m = 0.1 * (i % 6);
+    }
+    f.truths.push_back(t);
   };
   for (const hda::RoiStatus status : statuses) {
     add_flight(status, 30, 0.4, true);
@@ -176,6 +204,23 @@ CompareRun EveryStatusRun() {
   return run;
 }
 
+// The run's compare.json and compare_timings.json written into a fresh
+// folder, and the gate's metrics read back from them.
+std::vector<GateMetric> GateMetricsOfWrittenRun(const CompareRun& run, fs::path* dir) {
+  *dir = FreshTestDir();
+  util::WriteFileAtomically(*dir / "compare.json", CompareResultJson(run));
+  util::WriteFileAtomically(*dir / "compare_timings.json", CompareTimingsJson(run));
+  return ComputeGateMetrics({dir->string()}, 0.1);
+}
+
+// A metric of the main pool; NaN when the gate has none.
+double MetricOf(const std::vector<GateMetric>& metrics, const std::string& method, const std::string& name) {
+  for (const GateMetric& m : metrics) {
+    if (m.method == method && m.metric == name && m.fault.empty() && m.pool.empty()) return m.value;
+  }
+  return kNaN;
+}
+
 TEST(SlopeStatistics, CompareReportGateAndRunAgreeOnEveryStatus) {
   const CompareRun run = EveryStatusRun();
   // By the rule: the flight method's three statuses with a slope at 30
@@ -187,16 +232,12 @@ TEST(SlopeStatistics, CompareReportGateAndRunAgreeOnEveryStatus) {
   EXPECT_EQ(run.summaries[1].rois_with_fit, 3);
 
   // The gate, from the written record.
-  const fs::path dir = FreshTestDir();
-  util::WriteFileAtomically(dir / "compare.json", CompareResultJson(run));
-  util::WriteFileAtomically(dir / "compare_timings.json", CompareTimingsJson(run));
-  const std::vector<GateMetric> metrics = ComputeGateMetrics({dir.string()}, 0.1);
+  fs::path dir;
+  const std::vector<GateMetric> metrics = GateMetricsOfWrittenRun(run, &dir);
   const auto metric = [&](const std::string& method, const std::string& name) {
-    for (const GateMetric& m : metrics) {
-      if (m.method == method && m.metric == name && m.fault.empty()) return m.value;
-    }
-    ADD_FAILURE() << "no " << method << " " << name;
-    return kNaN;
+    const double value = MetricOf(metrics, method, name);
+    if (std::isnan(value)) ADD_FAILURE() << "no " << method << " " << name;
+    return value;
   };
   for (size_t m = 0; m < run.methods.size(); ++m) {
     const MethodSummary& s = run.summaries[m];
@@ -257,6 +298,72 @@ TEST(SlopeStatistics, CompareReportGateAndRunAgreeOnEveryStatus) {
   const std::map<std::string, int> run_plots =
       counted(PlotSeriesJson(nlohmann::json::parse(ReadText(run_dir / "result.json")), "run"));
   EXPECT_EQ(run_plots.at(kMethodFlight), flight.count);
+}
+
+// The landing decisions: compare's in-memory pools, the gate's metrics from
+// the written compare.json, the flight run's own pool and the one read back
+// from its result.json agree, and the flight column's counts are those of the
+// rule worked out by hand.
+TEST(DecisionStatistics, CompareGateAndRunAgreeOnEveryStatus) {
+  const CompareRun run = EveryStatusRun();
+  const DecisionPool& flight = run.summaries[0].decision;
+  // ROIs 0..13 are the seven statuses twice, 14 evaluated without truth, 15
+  // evaluated. Landing defined except at 4, 9, 14: sites 0-3, 5-8, 10-13, 15
+  // (13). Declared safe: the evaluated ROIs 0, 1, 15; unsafe: 2-5 (the two
+  // unsafe statuses), of which 4 has no truth. Truly unsafe: 1 and 5
+  // (clearance), 10-13 and 15 (slope, 11 and over 10 deg).
+  EXPECT_EQ(flight.sites(), 13);
+  EXPECT_EQ(flight.sites_without_truth(), 3);
+  EXPECT_EQ(flight.truly_unsafe(), 7);
+  EXPECT_EQ(flight.Count(Verdict::kSafe, true), 1);    // ROI 0
+  EXPECT_EQ(flight.Count(Verdict::kSafe, false), 2);   // ROIs 1 and 15
+  EXPECT_EQ(flight.Count(Verdict::kUnsafe, true), 2);  // ROIs 2 and 3
+  EXPECT_EQ(flight.Count(Verdict::kUnsafe, false), 1); // ROI 5
+  EXPECT_DOUBLE_EQ(flight.FalseSafeRate(), 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(flight.MissedSafeRate(), 2.0 / 3.0);
+  // Ranks 1 (ROI 0, safe), 2 (ROI 1, unsafe); ROI 14 (rank 3) has no truth, ROI 15 (rank 4) is unsafe.
+  EXPECT_EQ(flight.ranked_runs(), 1);
+  EXPECT_DOUBLE_EQ(flight.TopSiteUnsafeShare(), 0.0);
+  EXPECT_DOUBLE_EQ(flight.TopKUnsafeShare(), 1.0);
+
+  fs::path dir;
+  const std::vector<GateMetric> metrics = GateMetricsOfWrittenRun(run, &dir);
+  const auto metric = [&](const std::string& method, const std::string& name) {
+    return MetricOf(metrics, method, name);
+  };
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    const DecisionPool& pool = run.summaries[m].decision;
+    const std::string& name = run.methods[m];
+    SCOPED_TRACE(name);
+    EXPECT_GT(pool.DeclaredSafe(), 0);
+    EXPECT_EQ(metric(name, "decision_sites"), pool.sites());
+    EXPECT_EQ(metric(name, "truly_unsafe_share"), static_cast<double>(pool.truly_unsafe()) / pool.sites());
+    EXPECT_EQ(metric(name, "false_safe_rate"), pool.FalseSafeRate());
+    EXPECT_EQ(metric(name, "false_safe_upper_95"), pool.FalseSafeInterval().high);
+    EXPECT_EQ(metric(name, "missed_safe_rate"), pool.MissedSafeRate());
+    EXPECT_EQ(metric(name, "unsafe_caught_rate"), pool.UnsafeCaughtRate());
+  }
+  EXPECT_EQ(metric(kMethodFlight, "top_site_unsafe_share"), flight.TopSiteUnsafeShare());
+  EXPECT_TRUE(std::isnan(metric(kMethodPlaneNav, "top_site_unsafe_share")));  // a reference ranks nothing
+  // The reference declares by its slope against 4 deg, on its ok ROIs only:
+  // 0 (1.5 deg: safe, truly safe) and 12 (4.98 deg: unsafe, truly unsafe);
+  // 14 has no truth.
+  const DecisionPool& ref = run.summaries[1].decision;
+  EXPECT_EQ(ref.Count(Verdict::kSafe, true), 1);
+  EXPECT_EQ(ref.Count(Verdict::kUnsafe, false), 1);
+  EXPECT_EQ(ref.Count(Verdict::kSafe, false) + ref.Count(Verdict::kUnsafe, true), 0);
+  EXPECT_EQ(ref.Count(Verdict::kNone, true) + ref.Count(Verdict::kNone, false), 11);
+  // The flight run's own pool and its record read back.
+  const DecisionPool own = ComputeFlightDecisions(run.flight);
+  const nlohmann::json record = nlohmann::json::parse(FlightResultJson(run.flight));
+  std::vector<DecisionSample> samples;
+  for (const nlohmann::json& roi : record.at("rois")) samples.push_back(DecisionOfFlightRecord(roi));
+  DecisionPool read;
+  read.AddRun(samples);
+  for (const DecisionPool* pool : {&own, static_cast<const DecisionPool*>(&read)}) {
+    EXPECT_EQ(DecisionJson(*pool), DecisionJson(flight));
+  }
+  EXPECT_EQ(record.at("decision"), nlohmann::json::parse(DecisionJson(flight).dump()));
 }
 
 }  // namespace

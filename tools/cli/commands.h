@@ -30,8 +30,8 @@ int RunDatasetCreate(const DatasetCreateOptions& options, std::ostream& out, std
 
 struct SynthCommandOptions {
   std::string out_dir;                  // folder to create; must not exist, or be empty
-  std::string preset = "novac-lateral"; // novac-lateral, novac-boresight, truck, aircraft
-  std::string terrain;                  // mare, cratered, rocky; empty: the preset's
+  std::string preset = "novac-lateral"; // novac-lateral, novac-boresight, truck, aircraft, helicopter
+  std::string terrain;                  // mare, cratered, rocky, flank, boulders; empty: the preset's
   std::uint64_t seed = 1;               // same seed, same bytes
   int threads = 0;                      // 0: every core this process may use; the output does not depend on it
   int image_size_px = 0;                // 0: the preset's (1024)
@@ -133,6 +133,9 @@ struct GateCommandOptions {
   int jobs = 2;                       // entries at a time
   std::string colmap_executable = "colmap";
   double fault_match_noise_px = 0.0;  // fault injection into the flight method (tests of the gate)
+  // hda.KEY=VALUE over every entry's own parameters: a what-if run (the
+  // gate's own test sets hda.max_slope_deg=90, every site declared safe).
+  std::vector<std::string> hda_sets;
   std::string shard = "1/1";          // K/N: run the entries shard K of N holds, for `gate merge`
   bool quiet = false;
 };

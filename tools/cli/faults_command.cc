@@ -108,7 +108,7 @@ int RunFaults(const FaultsArgs& args, std::ostream& out, std::ostream& err) {
     return f.kind == datasets::FaultKind::kFrameDropped;
   });
   const PairLoad pair = LoadDatasetPair(args.dataset_dir, ParseFramesFlag(args.frames_text), args.out_dir,
-                                        "faults", err, progress, /*read_dem=*/false, "faults.json", drops_a_frame);
+                                        "faults", err, progress, /*read_dem=*/true, "faults.json", drops_a_frame);
   if (pair.exit_code != kExitOk) return pair.exit_code;
   // One core, as on the flight computer (results do not depend on it).
   cv::setNumThreads(1);

@@ -185,6 +185,13 @@ int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::os
   VerdictInputs verdict;
   reference::GateSuite suite;
   if (const int code = ReadInputs(options, &suite, &verdict, err, command); code != kExitOk) return code;
+  // --set over every entry's own parameters, checked before anything runs.
+  for (reference::GateEntry& entry : suite.entries) {
+    if (const int code = BuildHdaSettings("", {}, options.hda_sets, "gate", err, &entry.hda); code != kExitOk) {
+      return code;
+    }
+  }
+  for (const std::string& set : options.hda_sets) progress("every entry with --set " + set);
 
   // Every method runs on one core, as the flight computer does; entries run
   // in parallel instead.
@@ -303,6 +310,10 @@ std::vector<Command> AddGateCommands(CLI::App& app) {
   gate->add_option("--fault-match-noise-px", options->fault_match_noise_px,
                    "Fault injection for testing the gate: noise on the flight method's matches, px")
       ->capture_default_str();
+  gate->add_option("--set", options->hda_sets,
+                   "A flight-method parameter over every entry's own: hda.KEY=VALUE (repeatable); a\n"
+                   "what-if run, e.g. hda.max_slope_deg=90 declares every site safe")
+      ->allow_extra_args(false);
   gate->add_option("--shard", options->shard,
                    "Run shard K of N (K/N): entry i when i mod N = K - 1, into its own --out; no verdict\n"
                    "until `gate merge` over every shard's folder (tools/slurm/ submits them)")

@@ -38,7 +38,7 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   if (settings_code != kExitOk) return settings_code;
 
   const PairLoad pair = LoadDatasetPair(options.dataset_dir, options.frames, options.out_dir, "run",
-                                        err, progress, /*read_dem=*/false, "result.json");
+                                        err, progress, /*read_dem=*/true, "result.json");
   if (pair.exit_code != kExitOk) return pair.exit_code;
   const datasets::Dataset& dataset = *pair.dataset;
   const std::pair<int, int> frames = pair.frames;

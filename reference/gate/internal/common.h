@@ -81,21 +81,27 @@ inline const std::vector<std::string>& MetricNames() {
       "tilt_error_median_deg",  "tilt_error_p90_deg",    "slope_bias_abs_deg",
       "roughness_error_median_m", "rois_with_slope_share", "within_two_sigma_share",
       "flight_seconds_per_pair", "failed_entries",        "slope_error_rois",
-      "observability_p95_deg",  "observability_median_deg", "observability_sigma_ratio"};
+      "observability_p95_deg",  "observability_median_deg", "observability_sigma_ratio",
+      "decision_sites",         "truly_unsafe_share",    "false_safe_rate",
+      "false_safe_upper_95",    "missed_safe_rate",      "unsafe_caught_rate",
+      "top_site_unsafe_share"};
   return names;
 }
 
 // Higher is better for these metrics; lower for the others.
 inline bool HigherIsBetter(const std::string& metric) {
   return metric == "rois_with_slope_share" || metric == "within_two_sigma_share" ||
-         metric == "slope_error_rois";
+         metric == "slope_error_rois" || metric == "decision_sites" || metric == "truly_unsafe_share" ||
+         metric == "unsafe_caught_rate";
 }
 
 inline std::string FormatValue(double value) { return util::FixedCell(value, 3); }
 
 // A method's pool as a person reads it: "flight", "flight under lrf-absent".
-inline std::string MethodLabel(const std::string& method, const std::string& fault) {
-  return fault.empty() ? method : method + " under " + fault;
+inline std::string MethodLabel(const std::string& method, const std::string& fault,
+                               const std::string& pool = "") {
+  const std::string on_pool = pool.empty() ? method : method + " on " + pool;
+  return fault.empty() ? on_pool : on_pool + " under " + fault;
 }
 
 inline std::string Hex(std::uint64_t value) {

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
+#include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
 #include "tools/util/parallel_for.h"
@@ -16,9 +17,6 @@
 namespace hdabench::datasets::synth {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDegToRad = kPi / 180.0;
-constexpr double kRadToDeg = 180.0 / kPi;
 // A contact counts as on the plane within this height (metres): the
 // surface's heights are floats.
 constexpr double kOnPlaneM = 1e-4;
@@ -123,7 +121,7 @@ YawStencil MakeYawStencil(double spacing_m, double yaw_deg, const LanderGeometry
   const double radius_cells = 0.5 * lander.footprint_diameter_m / spacing_m;
   std::vector<Eigen::Vector2d> corners;
   for (int i = 0; i < lander.legs; ++i) {
-    const double angle = (yaw_deg + 360.0 * i / lander.legs) * kDegToRad;
+    const double angle = (yaw_deg + 360.0 * i / lander.legs) * util::kDegToRad;
     // Columns grow with x, rows against y.
     const cv::Point pad(static_cast<int>(std::lround(radius_cells * std::cos(angle))),
                         static_cast<int>(std::lround(-radius_cells * std::sin(angle))));
@@ -240,7 +238,7 @@ LandingAtYaw AtYawOnCell(const SurfaceGrid& s, const cv::Mat& pad_max, const cv:
           if (normal.dot(contacts[static_cast<size_t>(m)] - a) / normal.z() > kOnPlaneM) rests = false;
         }
         if (!rests) continue;
-        worst_slope = std::max(worst_slope, std::acos(std::clamp(normal.z(), -1.0, 1.0)) * kRadToDeg);
+        worst_slope = std::max(worst_slope, std::acos(std::clamp(normal.z(), -1.0, 1.0)) * util::kRadToDeg);
         normals.push_back(normal);
         points.push_back(a);
       }

@@ -575,7 +575,7 @@ std::string FlightReport(const FlightRun& run) {
 namespace {
 
 // Image 1 enlarged as the whole-image figures show it (by a whole factor up
-// to 4 so that a minimum block is about 48 px, at most kFigureShownWidthPx
+// to 4 so that a minimum block is about 48 px, at most `max_width_px`
 // wide), and the label size that fits `widest_label` in `fill` of the
 // smallest ROI box.
 struct Image1Canvas {
@@ -585,12 +585,12 @@ struct Image1Canvas {
   double text_scale = 0.5;
 };
 Image1Canvas MakeImage1Canvas(const cv::Mat& bgr, const hda::HdaResult& result, const char* widest_label,
-                              double fill) {
+                              double fill, int max_width_px) {
   Image1Canvas out;
   const int min_block = std::max(1, result.quadtree.min_block_px);
   const int factor = std::clamp((48 + min_block - 1) / min_block, 1, 4);
-  out.scale = bgr.cols * factor > kFigureShownWidthPx ? static_cast<double>(kFigureShownWidthPx) / bgr.cols
-                                                      : static_cast<double>(factor);
+  out.scale = bgr.cols * factor > max_width_px ? static_cast<double>(max_width_px) / bgr.cols
+                                               : static_cast<double>(factor);
   out.panel = Panel{cv::Rect(0, 0, bgr.cols, bgr.rows), out.scale, cv::Point(0, 0)};
   out.canvas = cv::Mat(out.panel.CanvasSize(), CV_8UC3);
   PastePanel(bgr, out.panel, &out.canvas);
@@ -608,7 +608,7 @@ Image1Canvas MakeImage1Canvas(const cv::Mat& bgr, const hda::HdaResult& result, 
 
 cv::Mat QuadtreeFigure(const cv::Mat& image1, const hda::HdaResult& result) {
   const cv::Mat bgr = ToBgr(image1);
-  Image1Canvas image = MakeImage1Canvas(bgr, result, "999", 0.8);
+  Image1Canvas image = MakeImage1Canvas(bgr, result, "999", 0.8, kFigureShownWidthPx);
   cv::Mat& canvas = image.canvas;
   const Panel& panel = image.panel;
   const double text_scale = image.text_scale;
@@ -660,7 +660,7 @@ const char* DecisionClassName(const DecisionSample& sample) { return kDecisionNa
 
 cv::Mat DecisionFigure(const cv::Mat& image1, const FlightRun& run) {
   const hda::HdaResult& result = run.result;
-  Image1Canvas image = MakeImage1Canvas(ToBgr(image1), result, "+9.9", 0.85);
+  Image1Canvas image = MakeImage1Canvas(ToBgr(image1), result, "+9.9", 0.85, kFigureHalfWidthPx);
   cv::Mat& canvas = image.canvas;
   const Panel& panel = image.panel;
   const double text_scale = image.text_scale;

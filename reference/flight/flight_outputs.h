@@ -75,6 +75,8 @@ std::string FlightReport(const FlightRun& run);
 // figures are drawn at most this large, so the report embeds them as they are.
 constexpr int kFigureShownWidthPx = 1360;
 constexpr int kFigureGridHeightPx = 320;
+// The decision figure's width: half the page, beside the truth's safety map.
+constexpr int kFigureHalfWidthPx = kFigureShownWidthPx / 2 - 16;
 
 // Figures (8-bit BGR images). image1 / image2 are the run's images (CV_8UC1
 // or CV_16UC1), or those images already converted to 8-bit BGR (CV_8UC3).
@@ -83,7 +85,7 @@ constexpr int kFigureGridHeightPx = 320;
 // with its id, the rejected quadtree blocks thin and dark, and a legend strip
 // below.
 cv::Mat QuadtreeFigure(const cv::Mat& image1, const hda::HdaResult& result);
-// Image 1 as QuadtreeFigure shows it, every ROI box coloured by its landing
+// Image 1 as QuadtreeFigure shows it but at most kFigureHalfWidthPx wide, every ROI box coloured by its landing
 // decision against the lander's truth (DecisionClassName) and labelled with
 // its slope error (estimated - true, degrees) where it has one, and a
 // legend strip with the counts below. For a run with truth.

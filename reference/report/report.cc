@@ -98,7 +98,7 @@ int IntOr(const Json& j, int fallback) { return j.is_number_integer() ? j.get<in
 const cv::Size kPageWide(reference::kFigureShownWidthPx, std::numeric_limits<int>::max());
 const cv::Size kInGrid(reference::kFigureShownWidthPx, reference::kFigureGridHeightPx);
 // The landing decisions and the safety map, side by side at the top of the page.
-const cv::Size kHalfPage(reference::kFigureShownWidthPx / 2 - 16, 720);
+const cv::Size kHalfPage(reference::kFigureHalfWidthPx, 900);
 
 // A PNG fitted into `shown`: area-averaged (datasets::PreviewPng) to the
 // largest size that fits when it is larger; the bytes unchanged when it fits
@@ -851,7 +851,7 @@ void AddMaps(const fs::path& dataset_dir, Page* page) {
       // The safety map is shown again beside the decisions, at the grid's height.
       if (std::string(map.file) == "safety.png") {
         Figure beside = page->maps.back();
-        beside.id = "decision-safety-map";
+        beside.id = "map-safety-beside-decisions";
         beside.png = FittedPng(beside.png, kHalfPage);
         page->decision_figures.push_back(std::move(beside));
       }
@@ -1164,6 +1164,7 @@ std::string BuildMarkdown(const Page& page, int num_figures) {
   const auto list = [&md](const std::vector<Figure>& figures) {
     for (const Figure& f : figures) md += "- " + f.title + "\n";
   };
+  list(page.decision_figures);
   list(page.plots);
   list(page.flight_figures);
   if (!page.roi_pairs.empty()) {
@@ -1279,8 +1280,8 @@ ReportResult WriteReportOrThrow(const std::string& run_dir, const ReportOptions&
   result.dataset_dir = page.dataset_dir;
   result.notes = page.notes;  // the plots' problem is in plots_error
   if (!result.plots_ok) page.notes.push_back("No plots: " + page.plots_error);
-  result.num_figures = static_cast<int>(page.plots.size() + page.flight_figures.size() +
-                                        page.roi_pairs.size() + page.maps.size());
+  result.num_figures = static_cast<int>(page.decision_figures.size() + page.plots.size() +
+                                        page.flight_figures.size() + page.roi_pairs.size() + page.maps.size());
   result.num_table_rows = static_cast<int>(page.rois.rows.size());
   result.html_path = (dir / "report.html").string();
   result.markdown_path = (dir / "report.md").string();

@@ -280,6 +280,7 @@ std::vector<std::string> SlopeSigmaOptions::Validate() const {
   RequireOption(baseline_sigma_m >= 0, "baseline_sigma_m", baseline_sigma_m, ">= 0", &errors);
   RequireOption(attitude_sigma_deg >= 0 && attitude_sigma_deg < 90, "attitude_sigma_deg",
           attitude_sigma_deg, "in [0, 90)", &errors);
+  RequireOption(match_window_px >= 0, "match_window_px", match_window_px, ">= 0", &errors);
   return errors;
 }
 
@@ -351,14 +352,35 @@ bool TriangulationCovariance(const Eigen::Vector3d& bearing1_in_cam1,
   return true;
 }
 
+double SharedWindowFraction(const Eigen::Vector2d& offset_px, double window_px) {
+  if (!(window_px > 0.0)) return offset_px.isZero() ? 1.0 : 0.0;
+  const double share_u = 1.0 - std::abs(offset_px.x()) / window_px;
+  const double share_v = 1.0 - std::abs(offset_px.y()) / window_px;
+  return share_u > 0.0 && share_v > 0.0 ? share_u * share_v : 0.0;
+}
+
+double SpreadOfCorrelatedResidualsPx(double sum_squares, const std::vector<Eigen::Vector2d>& pixels_px,
+                                     double window_px) {
+  const size_t n = pixels_px.size();
+  if (n < 2 || !std::isfinite(sum_squares) || sum_squares < 0.0) return 0.0;
+  double correlation_sum = 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    for (size_t j = 0; j < n; ++j) correlation_sum += SharedWindowFraction(pixels_px[i] - pixels_px[j], window_px);
+  }
+  const double divisor = static_cast<double>(n) - correlation_sum / static_cast<double>(n);
+  return divisor > 0.0 ? std::sqrt(sum_squares / divisor) : 0.0;
+}
+
 double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
                             const std::vector<Eigen::Vector3d>& points_in_cam1,
                             const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& up_in_cam1,
-                            SlopeSigmaTerms* terms, const Eigen::Vector3d* normal_in_cam1) {
+                            SlopeSigmaTerms* terms, const Eigen::Vector3d* normal_in_cam1,
+                            const std::vector<Eigen::Vector2d>* pixels1_px) {
   SlopeSigmaTerms local_terms;
   SlopeSigmaTerms& out = terms != nullptr ? *terms : local_terms;
   out = SlopeSigmaTerms();
-  if (!IsFinite(cam2_from_cam1) || cam2_from_cam1.rotation.norm() == 0.0) {
+  if (!IsFinite(cam2_from_cam1) || cam2_from_cam1.rotation.norm() == 0.0 ||
+      (pixels1_px != nullptr && pixels1_px->size() != points_in_cam1.size())) {
     out.status = PlaneFitStatus::kInvalidInput;
     return kInfinity;
   }
@@ -393,7 +415,7 @@ double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
   TangentBasis(normal, &u, &v);
   const double sigma_angle_rad = options.pixel_sigma_px / options.focal_px;
   Eigen::Matrix3d normal_matrix = Eigen::Matrix3d::Zero();  // A^T A
-  Eigen::Matrix3d meat = Eigen::Matrix3d::Zero();           // A^T diag(sigma^2) A
+  std::vector<Eigen::Vector3d> weighted_rows(n);            // sigma_perp_i a_i
   for (size_t i = 0; i < n; ++i) {
     Eigen::Matrix3d point_covariance;
     if (!TriangulationCovariance(bearings1[i], bearings2[i], pose, sigma_angle_rad,
@@ -401,11 +423,24 @@ double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
       out.status = PlaneFitStatus::kDegenerate;
       return kInfinity;
     }
-    const double sigma_perp_squared = normal.dot(point_covariance * normal);
+    const double sigma_perp = std::sqrt(std::max(0.0, normal.dot(point_covariance * normal)));
     const Eigen::Vector3d offset = points_in_cam1[i] - plane.centroid_in_local_m;
     const Eigen::Vector3d row(1.0, u.dot(offset), v.dot(offset));
     normal_matrix += row * row.transpose();
-    meat += sigma_perp_squared * row * row.transpose();
+    weighted_rows[i] = sigma_perp * row;
+  }
+  // A^T Cov A with Cov_ij = rho_ij sigma_perp_i sigma_perp_j.
+  Eigen::Matrix3d meat = Eigen::Matrix3d::Zero();
+  const bool correlated = pixels1_px != nullptr && options.match_window_px > 0.0;
+  for (size_t i = 0; i < n; ++i) {
+    meat += weighted_rows[i] * weighted_rows[i].transpose();
+    if (!correlated) continue;
+    for (size_t j = i + 1; j < n; ++j) {
+      const double rho = SharedWindowFraction((*pixels1_px)[i] - (*pixels1_px)[j], options.match_window_px);
+      if (rho == 0.0) continue;
+      const Eigen::Matrix3d cross = rho * weighted_rows[i] * weighted_rows[j].transpose();
+      meat += cross + cross.transpose();
+    }
   }
   const Eigen::Matrix3d bread = normal_matrix.inverse();
   const Eigen::Matrix3d coefficients_covariance = bread * meat * bread;

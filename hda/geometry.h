@@ -157,10 +157,30 @@ struct SlopeSigmaOptions {
   double focal_px = 1500.0;         // focal length, pixels: angular noise = pixel_sigma_px / focal_px rad
   double baseline_sigma_m = 0.0;    // std of the nav relative translation, per axis, metres
   double attitude_sigma_deg = 0.0;  // std of the nav attitude of cam1 in local, per axis, degrees
+  // Side of the square image-1 window each match's position is estimated
+  // from, pixels. Two matches whose windows share pixels share that part of
+  // the image noise: their errors correlate by the shared fraction of a
+  // window, (1 - |du| / w)(1 - |dv| / w) for image-1 offsets du, dv under w.
+  // 0: every match independent. Needs the image-1 pixels of the points.
+  double match_window_px = 0.0;
 
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;
 };
+
+// The correlation of two matches' errors whose image-1 windows of side
+// window_px are centred `offset_px` apart: the shared fraction of a window,
+// (1 - |du| / w)(1 - |dv| / w), 0 once either offset reaches w. With
+// window_px <= 0, 1 at a zero offset and 0 elsewhere (independent matches).
+double SharedWindowFraction(const Eigen::Vector2d& offset_px, double window_px);
+
+// The noise per image axis of one match, pixels, from the spread of the
+// matches' residuals: sum_squares is the sum of squared deviations of n
+// residuals from their mean. With correlated errors (correlation rho_ij) the
+// expected sum is sigma^2 (n - sum_ij rho_ij / n), less than (n - 1) sigma^2;
+// this divides by it. 0 when fewer than 2 residuals or the divisor vanishes.
+double SpreadOfCorrelatedResidualsPx(double sum_squares, const std::vector<Eigen::Vector2d>& pixels_px,
+                                     double window_px);
 
 // The contributions, each the slope std it alone would give, degrees; the
 // total is their root sum of squares.
@@ -169,6 +189,10 @@ struct SlopeSigmaTerms {
   double pixel_deg = 0.0;
   double baseline_deg = 0.0;
   double attitude_deg = 0.0;
+  // Set by the flight method after the prediction (hda/pipeline.h): the
+  // slope change its matches' windows lean by on the fitted plane, carried
+  // in its sigma where it is not corrected; 0 here.
+  double lean_deg = 0.0;
 };
 
 // First-order slope std, degrees, of the plane fitted to points triangulated
@@ -176,7 +200,12 @@ struct SlopeSigmaTerms {
 // nav pose cam2_from_cam1 and up (= -gravity) in cam1. Model:
 //  * pixel noise: each bearing gets isotropic angular noise
 //    sigma_a = pixel_sigma_px / focal_px rad in its tangent plane (a pinhole
-//    near the image centre). The 3x4 Jacobian J_i of the midpoint
+//    near the image centre). With match_window_px and the points' image-1
+//    pixels, the errors of two points along the normal correlate by
+//    SharedWindowFraction of their pixels (the same sign: the points of one
+//    site have nearly the same geometry), so the sandwich's middle term is
+//    sum_ij rho_ij sigma_perp_i sigma_perp_j a_i a_j^T; without, rho is the
+//    identity. The 3x4 Jacobian J_i of the midpoint
 //    triangulation w.r.t. the two bearings' tangent perturbations (central
 //    differences) gives Cov(X_i) = sigma_a^2 J_i J_i^T: about
 //    range^2 sigma_a / baseline_perp along the line of sight and
@@ -208,12 +237,14 @@ struct SlopeSigmaTerms {
 // given (the normal of another estimator, e.g. FitPlaneWithCovariance).
 // Returns +infinity (and terms->status says why) when the plane cannot be
 // fitted (fewer than 3 points, collinear, non-finite, a zero normal given) or a
-// point cannot be triangulated back (zero parallax, behind a camera). Options
-// must be valid.
+// point cannot be triangulated back (zero parallax, behind a camera), and
+// kInvalidInput when pixels1_px is given but not one per point. Options must
+// be valid.
 double PredictSlopeSigmaDeg(const SlopeSigmaOptions& options,
                             const std::vector<Eigen::Vector3d>& points_in_cam1,
                             const Rigid3d& cam2_from_cam1, const Eigen::Vector3d& up_in_cam1,
                             SlopeSigmaTerms* terms = nullptr,
-                            const Eigen::Vector3d* normal_in_cam1 = nullptr);
+                            const Eigen::Vector3d* normal_in_cam1 = nullptr,
+                            const std::vector<Eigen::Vector2d>* pixels1_px = nullptr);
 
 }  // namespace hdabench::hda

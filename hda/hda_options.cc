@@ -29,6 +29,9 @@ std::vector<std::string> HdaOptions::Validate() const {
   RequireOption(max_relief_m >= 0, "max_relief_m", max_relief_m, ">= 0", &errors);
   RequireOption(min_points >= 3, "min_points", min_points, ">= 3 (a plane needs 3 points)", &errors);
   RequireOption(pixel_sigma_floor_px > 0, "pixel_sigma_floor_px", pixel_sigma_floor_px, "> 0", &errors);
+  RequireOption(match_error_px > 0, "match_error_px", match_error_px, "> 0", &errors);
+  RequireOption(min_probability_safe > 0 && min_probability_safe < 1, "min_probability_safe", min_probability_safe,
+                "in (0, 1)", &errors);
   RequireOption(max_slope_sigma_deg > 0, "max_slope_sigma_deg", max_slope_sigma_deg, "> 0", &errors);
   RequireOption(max_roughness_rms_m > 0, "max_roughness_rms_m", max_roughness_rms_m, "> 0", &errors);
   RequireOption(compute_budget_s > 0, "compute_budget_s", compute_budget_s, "> 0", &errors);

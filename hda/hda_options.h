@@ -42,14 +42,40 @@ struct HdaOptions {
   double assumed_pixel_sigma_px = 0.5;  // matching noise before it is measured, pixels
   double max_relief_m = 50.0;           // terrain height range tolerated around the LRF spot's level, metres
 
+  // The nav-aided refinement maps its windows with the level ground's
+  // motion; on ground tilted from it each window leans toward its texture
+  // (WindowLeanPx in hda/pipeline.cc; docs/flight-method.md, step 6). With
+  // this, each match is moved back by its lean under the fitted plane's
+  // motion and the plane fitted again; without (the default), the slope
+  // change that would make is carried in the slope sigma (lean_deg).
+  bool correct_window_lean = false;
+
   // Plane fit and status.
   int min_points = 10;                  // fewer triangulated points: "too few points"
-  double pixel_sigma_floor_px = 0.08;   // the measured matching noise is never taken below this, pixels
-                                        // (matches against truth on the novac-lateral scenes, seeds 1-5,
-                                        // with the nav-aided refinement: 0.05-0.07 px per axis, robust)
+  // Matching noise. The slope sigma takes each ROI's measured spread of
+  // independent noise (correlated matches accounted for), never below the
+  // floor; a refinement that weighs reprojection residuals (the comparison's
+  // flight-refined) takes match_error_px, the matches' whole error against
+  // the truth, shared parts included.
+  double pixel_sigma_floor_px = 0.01;   // the measured matching noise is never taken below this, pixels
+                                        // (a guard against a few matches' spread coming out too small;
+                                        // under the spreads of the default scenes, 0.012-0.034 px)
+  double match_error_px = 0.08;         // whole error of a match per axis, pixels (matches against truth
+                                        // on the novac-lateral scenes, seeds 1-5, with the nav-aided
+                                        // refinement: 0.05-0.07 px per axis, robust)
   double max_slope_sigma_deg = 3.0;     // predicted slope sigma above this: "degenerate", degrees
   double max_roughness_rms_m = 0.15;    // noise-corrected RMS relief above this: "unsafe roughness", metres
                                         // (half the hazard height: 2-sigma relief reaches it)
+
+  // The decision rule. The paper's (default): a site is safe when its slope
+  // is under max_slope_deg and its relief is not over max_roughness_rms_m
+  // with 97.7 % confidence, ranked by RankingScore. The probability rule
+  // (ALHAT's probabilistic hazard detection with the method's own sigmas in
+  // place of the DEM's noise): safe when ProbabilitySafe reaches
+  // min_probability_safe, ranked by that probability. Every fitted site gets
+  // its probability under either rule.
+  bool decide_on_probability = false;
+  double min_probability_safe = 0.9;    // in (0, 1)
 
   // Time budget (paper: about 5 s of imaging and 10 s of computation on a
   // 1 GHz single-board computer). The wall-time budget on this machine is

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <random>
@@ -140,14 +141,20 @@ struct Context {
   Eigen::Vector3d c2_in_cam1 = Eigen::Vector3d::Zero();  // camera 2's centre
   LevelGround ground;
   double focal_px = 0.0;        // pixels per radian at the image centre
+  // Side of the image-1 window a match's position comes from, pixels
+  // (MatchWindowPx of the matcher); 0 for matches given by the caller, whose
+  // errors are taken as independent.
+  double match_window_px = 0.0;
 };
 
-// The image motion expected from navigation for ground points near pixel
-// `centre` of image 1: d(pixel in image 2) / d(pixel in image 1) for points
-// on the level ground, by central differences over +-kMotionStepPx. Identity
-// when one of the four pixels cannot be mapped (no unprojection, a ray that
-// misses the ground, a point image 2 cannot see).
-cv::Matx22d GroundMotionJacobian(const Context& ctx, const Eigen::Vector2d& centre) {
+// The image motion expected from navigation for points near pixel `centre`
+// of image 1 on a surface whose depth along a unit bearing of camera 1 is
+// depth_along(bearing): d(pixel in image 2) / d(pixel in image 1), by central
+// differences over +-kMotionStepPx. Identity when one of the four pixels
+// cannot be mapped (no unprojection, a ray that misses the surface, a point
+// image 2 cannot see).
+cv::Matx22d MotionJacobian(const Context& ctx, const Eigen::Vector2d& centre,
+                           const std::function<double(const Eigen::Vector3d&)>& depth_along) {
   const std::vector<Eigen::Vector2d> pixels = {centre - Eigen::Vector2d(kMotionStepPx, 0),
                                                centre + Eigen::Vector2d(kMotionStepPx, 0),
                                                centre - Eigen::Vector2d(0, kMotionStepPx),
@@ -158,8 +165,8 @@ cv::Matx22d GroundMotionJacobian(const Context& ctx, const Eigen::Vector2d& cent
   if (ctx.camera->Unproject(pixels, &bearings, &valid) != count) return cv::Matx22d::eye();
   std::vector<Eigen::Vector3d> points_in_cam2;
   for (const Eigen::Vector3d& bearing : bearings) {
-    const double depth = ctx.ground.DepthAlong(bearing);
-    if (!std::isfinite(depth)) return cv::Matx22d::eye();
+    const double depth = depth_along(bearing);
+    if (!std::isfinite(depth) || !(depth > 0.0)) return cv::Matx22d::eye();
     points_in_cam2.push_back(ctx.cam2_from_cam1 * (depth * bearing));
   }
   std::vector<Eigen::Vector2d> pixels2;
@@ -169,6 +176,11 @@ cv::Matx22d GroundMotionJacobian(const Context& ctx, const Eigen::Vector2d& cent
   const cv::Matx22d jacobian(d_dx.x(), d_dy.x(), d_dx.y(), d_dy.y());
   const double det = cv::determinant(jacobian);
   return std::isfinite(det) && det > 0.0 ? jacobian : cv::Matx22d::eye();
+}
+
+// The motion for points on the level ground through the LRF spot.
+cv::Matx22d GroundMotionJacobian(const Context& ctx, const Eigen::Vector2d& centre) {
+  return MotionJacobian(ctx, centre, [&ctx](const Eigen::Vector3d& b) { return ctx.ground.DepthAlong(b); });
 }
 
 // Where image-1 pixels fall in image 2 when they lie on the level ground
@@ -349,29 +361,32 @@ void MarkTooFewPoints(size_t n, const HdaOptions& options, RoiResult* roi) {
 // pose (for equal noise in both images it equals the per-image noise). Their
 // mean is left out: a nav attitude error shifts every match of the ROI alike,
 // which moves the site as a whole but not its points against each other.
-// 0 with fewer than two finite distances.
+// Matches whose windows overlap share noise, which their mean takes along, so
+// the spread is divided by what correlated residuals leave of it
+// (SpreadOfCorrelatedResidualsPx). 0 with fewer than two finite distances.
 double SignedSampsonSpreadPx(const Context& ctx, const std::vector<Eigen::Vector3d>& bearings1,
-                             const std::vector<Eigen::Vector3d>& bearings2) {
+                             const std::vector<Eigen::Vector3d>& bearings2,
+                             const std::vector<cv::Point2d>& points1_px) {
   const size_t n = bearings1.size();
   const Eigen::Matrix3d rotation = ctx.cam2_from_cam1.rotation.toRotationMatrix();
   std::vector<double> signed_residuals;
+  std::vector<Eigen::Vector2d> pixels;
   signed_residuals.reserve(n);
+  pixels.reserve(n);
   for (size_t i = 0; i < n; ++i) {
     const double d = SampsonErrorPx(bearings1[i], bearings2[i], ctx.cam2_from_cam1, ctx.focal_px);
     if (!std::isfinite(d)) continue;
     const double side =
         bearings2[i].dot(ctx.cam2_from_cam1.translation.cross(rotation * bearings1[i]));
     signed_residuals.push_back(side < 0.0 ? -d : d);
+    pixels.emplace_back(points1_px[i].x, points1_px[i].y);
   }
-  double spread = 0.0;
-  if (signed_residuals.size() >= 2) {
-    const double mean = std::accumulate(signed_residuals.begin(), signed_residuals.end(), 0.0) /
-                        static_cast<double>(signed_residuals.size());
-    double sum_squares = 0.0;
-    for (const double r : signed_residuals) sum_squares += (r - mean) * (r - mean);
-    spread = std::sqrt(sum_squares / static_cast<double>(signed_residuals.size() - 1));
-  }
-  return spread;
+  if (signed_residuals.size() < 2) return 0.0;
+  const double mean = std::accumulate(signed_residuals.begin(), signed_residuals.end(), 0.0) /
+                      static_cast<double>(signed_residuals.size());
+  double sum_squares = 0.0;
+  for (const double r : signed_residuals) sum_squares += (r - mean) * (r - mean);
+  return SpreadOfCorrelatedResidualsPx(sum_squares, pixels, ctx.match_window_px);
 }
 
 // Each point's triangulation covariance, rotated into the local frame for the
@@ -430,23 +445,56 @@ void PredictSlopeSigmaAndArea(const Context& ctx,
   sigma_options.focal_px = ctx.focal_px;
   sigma_options.baseline_sigma_m = options.prediction.nav_position_sigma_m;
   sigma_options.attitude_sigma_deg = options.prediction.nav_attitude_sigma_deg;
+  sigma_options.match_window_px = ctx.match_window_px;
+  std::vector<Eigen::Vector2d> pixels1_px;
+  pixels1_px.reserve(roi->points1_px.size());
+  for (const cv::Point2d& p : roi->points1_px) pixels1_px.emplace_back(p.x, p.y);
   roi->slope_sigma_deg = PredictSlopeSigmaDeg(sigma_options, points_in_cam1, ctx.cam2_from_cam1,
-                                              ctx.up_in_cam1, &roi->slope_sigma_terms, &normal_in_cam1);
+                                              ctx.up_in_cam1, &roi->slope_sigma_terms, &normal_in_cam1,
+                                              &pixels1_px);
   const Eigen::Vector3d centroid_in_cam1 =
       ctx.local_from_cam1.Inverse() * plane.centroid_in_local_m;
   roi->area_m2 = FootprintAreaM2(*ctx.camera, roi->box1_px, normal_in_cam1, centroid_in_cam1);
 }
 
 // The verdict on a fitted ROI of n points, checked in order: slope not
-// observable, too steep, too rough, else safe.
+// observable, then the paper's rule (too steep, too rough, else safe) or the
+// probability rule (HdaOptions::decide_on_probability).
 void Classify(const HdaOptions& options, size_t n, RoiResult* roi) {
-  if (!std::isfinite(roi->slope_sigma_deg) || roi->slope_sigma_deg > options.max_slope_sigma_deg) {
+  // Observability: the sigma of the noise and the nav, without the windows'
+  // lean, which is a known error of the refinement, not a want of parallax.
+  const double lean = roi->slope_sigma_terms.lean_deg;
+  const double observability_sigma =
+      std::sqrt(std::max(0.0, roi->slope_sigma_deg * roi->slope_sigma_deg - lean * lean));
+  if (!std::isfinite(observability_sigma) || observability_sigma > options.max_slope_sigma_deg) {
     roi->status = RoiStatus::kDegenerate;
     roi->reason = "predicted slope sigma " +
-                  (std::isfinite(roi->slope_sigma_deg) ? util::FixedText(roi->slope_sigma_deg, 2) + " deg"
-                                                       : std::string("unbounded")) +
+                  (std::isfinite(observability_sigma) ? util::FixedText(observability_sigma, 2) + " deg"
+                                                      : std::string("unbounded")) +
                   " over " + util::FixedText(options.max_slope_sigma_deg, 2) + " deg (median parallax " +
                   util::FixedText(roi->median_parallax_deg, 3) + " deg): slope not observable";
+    return;
+  }
+  const int num_points = static_cast<int>(n);
+  roi->probability_safe = ProbabilitySafe(roi->slope_deg, roi->slope_sigma_deg, options.max_slope_deg,
+                                          roi->roughness_rms_m, roi->noise_rms_m, num_points,
+                                          options.max_roughness_rms_m);
+  if (options.decide_on_probability) {
+    const double slope_part = ProbabilitySafe(roi->slope_deg, roi->slope_sigma_deg, options.max_slope_deg, 0.0,
+                                              roi->noise_rms_m, num_points, options.max_roughness_rms_m);
+    if (!(roi->probability_safe >= options.min_probability_safe)) {
+      const bool by_slope = !(slope_part >= options.min_probability_safe);
+      roi->status = by_slope ? RoiStatus::kUnsafeSlope : RoiStatus::kUnsafeRoughness;
+      roi->reason = "probability of safety " + util::FixedText(roi->probability_safe, 3) + " under " +
+                    util::FixedText(options.min_probability_safe, 3) + " (slope " +
+                    util::FixedText(roi->slope_deg, 2) + " +- " + util::FixedText(roi->slope_sigma_deg, 2) +
+                    " deg, relief " + util::FixedText(roi->roughness_excess_m, 3) + " m RMS)";
+      return;
+    }
+    roi->status = RoiStatus::kEvaluated;
+    roi->reason = "safe with probability " + util::FixedText(roi->probability_safe, 3) + ": slope " +
+                  util::FixedText(roi->slope_deg, 2) + " +- " + util::FixedText(roi->slope_sigma_deg, 2) +
+                  " deg, relief " + util::FixedText(roi->roughness_excess_m, 3) + " m RMS";
     return;
   }
   if (roi->slope_deg > options.max_slope_deg) {
@@ -473,6 +521,118 @@ void Classify(const HdaOptions& options, size_t n, RoiResult* roi) {
                 " deg, relief " + util::FixedText(roi->roughness_excess_m, 3) + " m RMS";
 }
 
+// The lean of one match (docs/flight-method.md, step 6). The nav-aided
+// refinement maps its window with the motion `used` (the level ground's);
+// where the surface moves with used + change, it settles off the truth by,
+// to first order,
+//   (delta, o) = (sum_k a_k a_k^T)^-1 sum_k a_k (j_k . change u_k),
+// a_k = (j_k, -1), j_k the image-1 gradient at window pixel k through
+// used^-T, u_k the pixel's offset in the window: the refinement's own normal
+// matrix, with the texture's pull as the right-hand side. Both sums run over
+// every second row and column of the window (a quarter of the work; both
+// scale alike). False where the window leaves image 1 or has no texture.
+bool WindowLeanPx(const cv::Mat& image1, const cv::Matx22d& used, const cv::Matx22d& change, int window_px,
+                  const cv::Point& p1, cv::Vec2d* lean) {
+  const int half = window_px / 2;
+  if (p1.x - half < 1 || p1.y - half < 1 || p1.x + half + 1 >= image1.cols || p1.y + half + 1 >= image1.rows) {
+    return false;
+  }
+  const cv::Matx22d to_image2 = used.inv().t();
+  cv::Matx33d normal = cv::Matx33d::zeros();
+  cv::Vec3d rhs(0.0, 0.0, 0.0);
+  constexpr int kStride = 2;
+  for (int v = -half; v <= half; v += kStride) {
+    const std::uint8_t* above = image1.ptr<std::uint8_t>(p1.y + v - 1);
+    const std::uint8_t* row = image1.ptr<std::uint8_t>(p1.y + v);
+    const std::uint8_t* below = image1.ptr<std::uint8_t>(p1.y + v + 1);
+    for (int u = -half; u <= half; u += kStride) {
+      const int x = p1.x + u;
+      const double gx = 0.5 * (row[x + 1] - row[x - 1]), gy = 0.5 * (below[x] - above[x]);
+      const double jx = to_image2(0, 0) * gx + to_image2(0, 1) * gy;
+      const double jy = to_image2(1, 0) * gx + to_image2(1, 1) * gy;
+      const double pull = jx * (change(0, 0) * u + change(0, 1) * v) + jy * (change(1, 0) * u + change(1, 1) * v);
+      normal(0, 0) += jx * jx;
+      normal(0, 1) += jx * jy;
+      normal(1, 1) += jy * jy;
+      normal(0, 2) -= jx;
+      normal(1, 2) -= jy;
+      normal(2, 2) += 1.0;
+      rhs[0] += jx * pull;
+      rhs[1] += jy * pull;
+      rhs[2] -= pull;
+    }
+  }
+  normal(1, 0) = normal(0, 1);
+  normal(2, 0) = normal(0, 2);
+  normal(2, 1) = normal(1, 2);
+  cv::Matx33d inverse;
+  if (cv::invert(normal, inverse, cv::DECOMP_CHOLESKY) == 0.0) return false;
+  const cv::Vec3d solution = inverse * rhs;
+  *lean = cv::Vec2d(solution[0], solution[1]);
+  return std::isfinite(solution[0]) && std::isfinite(solution[1]);
+}
+
+// The points with each match moved back by its lean under the fitted plane's
+// motion (points2 - lean, triangulated again with the nav pose; a point whose
+// lean cannot be worked out, or whose moved rays do not triangulate, keeps
+// its place). False, nothing written, where the refinement did not map its
+// windows (no image, no nav-aided refinement) or the lean is under the noise
+// (below).
+bool PointsWithoutLeans(const Context& ctx, const RoiResult& roi, const std::vector<Eigen::Vector3d>& bearings1,
+                        const std::vector<Eigen::Vector3d>& points_in_cam1,
+                        std::vector<Eigen::Vector3d>* moved_in_cam1, std::vector<cv::Point2d>* moved2_px) {
+  const MatchingOptions& matching = ctx.options->matching;
+  if (ctx.image1.empty() || !matching.subpixel_refine || !matching.warp_refine) return false;
+  const Eigen::Vector2d centre = BoxCentre(roi.box1_px);
+  const Rigid3d cam1_from_local = ctx.local_from_cam1.Inverse();
+  const Eigen::Vector3d normal = cam1_from_local.rotation * roi.normal_in_local;
+  const double offset = normal.dot(cam1_from_local * roi.centroid_in_local_m);
+  const cv::Matx22d used = GroundMotionJacobian(ctx, centre);
+  const cv::Matx22d plane_motion = MotionJacobian(ctx, centre, [&](const Eigen::Vector3d& b) {
+    const double along = normal.dot(b);
+    return along != 0.0 ? offset / along : kInfinity;
+  });
+  // Where the plane's motion moves no corner of a window by more than the
+  // ROI's measured matching noise from where the level ground's put it, the
+  // lean is under the noise: nothing to move.
+  const cv::Matx22d change = plane_motion - used;
+  const double half = matching.warp_refine_window_px / 2;
+  double largest_move_px = 0.0;
+  for (const double u : {-half, half}) {
+    for (const double v : {-half, half}) {
+      const cv::Vec2d move = change * cv::Vec2d(u, v);
+      largest_move_px = std::max(largest_move_px, std::hypot(move[0], move[1]));
+    }
+  }
+  if (!(largest_move_px > roi.pixel_sigma_px)) return false;
+  const size_t n = points_in_cam1.size();
+  std::vector<Eigen::Vector2d> pixels2(n);
+  std::vector<unsigned char> has_lean(n, 0);
+  for (size_t i = 0; i < n; ++i) {
+    const cv::Point whole(cvRound(roi.points1_px[i].x), cvRound(roi.points1_px[i].y));
+    cv::Vec2d lean;
+    has_lean[i] = WindowLeanPx(ctx.image1, used, change, matching.warp_refine_window_px, whole, &lean);
+    if (!has_lean[i]) lean = cv::Vec2d(0.0, 0.0);
+    pixels2[i] = Eigen::Vector2d(roi.points2_px[i].x - lean[0], roi.points2_px[i].y - lean[1]);
+  }
+  std::vector<Eigen::Vector3d> bearings2;
+  std::vector<unsigned char> valid;
+  ctx.camera->Unproject(pixels2, &bearings2, &valid);
+  *moved_in_cam1 = points_in_cam1;
+  *moved2_px = roi.points2_px;
+  for (size_t i = 0; i < n; ++i) {
+    if (!has_lean[i] || !valid[i]) continue;
+    Eigen::Vector3d point;
+    if (TriangulateMidpoint(bearings1[i], bearings2[i], ctx.cam2_from_cam1, ctx.options->triangulation, &point,
+                            nullptr) != TriangulationStatus::kOk) {
+      continue;
+    }
+    (*moved_in_cam1)[i] = point;
+    (*moved2_px)[i] = cv::Point2d(pixels2[i].x(), pixels2[i].y());
+  }
+  return true;
+}
+
 // Plane fit, uncertainty and status of one ROI from its triangulated points
 // (one bearing pair and parallax per point).
 void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bearings1,
@@ -491,7 +651,7 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
   }
 
   roi->pixel_sigma_px =
-      std::max(options.pixel_sigma_floor_px, SignedSampsonSpreadPx(ctx, bearings1, bearings2));
+      std::max(options.pixel_sigma_floor_px, SignedSampsonSpreadPx(ctx, bearings1, bearings2, roi->points1_px));
   const double sigma_angle = roi->pixel_sigma_px / ctx.focal_px;
 
   std::vector<Eigen::Matrix3d> covariances_in_local;
@@ -508,6 +668,29 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
   }
   RecordPlane(plane, covariances_in_local, n, roi);
   PredictSlopeSigmaAndArea(ctx, points_in_cam1, plane, local_r_cam1, roi);
+  // The windows' lean under the fitted plane's motion: corrected, or carried
+  // in the sigma as a term of its own.
+  std::vector<Eigen::Vector3d> moved_in_cam1;
+  std::vector<cv::Point2d> moved2_px;
+  if (PointsWithoutLeans(ctx, *roi, bearings1, points_in_cam1, &moved_in_cam1, &moved2_px)) {
+    std::vector<Eigen::Vector3d> moved_in_local;
+    moved_in_local.reserve(n);
+    for (const Eigen::Vector3d& p : moved_in_cam1) moved_in_local.push_back(ctx.local_from_cam1 * p);
+    const PlaneFitResult moved = FitPlaneWithCovariance(moved_in_local, covariances_in_local, ctx.gravity_in_local,
+                                                        options.min_points);
+    if (moved.status == PlaneFitStatus::kOk) {
+      if (options.correct_window_lean) {
+        roi->points_in_local_m = moved_in_local;
+        roi->points2_px = moved2_px;
+        RecordPlane(moved, covariances_in_local, n, roi);
+        PredictSlopeSigmaAndArea(ctx, moved_in_cam1, moved, local_r_cam1, roi);
+      } else {
+        const double lean_deg = std::abs(moved.slope_deg - plane.slope_deg);
+        roi->slope_sigma_terms.lean_deg = lean_deg;
+        roi->slope_sigma_deg = std::sqrt(roi->slope_sigma_deg * roi->slope_sigma_deg + lean_deg * lean_deg);
+      }
+    }
+  }
   Classify(options, n, roi);
 }
 
@@ -580,6 +763,28 @@ double RankingScore(double area_m2, double slope_deg, double roughness_excess_m,
   const double roughness_term =
       std::clamp(1.0 - roughness_excess_m / options.max_hazard_height_m, 0.0, 1.0);
   return (area_term + slope_term + roughness_term) / 3.0;
+}
+
+double MatchWindowPx(const MatchingOptions& matching) {
+  if (!matching.subpixel_refine) return 0.0;
+  return matching.warp_refine ? matching.warp_refine_window_px : matching.refine_window_px;
+}
+
+double ProbabilitySafe(double slope_deg, double slope_sigma_deg, double max_slope_deg, double roughness_rms_m,
+                       double noise_rms_m, int num_points, double max_roughness_rms_m) {
+  if (!std::isfinite(slope_deg) || !std::isfinite(slope_sigma_deg) || !(slope_sigma_deg > 0.0) ||
+      !std::isfinite(max_slope_deg) || !std::isfinite(roughness_rms_m) || !std::isfinite(noise_rms_m) ||
+      !std::isfinite(max_roughness_rms_m) || num_points < 4) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  const auto normal_cdf = [](double z) { return 0.5 * std::erfc(-z / std::sqrt(2.0)); };
+  const double slope_part = normal_cdf((max_slope_deg - slope_deg) / slope_sigma_deg);
+  const double relief_squared = roughness_rms_m * roughness_rms_m - noise_rms_m * noise_rms_m;
+  const double spread = noise_rms_m * noise_rms_m * std::sqrt(2.0 / static_cast<double>(num_points - 3));
+  const double margin = max_roughness_rms_m * max_roughness_rms_m - relief_squared;
+  double relief_part = margin >= 0.0 ? 1.0 : 0.0;  // no noise: the relief is known exactly
+  if (spread > 0.0) relief_part = normal_cdf(margin / spread);
+  return slope_part * relief_part;
 }
 
 cv::Mat ToEightBit(const cv::Mat& image, const char* what) {
@@ -698,6 +903,19 @@ PredictedRoi PredictPlacedRoi(const Context& ctx, const RoiPlacement& placement,
 // Matches the ROI pair. The expected motion only serves the nav-aided
 // refinement; the fault injection's noise on image 2's points is seeded by the
 // ROI id so that a run repeats.
+// Fault injection (HdaOptions::fault_match_noise_px): Gaussian noise on
+// every image-2 match position, seeded by the ROI id.
+void AddFaultMatchNoise(const HdaOptions& options, int roi_id, RoiMatches* matches) {
+  if (!(options.fault_match_noise_px > 0.0)) return;
+  std::mt19937_64 rng(static_cast<std::uint64_t>(roi_id));
+  std::normal_distribution<double> noise(0.0, options.fault_match_noise_px);
+  for (cv::Point2d& p : matches->points2_px) {
+    p.x += noise(rng);
+    p.y += noise(rng);
+  }
+  matches->bearings2.clear();  // the moved points' are unprojected anew
+}
+
 RoiMatches MatchRoi(const Context& ctx, const RoiResult& roi, const Eigen::Vector2d& centre) {
   const HdaOptions& options = *ctx.options;
   const bool warp = options.matching.subpixel_refine && options.matching.warp_refine;
@@ -706,17 +924,10 @@ RoiMatches MatchRoi(const Context& ctx, const RoiResult& roi, const Eigen::Vecto
                    warp ? GroundMotionJacobian(ctx, centre) : cv::Matx22d::eye(),
                    [&ctx](const std::vector<cv::Point2d>& pixels1, std::vector<cv::Point2d>* pixels2,
                           std::vector<unsigned char>* valid) { ExpectOnGround(ctx, pixels1, pixels2, valid); });
-  if (options.fault_match_noise_px > 0.0) {
-    std::mt19937_64 rng(static_cast<std::uint64_t>(roi.id));
-    std::normal_distribution<double> noise(0.0, options.fault_match_noise_px);
-    for (cv::Point2d& p : matches.points2_px) {
-      p.x += noise(rng);
-      p.y += noise(rng);
-    }
-    matches.bearings2.clear();  // the moved points' are unprojected anew
-  }
+  AddFaultMatchNoise(options, roi.id, &matches);
   return matches;
 }
+
 
 // One ROI through prediction, matching, rejection and the plane fit, each
 // stage's time charged to its timing.
@@ -782,7 +993,9 @@ void EvaluateRois(const Context& ctx, const RoiPlacement& placement, const Clock
   }
 }
 
-// Scores the safe sites and ranks them, best first (ties by id).
+// Scores the safe sites and ranks them, best first: by score, or by the
+// probability of safety and then the score under the probability rule (ties
+// by id).
 void RankSafeSites(const HdaOptions& options, HdaResult* result) {
   std::vector<size_t> safe;
   for (size_t i = 0; i < result->rois.size(); ++i) {
@@ -792,7 +1005,12 @@ void RankSafeSites(const HdaOptions& options, HdaResult* result) {
     safe.push_back(i);
   }
   std::stable_sort(safe.begin(), safe.end(), [&](size_t a, size_t b) {
-    return result->rois[a].score > result->rois[b].score;
+    const RoiResult& ra = result->rois[a];
+    const RoiResult& rb = result->rois[b];
+    if (options.decide_on_probability && ra.probability_safe != rb.probability_safe) {
+      return ra.probability_safe > rb.probability_safe;
+    }
+    return ra.score > rb.score;
   });
   for (size_t r = 0; r < safe.size(); ++r) {
     result->rois[safe[r]].rank = static_cast<int>(r) + 1;
@@ -805,15 +1023,21 @@ void RankSafeSites(const HdaOptions& options, HdaResult* result) {
 RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& camera,
                               const HdaOptions& options, const cv::Rect& box1_px,
                               const std::vector<cv::Point2d>& points1_px,
-                              const std::vector<cv::Point2d>& points2_px) {
+                              const std::vector<cv::Point2d>& points2_px,
+                              double match_window_px) {
   CheckInput(input, camera, options);
   if (points1_px.size() != points2_px.size()) {
     throw InputError("EvaluateMatchedSite: " + std::to_string(points1_px.size()) + " image-1 points but " +
                      std::to_string(points2_px.size()) + " image-2 points");
   }
+  if (!(match_window_px >= 0.0)) {
+    throw InputError("EvaluateMatchedSite: match_window_px = " + util::FixedText(match_window_px, 3) +
+                     ": expected >= 0");
+  }
   Context ctx;
   ctx.camera = &camera;
   ctx.options = &options;
+  ctx.match_window_px = match_window_px;
   const Eigen::Vector3d spot_in_cam1 = SetUpGeometry(input, &ctx);
   HdaResult placed;
   placed.quadtree.rois.push_back({1, box1_px, 0.0, 0.0});
@@ -876,6 +1100,7 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
   ctx.options = &options;
   ctx.image1 = ToEightBit(input.image1, "RunHda: image 1");
   ctx.image2 = ToEightBit(input.image2, "RunHda: image 2");
+  ctx.match_window_px = MatchWindowPx(options.matching);
   timer.Lap(&result.times.convert_s);
   const Eigen::Vector3d spot_in_cam1 = SetUpGeometry(input, &ctx);
 

@@ -10,6 +10,7 @@
 
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -50,10 +51,11 @@ struct HdaInput {
 // Status of one ROI, in the order the method decides it.
 enum class RoiStatus {
   kEvaluated,        // a slope and roughness within the requirements: a safe, ranked site
-  kUnsafeSlope,      // slope over max_slope_deg
-  kUnsafeRoughness,  // noise-corrected roughness over the limit
+  kUnsafeSlope,      // slope over max_slope_deg (probability rule: probability of safety under
+                     // min_probability_safe, the slope the part that fails it)
+  kUnsafeRoughness,  // noise-corrected roughness over the limit (probability rule: the relief fails it)
   kDegenerate,       // low parallax or near-boresight motion: the slope is not observable
-                     // enough (predicted sigma over max_slope_sigma_deg); not a confident slope.
+                     // enough (predicted sigma, the lean term left out, over max_slope_sigma_deg); not a confident slope.
                      // Also, before matching, an ROI where under the nav pose no match could
                      // pass both the triangulation's parallax test and the depth test
                      // (depth not observable; no fit)
@@ -115,6 +117,9 @@ struct RoiResult {
   Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d centroid_in_local_m = Eigen::Vector3d::Zero();
 
+  // ProbabilitySafe of the fit; NaN where the slope is not one the method
+  // stands by (no fit, degenerate).
+  double probability_safe = std::numeric_limits<double>::quiet_NaN();
   double score = 0.0;                  // ranking score (RankingScore), evaluated sites only
   int rank = 0;                        // 1 = best safe site; 0 for the others
   double wall_s = 0.0;                // wall time spent on this ROI (not part of the results' bytes)
@@ -174,13 +179,19 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
 // through the LRF spot, plane fit, predicted slope sigma and status. `input`'s images are not used (they may be empty);
 // box1_px places the site (its centre's range sets the nav tests) and gives
 // its footprint. The result's counts start at the matches (matches =
-// ransac_inliers = points1_px.size()); id 1, order 1. Throws InputError as
+// ransac_inliers = points1_px.size()); id 1, order 1. The windows' lean
+// (sigma_terms.lean_deg) needs image 1: without it none is worked out.
+// match_window_px is the
+// side of the window the matches' positions come from (MatchWindowPx of the
+// options' matcher, for the matcher's own matches as RunHda takes them); 0
+// takes their errors as independent (drawn matches). Throws InputError as
 // RunHda does for invalid inputs or options, and when the point lists differ
 // in length.
 RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& camera,
                               const HdaOptions& options, const cv::Rect& box1_px,
                               const std::vector<cv::Point2d>& points1_px,
-                              const std::vector<cv::Point2d>& points2_px);
+                              const std::vector<cv::Point2d>& points2_px,
+                              double match_window_px = 0.0);
 
 // The image-2 search box RunHda would predict for each image-1 box given as
 // an ROI (its placement on the level ground through the LRF spot, then
@@ -190,6 +201,12 @@ RoiResult EvaluateMatchedSite(const HdaInput& input, const calib::CameraModel& c
 std::vector<cv::Rect> PredictSearchBoxes(const HdaInput& input, const calib::CameraModel& camera,
                                          const HdaOptions& options, const std::vector<cv::Rect>& boxes1_px);
 
+// The side of the image-1 window a match's final position is estimated
+// from, pixels: the nav-aided refinement's, else Lucas-Kanade's; 0 without
+// sub-pixel refinement (ORB's corner positions, taken as independent).
+// Matches whose windows share pixels share errors (SharedWindowFraction).
+double MatchWindowPx(const MatchingOptions& matching);
+
 // Ranking score of an evaluated site, in [0, 1], higher is better: the mean of
 //   area term      min(area_m2 / site_area_m2, 4) / 4        (bigger sites leave margin)
 //   slope term     1 - slope_deg / max_slope_deg
@@ -197,6 +214,20 @@ std::vector<cv::Rect> PredictSearchBoxes(const HdaInput& input, const calib::Cam
 // Ties are broken by the ROI id.
 double RankingScore(double area_m2, double slope_deg, double roughness_excess_m,
                     const HdaOptions& options);
+
+// The probability that a fitted site is within the limits, given the
+// method's own uncertainty: P(slope) P(relief), the two taken as independent.
+//   P(slope)  = Phi((max_slope_deg - slope_deg) / slope_sigma_deg): the slope
+//               Gaussian about its estimate along the dip;
+//   P(relief) = Phi(z), z = (max_roughness^2 - (rms^2 - noise^2)) /
+//               (noise^2 sqrt(2 / (N - 3))): the relief's squared estimate
+//               rms^2 - noise^2, with the 1-sigma spread that chi-square
+//               noise over N - 3 degrees of freedom leaves it (the paper
+//               rule's 97.7 % bound is z = -2: a site it calls too rough has
+//               P(relief) under 0.023).
+// NaN for non-finite input, a sigma not > 0, or fewer than 4 points.
+double ProbabilitySafe(double slope_deg, double slope_sigma_deg, double max_slope_deg, double roughness_rms_m,
+                       double noise_rms_m, int num_points, double max_roughness_rms_m);
 
 // Pixels per radian of the camera at a pixel: the larger of the two image
 // displacements of a small rotation of its ray about two perpendicular axes

@@ -208,7 +208,7 @@ CeresRefineOptions DefaultRefineOptions() {
   CeresRefineOptions refine;
   refine.nav_position_sigma_m = flight.prediction.nav_position_sigma_m;
   refine.nav_attitude_sigma_deg = flight.prediction.nav_attitude_sigma_deg;
-  refine.pixel_sigma_px = flight.pixel_sigma_floor_px;
+  refine.pixel_sigma_px = flight.match_error_px;
   return refine;
 }
 

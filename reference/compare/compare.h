@@ -76,7 +76,7 @@ struct ColmapSettings {
 
 // The refinement's defaults for the comparison: the nav prior with the flight
 // method's own nav sigmas (hda::PredictionOptions) and the pixel noise its
-// matches are measured to have (HdaOptions::pixel_sigma_floor_px). RunCompare
+// matches are measured to have (HdaOptions::match_error_px). RunCompare
 // replaces these three with the flight method's options as resolved for the
 // pair (FlightRun::options).
 CeresRefineOptions DefaultRefineOptions();

@@ -251,4 +251,69 @@ std::string DecisionLine(const DecisionPool& pool) {
   return s.str();
 }
 
+Verdict ProbabilityVerdict(double probability_safe, double min_probability) {
+  if (!std::isfinite(probability_safe)) return Verdict::kNone;
+  return probability_safe >= min_probability ? Verdict::kSafe : Verdict::kUnsafe;
+}
+
+SafetyCalibration::SafetyCalibration(double called_at) : called_at_(called_at) {
+  const std::array<double, 6> edges = {0.0, 0.5, 0.9, 0.99, 0.999, 1.0};
+  for (size_t i = 0; i + 1 < edges.size(); ++i) {
+    Bin b;
+    b.low = edges[i];
+    b.high = edges[i + 1];
+    bins_.push_back(b);
+  }
+}
+
+void SafetyCalibration::Add(double probability_safe, const DecisionSample& sample) {
+  if (!std::isfinite(probability_safe) || !sample.has_truth) return;
+  size_t k = 0;
+  while (k + 1 < bins_.size() && probability_safe >= bins_[k].high) ++k;
+  Bin& b = bins_[k];
+  ++b.sites;
+  b.probability_sum += probability_safe;
+  if (sample.truly_safe) ++b.truly_safe;
+  if (probability_safe >= called_at_) {
+    ++called_safe_;
+    if (sample.truly_safe) ++called_truly_safe_;
+  }
+}
+
+nlohmann::ordered_json SafetyCalibrationJson(const SafetyCalibration& calibration) {
+  using Json = nlohmann::ordered_json;
+  Json j;
+  j["called_at"] = calibration.called_at();
+  j["called_safe"] = calibration.called_safe();
+  j["called_truly_safe"] = calibration.called_truly_safe();
+  const int n = calibration.called_safe();
+  j["called_truly_safe_share"] =
+      n > 0 ? Json(static_cast<double>(calibration.called_truly_safe()) / n) : Json(nullptr);
+  const Interval interval = WilsonInterval(calibration.called_truly_safe(), n);
+  j["called_truly_safe_share_95"] = n > 0 ? Json::array({interval.low, interval.high}) : Json(nullptr);
+  Json bins = Json::array();
+  for (const SafetyCalibration::Bin& b : calibration.bins()) {
+    bins.push_back({{"low", b.low},
+                    {"high", b.high},
+                    {"sites", b.sites},
+                    {"truly_safe", b.truly_safe},
+                    {"mean_probability", b.sites > 0 ? Json(b.probability_sum / b.sites) : Json(nullptr)}});
+  }
+  j["bins"] = bins;
+  return j;
+}
+
+std::string SafetyCalibrationLine(const SafetyCalibration& calibration) {
+  std::ostringstream s;
+  const int n = calibration.called_safe();
+  s << "sites called >= " << util::FixedText(100.0 * calibration.called_at(), 0) << " % safe: " << n;
+  if (n > 0) {
+    const Interval i = WilsonInterval(calibration.called_truly_safe(), n);
+    s << ", truly safe " << calibration.called_truly_safe() << " ("
+      << util::FixedText(100.0 * calibration.called_truly_safe() / n, 1) << " % [" << util::FixedText(100.0 * i.low, 1)
+      << ", " << util::FixedText(100.0 * i.high, 1) << "])";
+  }
+  return s.str();
+}
+
 }  // namespace hdabench::reference

@@ -144,6 +144,47 @@ class DecisionPool {
 // sites, the confusion matrix, the rates (null where NaN) and the bins.
 nlohmann::ordered_json DecisionJson(const DecisionPool& pool);
 
+// The probability rule (hda::HdaOptions::decide_on_probability) applied to a
+// site of the flight method: safe when its probability of safety reaches
+// min_probability, unsafe under it, no verdict without one (NaN).
+Verdict ProbabilityVerdict(double probability_safe, double min_probability);
+
+// How often the sites given a probability of safety are truly safe (the
+// lander's truth): the sites with both, in bins of the probability, and
+// those at or over a stated probability with a Wilson interval. A
+// probability is honest when the truly safe share in each bin lies within
+// the bin.
+class SafetyCalibration {
+ public:
+  explicit SafetyCalibration(double called_at = 0.9);
+  void Add(double probability_safe, const DecisionSample& sample);  // skipped without both
+
+  struct Bin {
+    double low = 0.0;   // [low, high); the last bin holds 1
+    double high = 0.0;
+    int sites = 0;
+    int truly_safe = 0;
+    double probability_sum = 0.0;  // for the bin's mean probability
+  };
+  const std::vector<Bin>& bins() const { return bins_; }
+  double called_at() const { return called_at_; }
+  int called_safe() const { return called_safe_; }          // sites with probability >= called_at
+  int called_truly_safe() const { return called_truly_safe_; }
+
+ private:
+  double called_at_;
+  std::vector<Bin> bins_;
+  int called_safe_ = 0, called_truly_safe_ = 0;
+};
+
+// As JSON: "called_at", "called_safe", "called_truly_safe",
+// "called_truly_safe_share" and its "_95" Wilson interval (null without a
+// site), and "bins" (low, high, sites, truly_safe, mean_probability).
+nlohmann::ordered_json SafetyCalibrationJson(const SafetyCalibration& calibration);
+
+// "sites called >= 90 % safe: K, truly safe T (S % [lo, hi])".
+std::string SafetyCalibrationLine(const SafetyCalibration& calibration);
+
 // One line: "decision (N sites with a lander truth, U truly unsafe: S by
 // slope, C by clearance): declared safe A (false-safe F % [lo, hi]), ...".
 std::string DecisionLine(const DecisionPool& pool);

@@ -93,12 +93,14 @@ Json FitJson(const hda::RoiResult& roi) {
   j["slope_sigma_deg"] = Number(roi.slope_sigma_deg);
   j["sigma_terms"] = {{"pixel_deg", Number(roi.slope_sigma_terms.pixel_deg)},
                       {"baseline_deg", Number(roi.slope_sigma_terms.baseline_deg)},
-                      {"attitude_deg", Number(roi.slope_sigma_terms.attitude_deg)}};
+                      {"attitude_deg", Number(roi.slope_sigma_terms.attitude_deg)},
+                      {"lean_deg", Number(roi.slope_sigma_terms.lean_deg)}};
   j["pixel_sigma_px"] = Number(roi.pixel_sigma_px);
   j["roughness_rms_m"] = Number(roi.roughness_rms_m);
   j["roughness_max_m"] = Number(roi.roughness_max_m);
   j["noise_rms_m"] = Number(roi.noise_rms_m);
   j["roughness_excess_m"] = Number(roi.roughness_excess_m);
+  j["probability_safe"] = Number(roi.probability_safe);
   j["median_parallax_deg"] = Number(roi.median_parallax_deg);
   j["area_m2"] = Number(roi.area_m2);
   j["normal_in_local"] = Vector3Json(roi.normal_in_local);
@@ -404,7 +406,14 @@ std::string FlightResultJson(const FlightRun& run) {
   j["status_counts"] = status_counts;
   j["ranking"] = result.ranking;
   j["lander"] = LanderJson(run.lander);
-  if (run.AnyTruth()) j["decision"] = DecisionJson(ComputeFlightDecisions(run));
+  if (run.AnyTruth()) {
+    j["decision"] = DecisionJson(ComputeFlightDecisions(run));
+    const ProbabilityDecisions probability = ComputeProbabilityDecisions(run);
+    Json rule = DecisionJson(probability.pool);
+    rule["min_probability_safe"] = Number(run.options.min_probability_safe);
+    rule["calibration"] = SafetyCalibrationJson(probability.calibration);
+    j["decision"]["probability_rule"] = rule;
+  }
   Json rois = Json::array();
   for (size_t i = 0; i < result.rois.size(); ++i) rois.push_back(RoiJson(run, i));
   j["rois"] = rois;
@@ -522,6 +531,33 @@ DecisionPool ComputeFlightDecisions(const FlightRun& run) {
   return pool;
 }
 
+ProbabilityDecisions ComputeProbabilityDecisions(const FlightRun& run) {
+  const hda::HdaOptions& options = run.options;
+  const std::vector<hda::RoiResult>& rois = run.result.rois;
+  std::vector<size_t> safe;
+  for (size_t i = 0; i < rois.size(); ++i) {
+    if (ProbabilityVerdict(rois[i].probability_safe, options.min_probability_safe) == Verdict::kSafe) safe.push_back(i);
+  }
+  const auto score = [&](size_t i) {
+    return hda::RankingScore(rois[i].area_m2, rois[i].slope_deg, rois[i].roughness_excess_m, options);
+  };
+  std::stable_sort(safe.begin(), safe.end(), [&](size_t a, size_t b) {
+    if (rois[a].probability_safe != rois[b].probability_safe) return rois[a].probability_safe > rois[b].probability_safe;
+    return score(a) > score(b);
+  });
+  std::vector<int> rank(rois.size(), 0);
+  for (size_t r = 0; r < safe.size(); ++r) rank[safe[r]] = static_cast<int>(r) + 1;
+  ProbabilityDecisions out{DecisionPool(), SafetyCalibration(options.min_probability_safe)};
+  std::vector<DecisionSample> samples;
+  for (size_t i = 0; i < rois.size(); ++i) {
+    const Verdict declared = ProbabilityVerdict(rois[i].probability_safe, options.min_probability_safe);
+    samples.push_back(DecisionOfRoi(declared, TruthOf(run, i), rank[i]));
+    out.calibration.Add(rois[i].probability_safe, samples.back());
+  }
+  out.pool.AddRun(samples);
+  return out;
+}
+
 std::string FlightReport(const FlightRun& run) {
   std::ostringstream out;
   out << run.result.Summary() << "; frames " << run.frame1 << "," << run.frame2 << ", baseline "
@@ -569,6 +605,11 @@ std::string FlightReport(const FlightRun& run) {
   const DecisionPool decisions = ComputeFlightDecisions(run);
   out << "landing decision: "
       << (decisions.sites() > 0 ? DecisionLine(decisions) : "no site has a lander truth (no truth DEM)") << "\n";
+  if (decisions.sites() > 0) {
+    const ProbabilityDecisions probability = ComputeProbabilityDecisions(run);
+    out << "probability rule (safe at P >= " << util::FixedText(run.options.min_probability_safe, 2)
+        << "): " << DecisionLine(probability.pool) << "; " << SafetyCalibrationLine(probability.calibration) << "\n";
+  }
   return out.str();
 }
 

@@ -61,13 +61,24 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run);
 // (reference/flight/decision_statistics.h).
 DecisionPool ComputeFlightDecisions(const FlightRun& run);
 
+// The same sites decided by the probability rule (every fitted site with a
+// probability of safety: safe at or over the options' min_probability_safe,
+// ranked by the probability, then the paper's score), whichever rule the run
+// used, and how often the sites given each probability are truly safe.
+struct ProbabilityDecisions {
+  DecisionPool pool;
+  SafetyCalibration calibration;
+};
+ProbabilityDecisions ComputeProbabilityDecisions(const FlightRun& run);
+
 // The report printed by `hdabench run`: the summary line (HdaResult::Summary,
 // frames, baseline), then a table with one row per ROI in id order
 //   ROI | status | truth slope (deg) | est. slope (deg) | sigma (deg) | # points |
 //   truth rough. RMS (m) | est. relief (m)
 // (without the truth columns when no ROI has truth; "-" where a value does not
-// apply), and with truth a line with the SlopeErrorStats and one with the
-// landing decisions (DecisionLine).
+// apply), and with truth a line with the SlopeErrorStats, one with the
+// landing decisions (DecisionLine) and one with the probability rule's
+// decisions and calibration.
 std::string FlightReport(const FlightRun& run);
 
 // The largest size at which the report (reference/report) shows a figure: its

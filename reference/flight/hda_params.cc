@@ -68,10 +68,14 @@ void ForEachField(Options& o, Visit&& visit) {
   visit("triangulation.min_parallax_deg", o.triangulation.min_parallax_deg);
   visit("assumed_pixel_sigma_px", o.assumed_pixel_sigma_px);
   visit("max_relief_m", o.max_relief_m);
+  visit("correct_window_lean", o.correct_window_lean);
   visit("min_points", o.min_points);
   visit("pixel_sigma_floor_px", o.pixel_sigma_floor_px);
+  visit("match_error_px", o.match_error_px);
   visit("max_slope_sigma_deg", o.max_slope_sigma_deg);
   visit("max_roughness_rms_m", o.max_roughness_rms_m);
+  visit("decide_on_probability", o.decide_on_probability);
+  visit("min_probability_safe", o.min_probability_safe);
   visit("compute_budget_s", o.compute_budget_s);
   visit("processor_scale", o.processor_scale);
   visit("fault_match_noise_px", o.fault_match_noise_px);

@@ -1,5 +1,6 @@
 #include "hda/geometry.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -559,6 +560,136 @@ TEST(PredictSlopeSigmaDeg, ClosedFormOnAFrontoParallelPatch) {
   // (count + 1) / (count - 1) times larger in variance than L^2/12.
   const double grid_factor = std::sqrt((count + 1.0) / (count - 1.0));
   EXPECT_NEAR(predicted_deg, expected_deg / grid_factor, 0.05 * expected_deg);
+}
+
+TEST(SharedWindowFraction, IsTheOverlapOfTwoWindows) {
+  // Two 10 px windows 3 px apart across and 5 px down share 7 x 5 of 100 px.
+  EXPECT_NEAR(SharedWindowFraction(Eigen::Vector2d(3.0, -5.0), 10.0), 0.35, 1e-12);
+  EXPECT_EQ(SharedWindowFraction(Eigen::Vector2d::Zero(), 10.0), 1.0);
+  EXPECT_EQ(SharedWindowFraction(Eigen::Vector2d(10.0, 0.0), 10.0), 0.0);
+  EXPECT_EQ(SharedWindowFraction(Eigen::Vector2d(0.0, 12.0), 10.0), 0.0);
+  // No window: only a match with itself correlates.
+  EXPECT_EQ(SharedWindowFraction(Eigen::Vector2d::Zero(), 0.0), 1.0);
+  EXPECT_EQ(SharedWindowFraction(Eigen::Vector2d(0.5, 0.0), 0.0), 0.0);
+}
+
+TEST(SpreadOfCorrelatedResidualsPx, DividesByWhatCorrelationLeaves) {
+  // Independent (far apart or no window): the sample variance, n - 1.
+  const std::vector<Eigen::Vector2d> apart = {{0.0, 0.0}, {100.0, 0.0}, {0.0, 100.0}};
+  EXPECT_NEAR(SpreadOfCorrelatedResidualsPx(8.0, apart, 25.0), 2.0, 1e-12);
+  EXPECT_NEAR(SpreadOfCorrelatedResidualsPx(8.0, apart, 0.0), 2.0, 1e-12);
+  // Two matches half a window apart: rho = 0.5, sum_ij rho = 3, divisor
+  // 2 - 3 / 2 = 0.5 (where independent ones would give 1).
+  const std::vector<Eigen::Vector2d> close = {{0.0, 0.0}, {5.0, 0.0}};
+  EXPECT_NEAR(SpreadOfCorrelatedResidualsPx(0.5, close, 10.0), 1.0, 1e-12);
+  // Matches on one pixel share all their noise: nothing is left to measure it.
+  EXPECT_EQ(SpreadOfCorrelatedResidualsPx(1.0, {{3.0, 3.0}, {3.0, 3.0}}, 10.0), 0.0);
+  EXPECT_EQ(SpreadOfCorrelatedResidualsPx(1.0, {{3.0, 3.0}}, 10.0), 0.0);
+}
+
+// Slopes of `trials` reconstructions whose bearing errors are box averages,
+// over window_px x window_px pixels, of a white noise field on image 1's
+// pixel grid (one field per tangent component and image): two matches then
+// correlate by exactly SharedWindowFraction of their pixels.
+std::vector<double> SimulateWindowedSlopesDeg(const SlopeScene& scene, const std::vector<Eigen::Vector2i>& pixels,
+                                              int window_px, double sigma_angle_rad, int trials,
+                                              std::mt19937_64* rng) {
+  const Rigid3d cam2_from_cam1 = scene.Cam2FromCam1();
+  const Rigid3d local_from_cam1 = scene.cam1_from_local.Inverse();
+  const std::vector<Eigen::Vector3d> points_in_cam1 = scene.PointsInCam1();
+  int width = 0, height = 0;
+  for (const Eigen::Vector2i& p : pixels) {
+    width = std::max(width, p.x() + window_px);
+    height = std::max(height, p.y() + window_px);
+  }
+  // The field's std makes each window's mean sigma_angle_rad.
+  std::normal_distribution<double> white(0.0, sigma_angle_rad * window_px);
+  const TriangulationOptions options;
+  std::vector<double> slopes_deg;
+  for (int trial = 0; trial < trials; ++trial) {
+    std::vector<std::vector<double>> fields(4, std::vector<double>(static_cast<size_t>(width) * height));
+    for (std::vector<double>& field : fields) {
+      for (double& value : field) value = white(*rng);
+    }
+    const auto window_mean = [&](const std::vector<double>& field, const Eigen::Vector2i& corner) {
+      double sum = 0.0;
+      for (int y = corner.y(); y < corner.y() + window_px; ++y) {
+        for (int x = corner.x(); x < corner.x() + window_px; ++x) sum += field[static_cast<size_t>(y) * width + x];
+      }
+      return sum / (window_px * window_px);
+    };
+    std::vector<Eigen::Vector3d> estimated_in_local;
+    for (size_t i = 0; i < points_in_cam1.size(); ++i) {
+      const Eigen::Vector3d b1 = points_in_cam1[i].normalized();
+      const Eigen::Vector3d b2 = (cam2_from_cam1 * points_in_cam1[i]).normalized();
+      const Eigen::Vector3d b1_noisy = (b1 + window_mean(fields[0], pixels[i]) * b1.unitOrthogonal() +
+                                        window_mean(fields[1], pixels[i]) * b1.cross(b1.unitOrthogonal()))
+                                           .normalized();
+      const Eigen::Vector3d b2_noisy = (b2 + window_mean(fields[2], pixels[i]) * b2.unitOrthogonal() +
+                                        window_mean(fields[3], pixels[i]) * b2.cross(b2.unitOrthogonal()))
+                                           .normalized();
+      Eigen::Vector3d estimate;
+      EXPECT_EQ(TriangulateMidpoint(b1_noisy, b2_noisy, cam2_from_cam1, options, &estimate, nullptr),
+                TriangulationStatus::kOk);
+      estimated_in_local.push_back(local_from_cam1 * estimate);
+    }
+    const PlaneFitResult fit = FitPlane(estimated_in_local, kLunarGravity, 3);
+    EXPECT_EQ(fit.status, PlaneFitStatus::kOk);
+    slopes_deg.push_back(fit.slope_deg);
+  }
+  return slopes_deg;
+}
+
+TEST(PredictSlopeSigmaDeg, MatchesMonteCarloForMatchesSharingWindows) {
+  // The scene's 20 x 20 points on image-1 pixels 2 px apart, each match from
+  // a 9 px window: neighbours share up to 7/9 of a window. Independent
+  // errors of the same size would give a far smaller sigma.
+  std::mt19937_64 rng(CurrentTestSeed());
+  SCOPED_TRACE("seed " + std::to_string(CurrentTestSeed()));
+  const SlopeScene scene;
+  constexpr int kWindowPx = 9, kSpacingPx = 2, kSide = 20;
+  std::vector<Eigen::Vector2i> corners;
+  std::vector<Eigen::Vector2d> pixels;
+  for (int k = 0; k < kSide * kSide; ++k) {
+    // PlaneGrid's order: the first index runs slowest.
+    corners.emplace_back((k % kSide) * kSpacingPx, (k / kSide) * kSpacingPx);
+    pixels.emplace_back(corners.back().x() + kWindowPx / 2, corners.back().y() + kWindowPx / 2);
+  }
+  SlopeSigmaOptions options;
+  options.pixel_sigma_px = 0.05;
+  options.focal_px = 1500.0;
+  options.match_window_px = kWindowPx;
+  const double predicted_deg = PredictSlopeSigmaDeg(options, scene.PointsInCam1(), scene.Cam2FromCam1(),
+                                                    scene.UpInCam1(), nullptr, nullptr, &pixels);
+  SlopeSigmaOptions independent = options;
+  independent.match_window_px = 0.0;
+  const double independent_deg = PredictSlopeSigmaDeg(independent, scene.PointsInCam1(), scene.Cam2FromCam1(),
+                                                      scene.UpInCam1(), nullptr, nullptr, &pixels);
+  EXPECT_NEAR(independent_deg,
+              PredictSlopeSigmaDeg(independent, scene.PointsInCam1(), scene.Cam2FromCam1(), scene.UpInCam1()),
+              1e-12);
+  const std::vector<double> slopes_deg = SimulateWindowedSlopesDeg(
+      scene, corners, kWindowPx, options.pixel_sigma_px / options.focal_px, 400, &rng);
+  const double empirical_deg = StdDev(slopes_deg);
+  const double ratio = empirical_deg / predicted_deg;
+  std::printf("[ windowed MC ] predicted %.4f deg (independent %.4f), empirical %.4f deg, ratio %.3f\n",
+              predicted_deg, independent_deg, empirical_deg, ratio);
+  EXPECT_GT(predicted_deg, 2.0 * independent_deg);
+  // 400 trials estimate a std to +-3.5 % (1 sigma).
+  EXPECT_GT(ratio, 0.8);
+  EXPECT_LT(ratio, 1.25);
+}
+
+TEST(PredictSlopeSigmaDeg, PixelsNotOnePerPointAreInvalid) {
+  const SlopeScene scene;
+  SlopeSigmaOptions options;
+  options.match_window_px = 9.0;
+  const std::vector<Eigen::Vector2d> pixels = {{0.0, 0.0}};
+  SlopeSigmaTerms terms;
+  EXPECT_EQ(PredictSlopeSigmaDeg(options, scene.PointsInCam1(), scene.Cam2FromCam1(), scene.UpInCam1(), &terms,
+                                 nullptr, &pixels),
+            std::numeric_limits<double>::infinity());
+  EXPECT_EQ(terms.status, PlaneFitStatus::kInvalidInput);
 }
 
 TEST(PredictSlopeSigmaDeg, UnfittablePatchIsInfinite) {

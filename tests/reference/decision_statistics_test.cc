@@ -115,5 +115,46 @@ TEST(DecisionPool, WithoutDeclaredSafeSitesTheRateIsUnknown) {
   EXPECT_TRUE(DecisionJson(pool)["false_safe_rate_95"].is_null());
 }
 
+TEST(ProbabilityVerdict, SafeAtOrOverTheStatedProbability) {
+  EXPECT_EQ(ProbabilityVerdict(0.9, 0.9), Verdict::kSafe);
+  EXPECT_EQ(ProbabilityVerdict(0.899, 0.9), Verdict::kUnsafe);
+  EXPECT_EQ(ProbabilityVerdict(kNaN, 0.9), Verdict::kNone);
+}
+
+TEST(SafetyCalibration, CountsTheTrulySafeByProbability) {
+  SafetyCalibration calibration(0.9);
+  // Four sites called at least 90 % safe, three of them truly safe; one at
+  // 0.6, truly unsafe; one without a truth and one without a probability,
+  // both left out.
+  calibration.Add(0.95, Site(Verdict::kSafe, true, 5.0));
+  calibration.Add(0.9999, Site(Verdict::kSafe, true, 5.0));
+  calibration.Add(1.0, Site(Verdict::kSafe, true, 5.0));
+  calibration.Add(0.92, Site(Verdict::kSafe, false, 11.0));
+  calibration.Add(0.6, Site(Verdict::kUnsafe, false, 11.0));
+  DecisionSample no_truth;
+  calibration.Add(0.99, no_truth);
+  calibration.Add(kNaN, Site(Verdict::kNone, true, 5.0));
+  EXPECT_EQ(calibration.called_safe(), 4);
+  EXPECT_EQ(calibration.called_truly_safe(), 3);
+  const auto& bins = calibration.bins();
+  ASSERT_EQ(bins.size(), 5u);  // [0, .5) [.5, .9) [.9, .99) [.99, .999) [.999, 1]
+  EXPECT_EQ(bins[1].sites, 1);
+  EXPECT_EQ(bins[1].truly_safe, 0);
+  EXPECT_EQ(bins[2].sites, 2);
+  EXPECT_EQ(bins[2].truly_safe, 1);
+  EXPECT_EQ(bins[3].sites, 0);
+  EXPECT_EQ(bins[4].sites, 2);  // 0.9999 and 1 (the last bin holds 1)
+  const nlohmann::ordered_json j = SafetyCalibrationJson(calibration);
+  EXPECT_DOUBLE_EQ(j["called_truly_safe_share"].get<double>(), 0.75);
+  EXPECT_NEAR(j["bins"][2]["mean_probability"].get<double>(), 0.935, 1e-12);
+  EXPECT_TRUE(j["bins"][0]["mean_probability"].is_null());
+  // 3 of 4: Wilson [0.3006, 0.9544].
+  EXPECT_NEAR(j["called_truly_safe_share_95"][0].get<double>(), 0.30064, 1e-4);
+  EXPECT_NE(SafetyCalibrationLine(calibration).find("sites called >= 90 % safe: 4, truly safe 3 (75.0 % ["),
+            std::string::npos)
+      << SafetyCalibrationLine(calibration);
+  EXPECT_TRUE(SafetyCalibrationJson(SafetyCalibration(0.9))["called_truly_safe_share"].is_null());
+}
+
 }  // namespace
 }  // namespace hdabench::reference

@@ -363,7 +363,17 @@ TEST(DecisionStatistics, CompareGateAndRunAgreeOnEveryStatus) {
   for (const DecisionPool* pool : {&own, static_cast<const DecisionPool*>(&read)}) {
     EXPECT_EQ(DecisionJson(*pool), DecisionJson(flight));
   }
-  EXPECT_EQ(record.at("decision"), nlohmann::json::parse(DecisionJson(flight).dump()));
+  // The record's decision is that pool's, with the probability rule's beside it.
+  nlohmann::json decision = record.at("decision");
+  ASSERT_TRUE(decision.contains("probability_rule"));
+  const nlohmann::json probability_rule = decision.at("probability_rule");
+  decision.erase("probability_rule");
+  EXPECT_EQ(decision, nlohmann::json::parse(DecisionJson(flight).dump()));
+  const ProbabilityDecisions probability = ComputeProbabilityDecisions(run.flight);
+  nlohmann::json rule = nlohmann::json::parse(DecisionJson(probability.pool).dump());
+  EXPECT_EQ(probability_rule.at("confusion"), rule.at("confusion"));
+  EXPECT_EQ(probability_rule.at("calibration"),
+            nlohmann::json::parse(SafetyCalibrationJson(probability.calibration).dump()));
 }
 
 }  // namespace

@@ -41,7 +41,7 @@ PairReconstruction FlightRefined(const FlightRun& flight, const CompareOptions& 
   CeresRefineOptions refine = options.refine;
   refine.nav_position_sigma_m = flight.options.prediction.nav_position_sigma_m;
   refine.nav_attitude_sigma_deg = flight.options.prediction.nav_attitude_sigma_deg;
-  refine.pixel_sigma_px = flight.options.pixel_sigma_floor_px;
+  refine.pixel_sigma_px = flight.options.match_error_px;
   const CeresRefineResult refined = RefineTwoView(input, refine);
   recon.wall_s = SecondsSince(start);
   // Any status but invalid input or too few points leaves a usable state

@@ -900,9 +900,6 @@ PredictedRoi PredictPlacedRoi(const Context& ctx, const RoiPlacement& placement,
                     ctx.options->prediction);
 }
 
-// Matches the ROI pair. The expected motion only serves the nav-aided
-// refinement; the fault injection's noise on image 2's points is seeded by the
-// ROI id so that a run repeats.
 // Fault injection (HdaOptions::fault_match_noise_px): Gaussian noise on
 // every image-2 match position, seeded by the ROI id.
 void AddFaultMatchNoise(const HdaOptions& options, int roi_id, RoiMatches* matches) {
@@ -916,6 +913,9 @@ void AddFaultMatchNoise(const HdaOptions& options, int roi_id, RoiMatches* match
   matches->bearings2.clear();  // the moved points' are unprojected anew
 }
 
+// Matches the ROI pair. The expected motion only serves the nav-aided
+// refinement; the fault injection's noise on image 2's points is seeded by the
+// ROI id so that a run repeats.
 RoiMatches MatchRoi(const Context& ctx, const RoiResult& roi, const Eigen::Vector2d& centre) {
   const HdaOptions& options = *ctx.options;
   const bool warp = options.matching.subpixel_refine && options.matching.warp_refine;

@@ -281,23 +281,23 @@ void SafetyCalibration::Add(double probability_safe, const DecisionSample& sampl
 }
 
 nlohmann::ordered_json SafetyCalibrationJson(const SafetyCalibration& calibration) {
-  using Json = nlohmann::ordered_json;
-  Json j;
+  using OrderedJson = nlohmann::ordered_json;
+  OrderedJson j;
   j["called_at"] = calibration.called_at();
   j["called_safe"] = calibration.called_safe();
   j["called_truly_safe"] = calibration.called_truly_safe();
   const int n = calibration.called_safe();
   j["called_truly_safe_share"] =
-      n > 0 ? Json(static_cast<double>(calibration.called_truly_safe()) / n) : Json(nullptr);
+      n > 0 ? OrderedJson(static_cast<double>(calibration.called_truly_safe()) / n) : OrderedJson(nullptr);
   const Interval interval = WilsonInterval(calibration.called_truly_safe(), n);
-  j["called_truly_safe_share_95"] = n > 0 ? Json::array({interval.low, interval.high}) : Json(nullptr);
-  Json bins = Json::array();
+  j["called_truly_safe_share_95"] = n > 0 ? OrderedJson::array({interval.low, interval.high}) : OrderedJson(nullptr);
+  OrderedJson bins = OrderedJson::array();
   for (const SafetyCalibration::Bin& b : calibration.bins()) {
     bins.push_back({{"low", b.low},
                     {"high", b.high},
                     {"sites", b.sites},
                     {"truly_safe", b.truly_safe},
-                    {"mean_probability", b.sites > 0 ? Json(b.probability_sum / b.sites) : Json(nullptr)}});
+                    {"mean_probability", b.sites > 0 ? OrderedJson(b.probability_sum / b.sites) : OrderedJson(nullptr)}});
   }
   j["bins"] = bins;
   return j;

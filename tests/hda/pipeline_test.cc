@@ -212,7 +212,9 @@ TEST(EvaluateMatchedSite, GivesRunHdasResultOnAnRoisSurvivingMatches) {
         << "ROI " << roi.id;
     EXPECT_EQ(again.roughness_rms_m, roi.roughness_rms_m) << "ROI " << roi.id;
     EXPECT_EQ(again.area_m2, roi.area_m2) << "ROI " << roi.id;
-    if (lean == 0.0) EXPECT_EQ(again.probability_safe, roi.probability_safe) << "ROI " << roi.id;
+    if (lean == 0.0) {
+      EXPECT_EQ(again.probability_safe, roi.probability_safe) << "ROI " << roi.id;
+    }
     // Taken as independent, the same matches give a smaller sigma: the
     // matcher's windows overlap.
     const RoiResult independent =

@@ -527,7 +527,8 @@ struct FrameRow {
   int line = 0;
   FrameRecord record;
   bool time_ok = false;
-  bool image_path_ok = false;
+  bool has_image = false;      // its image cell is not empty
+  bool image_path_ok = false;  // ... and names a usable path
 };
 
 // The frames table as read.
@@ -551,8 +552,14 @@ class FramesTableReader {
     frames->header_ok = true;
     frames->num_frames = table.num_data_lines;
     CheckEnoughRows(&context_->problems, file, table, 2, "a run needs two views");
+    int with_image = 0;
     for (const internal::CsvRow& row : table.rows) {
       frames->rows.push_back(ReadRow(file, table, row));
+      if (frames->rows.back().has_image) ++with_image;
+    }
+    if (table.num_data_lines >= 2 && with_image < 2) {
+      context_->problems.Add(file, "gives an image for " + Plural(static_cast<size_t>(with_image), "frame", "frames") +
+                                       "; expected at least 2 (a run needs two views)");
     }
   }
 
@@ -576,11 +583,12 @@ class FramesTableReader {
       frame.time_ok = true;
       CheckIncreasing(&reader, frame.record.time_s, "frame", &previous_);
     }
-    const size_t before_image = problems.Count();
-    frame.record.image_path = reader.Text("image");
-    if (problems.Count() == before_image) {
-      frame.image_path_ok =
-          CheckImagePath(&reader, expected_index, row.line, frame.record.image_path);
+    // An empty image cell: a frame of the trajectory without an image.
+    const std::string image = reader.TextOrEmpty("image");
+    if (!image.empty()) {
+      frame.has_image = true;
+      frame.record.image_path = image;
+      frame.image_path_ok = CheckImagePath(&reader, expected_index, row.line, frame.record.image_path);
     }
     frame.record.index = expected_index;
     return frame;
@@ -804,10 +812,26 @@ void CheckImage(LoadContext* context, FrameRow* frame) {
   if (options.keep_images) frame->record.image = image;
 }
 
+// The frames with an image, as "0, 6" ("none" when there is none).
+std::string FramesText(const std::vector<FrameRow>& frame_rows) {
+  std::vector<int> indices;
+  for (const FrameRow& frame : frame_rows) {
+    if (frame.has_image) indices.push_back(frame.record.index);
+  }
+  return util::JoinInts(indices);
+}
+
 // Checks the image of every frame whose image path is usable, then copies the
 // frame records into the dataset.
 void CheckImages(LoadContext* context, std::vector<FrameRow>* frame_rows) {
   for (FrameRow& frame : *frame_rows) {
+    if (!frame.has_image && context->used_frames.has_value() && context->Uses(frame.record.index)) {
+      context->problems.Add(context->dataset.frames_file + ":" + std::to_string(frame.line),
+                            "frame " + std::to_string(frame.record.index) +
+                                " has no image (its image cell is empty), but the command uses it; "
+                                "frames with images: " +
+                                FramesText(*frame_rows));
+    }
     if (!frame.image_path_ok) continue;
     CheckImage(context, &frame);
   }
@@ -1583,6 +1607,10 @@ void CheckWritable(const Dataset& dataset) {
     const std::string label = "frame " + std::to_string(i);
     RequireWritable(frame.index == static_cast<int>(i), label + " has index " +
                                                              std::to_string(frame.index));
+    if (!frame.HasImage()) {
+      RequireWritable(frame.image.empty(), label + " has an image in memory but no image path");
+      continue;
+    }
     claim(frame.image_path, label + " image");
     RequireWritable(!frame.image.empty(), label + " has no image in memory");
     RequireWritable(frame.image.type() == CV_8UC1 || frame.image.type() == CV_16UC1,
@@ -1626,6 +1654,14 @@ std::string NpyFromMat(const cv::Mat& mat) {
 }
 
 }  // namespace
+
+std::vector<int> FramesWithImages(const std::vector<FrameRecord>& frames) {
+  std::vector<int> indices;
+  for (const FrameRecord& frame : frames) {
+    if (frame.HasImage()) indices.push_back(frame.index);
+  }
+  return indices;
+}
 
 std::string DatasetLoadResult::Summary() const {
   if (Ok()) {
@@ -1673,7 +1709,7 @@ void WriteDataset(const Dataset& dataset, const std::string& dir) {
     }
     util::WriteFileAtomically(staging / dataset.camera_model_file, dataset.camera.ToText());
     for (const FrameRecord& frame : dataset.frames) {
-      util::WriteFileAtomically(staging / frame.image_path, internal::EncodePng(frame.image));
+      if (frame.HasImage()) util::WriteFileAtomically(staging / frame.image_path, internal::EncodePng(frame.image));
     }
     util::WriteFileAtomically(staging / dataset.frames_file, FramesCsv(dataset));
     util::WriteFileAtomically(

@@ -29,11 +29,20 @@ constexpr double kUnitNormTolerance = 1e-6;
 struct FrameRecord {
   int index = 0;       // 0..N-1 in table order
   double time_s = 0.0;
-  std::string image_path;  // relative to the dataset folder, '/' separated
+  // Relative to the dataset folder, '/' separated; empty for a frame of the
+  // trajectory that has no image (a scene rendered with only some frames:
+  // hdabench synth --frames). Its time still counts.
+  std::string image_path;
   // CV_8UC1 or CV_16UC1, camera imager size. Filled by LoadDataset when
-  // LoadOptions::keep_images; required by WriteDataset.
+  // LoadOptions::keep_images; required by WriteDataset for a frame with an
+  // image path.
   cv::Mat image;
+
+  bool HasImage() const { return !image_path.empty(); }
 };
+
+// The indices of the frames that have an image, ascending.
+std::vector<int> FramesWithImages(const std::vector<FrameRecord>& frames);
 
 // Truth 3D points of one frame: the local-frame point each pixel's ray hits.
 struct TruthPoints {

@@ -100,6 +100,10 @@ void DropFrame(const Fault& fault, int frame1, int frame2, Dataset* dataset) {
   if (frame2 + 1 >= static_cast<int>(dataset->frames.size())) {
     Refuse(fault, "frame " + std::to_string(frame2) + " is the last: no frame after it takes its place");
   }
+  if (!dataset->frames[static_cast<size_t>(frame2) + 1].HasImage()) {
+    Refuse(fault, "frame " + std::to_string(frame2 + 1) + ", which would take frame " + std::to_string(frame2) +
+                      "'s place, has no image (render it: hdabench synth --frames)");
+  }
   dataset->frames.erase(dataset->frames.begin() + frame2);
   for (size_t i = 0; i < dataset->frames.size(); ++i) dataset->frames[i].index = static_cast<int>(i);
   std::vector<TruthPoints>& points = dataset->truth.points;

@@ -807,8 +807,13 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
       throw InputError("the dataset's LRF beam changes between samples; a field log holds one beam");
     }
   }
+  // A frame without an image (a scene rendered with only some frames) has no
+  // place in a log, whose frames are its images.
+  if (FramesWithImages(dataset.frames).size() < 2) {
+    throw InputError("the dataset has fewer than 2 frames with an image; a field log needs two views");
+  }
   for (const FrameRecord& frame : dataset.frames) {
-    if (frame.image.empty()) throw InputError("the dataset's images are not loaded");
+    if (frame.HasImage() && frame.image.empty()) throw InputError("the dataset's images are not loaded");
   }
   // The images are named by their camera-clock time in whole nanoseconds:
   // each must fit a 64-bit count (about +-292 years) and be its own.
@@ -838,7 +843,7 @@ void WriteFieldLog(const Dataset& dataset, const std::string& dir, const Geodeti
   dataset.camera.Save((fs::path(dir) / "camera.cameramodel").string());
   for (size_t i = 0; i < dataset.frames.size(); ++i) {
     const FrameRecord& frame = dataset.frames[i];
-    if (frame.image.empty()) throw InputError("the dataset's images are not loaded");
+    if (!frame.HasImage()) continue;
     const long long ns = image_ns[i];
     const fs::path path = fs::path(dir) / "images" / ("img_" + std::to_string(ns) + ".png");
     bool written = false;

@@ -209,6 +209,11 @@ int CsvRowReader::Int(const std::string& column) {
   return 0;
 }
 
+std::string CsvRowReader::TextOrEmpty(const std::string& column) {
+  const std::string* field = Field(column);
+  return field == nullptr ? std::string() : *field;
+}
+
 std::string CsvRowReader::Text(const std::string& column) {
   const std::string* field = Field(column);
   if (field == nullptr) return std::string();

@@ -51,6 +51,8 @@ class CsvRowReader {
   int Int(const std::string& column);
   // The trimmed text; a problem when empty.
   std::string Text(const std::string& column);
+  // The trimmed text, which may be empty.
+  std::string TextOrEmpty(const std::string& column);
 
   // Records a problem at this row.
   void Fail(const std::string& message);

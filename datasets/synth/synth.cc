@@ -13,6 +13,7 @@
 #include "datasets/synth/render.h"
 #include "tools/util/options_check.h"
 #include "tools/util/angles.h"
+#include "tools/util/text.h"
 
 namespace hdabench::datasets::synth {
 
@@ -397,7 +398,9 @@ void ApplyOverride(const std::string& key, const std::string& value, SynthOption
 std::string SynthSummary::Summary() const {
   std::ostringstream s;
   s.precision(4);
-  s << frames << " frames, DEM " << dem_width << " x " << dem_height << " nodes at " << dem_spacing_m
+  s << frames << " frames";
+  if (static_cast<int>(rendered_frames.size()) != frames) s << " (images for " << util::JoinInts(rendered_frames) << ")";
+  s << ", DEM " << dem_width << " x " << dem_height << " nodes at " << dem_spacing_m
     << " m, " << craters << " craters, " << rocks << " rocks; pair " << pair_frames.first << "-"
     << pair_frames.second << " baseline " << pair_baseline_m << " m; terrain " << terrain_s
     << " s, rendering " << render_s << " s";
@@ -511,39 +514,75 @@ RenderOptions SequenceRenderOptions(const SynthOptions& options, double albedo_m
   return render;
 }
 
-// Appends frame i (its image and truth points, with their file names) to the dataset.
-void AddFrame(int i, double time_s, const RenderedFrame& rendered, Dataset* dataset) {
-  FrameRecord frame;
-  frame.index = i;
-  frame.time_s = time_s;
-  char name[64];
-  std::snprintf(name, sizeof(name), "images/frame_%06d.png", i);
-  frame.image_path = name;
-  frame.image = rendered.image;
-  dataset->frames.push_back(frame);
-  TruthPoints points;
-  points.frame = i;
-  std::snprintf(name, sizeof(name), "truth/points_%06d.npy", i);
-  points.file = name;
-  points.points_in_local_m = rendered.points_in_local_m;
-  dataset->truth.points.push_back(points);
+// Appends a record of every frame, with its time and image path and no image.
+void AddFrameRecords(const FrameTrajectory& frames, Dataset* dataset) {
+  for (int i = 0; i < static_cast<int>(frames.times_s.size()); ++i) {
+    FrameRecord frame;
+    frame.index = i;
+    frame.time_s = frames.times_s[static_cast<size_t>(i)];
+    char name[64];
+    std::snprintf(name, sizeof(name), "images/frame_%06d.png", i);
+    frame.image_path = name;
+    dataset->frames.push_back(frame);
+  }
 }
 
-// Renders every frame into the dataset between the "render" progress reports;
-// returns the wall time, seconds.
+// The frames options.frames_to_render picks (every frame without it),
+// ascending; InputError for an index out of range, a repeated one or fewer
+// than two.
+std::vector<int> FramesToRender(const SynthOptions& options, const Dataset& dataset) {
+  const int num_frames = static_cast<int>(dataset.frames.size());
+  std::vector<int> chosen;
+  if (!options.frames_to_render) {
+    for (int i = 0; i < num_frames; ++i) chosen.push_back(i);
+    return chosen;
+  }
+  chosen = options.frames_to_render(dataset);
+  std::sort(chosen.begin(), chosen.end());
+  for (size_t k = 0; k < chosen.size(); ++k) {
+    if (chosen[k] < 0 || chosen[k] >= num_frames) {
+      throw InputError("frame " + std::to_string(chosen[k]) + " is not a frame of the scene, which has frames 0.." +
+                       std::to_string(num_frames - 1));
+    }
+    if (k > 0 && chosen[k] == chosen[k - 1]) {
+      throw InputError("frame " + std::to_string(chosen[k]) + " is given twice");
+    }
+  }
+  if (chosen.size() < 2) {
+    throw InputError("render at least 2 frames (a run needs two views); " + std::to_string(chosen.size()) +
+                     " given");
+  }
+  return chosen;
+}
+
+// Renders the frames `chosen` into the dataset's records (the image and the
+// truth points), between the "render" progress reports; the other frames lose
+// their image path. Each frame's noise depends on its index only. Returns the
+// wall time, seconds.
 double RenderFrames(const SceneRaycaster& raycaster, const Scene& scene, const calib::CameraModel& camera,
-                    const FrameTrajectory& frames, const RenderOptions& render, int threads,
-                    std::uint64_t seed, const SynthProgress& progress, Dataset* dataset) {
-  const int num_frames = static_cast<int>(frames.times_s.size());
+                    const FrameTrajectory& frames, const RenderOptions& render, const std::vector<int>& chosen,
+                    int threads, std::uint64_t seed, const SynthProgress& progress, Dataset* dataset) {
+  const int num_chosen = static_cast<int>(chosen.size());
   Report(progress, "render", 0.0);
   const auto t_render = std::chrono::steady_clock::now();
   const CameraRays rays(camera, threads);
-  for (int i = 0; i < num_frames; ++i) {
+  for (int k = 0; k < num_chosen; ++k) {
+    const int i = chosen[static_cast<size_t>(k)];
     const RenderedFrame rendered = RenderFrame(
-        raycaster, scene, rays, frames.cams_from_local[i], render,
+        raycaster, scene, rays, frames.cams_from_local[static_cast<size_t>(i)], render,
         Mix64(seed ^ kRenderStream) + static_cast<std::uint64_t>(i),
-        [&](double fraction) { Report(progress, "render", (i + fraction) / num_frames); });
-    AddFrame(i, frames.times_s[i], rendered, dataset);
+        [&](double fraction) { Report(progress, "render", (k + fraction) / num_chosen); });
+    dataset->frames[static_cast<size_t>(i)].image = rendered.image;
+    TruthPoints points;
+    points.frame = i;
+    char name[64];
+    std::snprintf(name, sizeof(name), "truth/points_%06d.npy", i);
+    points.file = name;
+    points.points_in_local_m = rendered.points_in_local_m;
+    dataset->truth.points.push_back(points);
+  }
+  for (FrameRecord& frame : dataset->frames) {
+    if (frame.image.empty()) frame.image_path.clear();
   }
   Report(progress, "render", 1.0);
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t_render).count();
@@ -682,14 +721,16 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
   const Scene scene = TimedScene(terrain, seed, options.threads, progress, &terrain_s);
   const SceneRaycaster raycaster(scene);
 
-  const RenderOptions render = SequenceRenderOptions(options, terrain.albedo_mean, dataset.ils_in_local_m);
-  const double render_s =
-      RenderFrames(raycaster, scene, camera, frames, render, options.threads, seed, progress, &dataset);
-
+  AddFrameRecords(frames, &dataset);
   const double t0 = frames.times_s.front() - kSensorMarginS;
   const double t1 = frames.times_s.back() + kSensorMarginS;
   AddNavigation(options, seed, frames.times_s.front(), t0, t1, &dataset);
   AddLrf(options, seed, raycaster, t0, t1, &dataset);
+  const std::vector<int> chosen = FramesToRender(options, dataset);
+
+  const RenderOptions render = SequenceRenderOptions(options, terrain.albedo_mean, dataset.ils_in_local_m);
+  const double render_s = RenderFrames(raycaster, scene, camera, frames, render, chosen, options.threads, seed,
+                                       progress, &dataset);
   AddTruthDemAndRocks(scene, &dataset);
   TruthImaging imaging;
   imaging.sun_in_local = SunDirectionInLocal(render.sun_azimuth_deg, render.sun_elevation_deg);
@@ -699,6 +740,7 @@ Dataset GenerateSynthDataset(const SynthOptions& options, const TerrainOptions& 
 
   if (summary != nullptr) {
     summary->frames = static_cast<int>(frames.times_s.size());
+    summary->rendered_frames = chosen;
     summary->rocks = static_cast<int>(scene.rocks.size());
     summary->craters = static_cast<int>(scene.craters.size());
     summary->dem_spacing_m = terrain.spacing_m;

@@ -61,6 +61,14 @@ struct SynthOptions {
   double lrf_noise_m = 0.10;             // LRF range noise, 1 sigma, metres
   double lrf_bias_m = 0.0;               // LRF range bias, metres
 
+  // The frames that get an image, chosen from the dataset before any is
+  // rendered (its frame times, navigation and LRF are complete; no frame has
+  // an image yet, every frame has its image path). Empty function: every
+  // frame. The other frames keep their times, with no image and no truth
+  // points; the navigation, the LRF, the DEM and the rocks are the same
+  // whichever frames are rendered, and so is each rendered frame's image.
+  std::function<std::vector<int>(const Dataset&)> frames_to_render;
+
   RenderOptions render;                  // sun, photometry, exposure, noise, bit depth
   int threads = 1;                       // worker threads for terrain and rendering (output does not depend on it)
 
@@ -95,13 +103,14 @@ using SynthProgress = std::function<void(const std::string& stage, double fracti
 
 struct SynthSummary {
   int frames = 0;
+  std::vector<int> rendered_frames;  // the frames with an image
   int rocks = 0;
   int craters = 0;
   double dem_spacing_m = 0.0;
   int dem_width = 0;
   int dem_height = 0;
   double terrain_s = 0.0;
-  double render_s = 0.0;           // all frames
+  double render_s = 0.0;           // every rendered frame
   double pair_baseline_m = 0.0;          // true baseline between frames pair_frames
   std::pair<int, int> pair_frames{0, 0}; // the pair whose true baseline is closest to 30 m (scaled for truck/aircraft by range)
   std::string Summary() const;           // one line

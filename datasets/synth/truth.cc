@@ -1,6 +1,7 @@
 #include "datasets/synth/truth.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <string>
@@ -15,6 +16,7 @@
 #include "tools/images/png.h"
 #include "tools/util/error.h"
 #include "tools/util/files.h"
+#include "tools/util/parallel_for.h"
 
 namespace hdabench::datasets::synth {
 
@@ -121,7 +123,8 @@ void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double m
   // Slope over a baseline of about 1 m (at least one node each side).
   const int k = std::max(1, static_cast<int>(std::lround(0.5 / dem.spacing_m)));
   cv::Mat slope_deg(z.rows, z.cols, CV_32FC1, cv::Scalar(0));
-  for (int r = 0; r < z.rows; ++r) {
+  const int threads = util::WorkerThreads(0);
+  util::ParallelFor("slope map rows", z.rows, threads, [&](int r) {
     const int r0 = std::max(0, r - k);
     const int r1 = std::min(z.rows - 1, r + k);
     for (int c = 0; c < z.cols; ++c) {
@@ -131,7 +134,7 @@ void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double m
       const double dzdy = static_cast<double>(z.at<float>(r0, c) - z.at<float>(r1, c)) / ((r1 - r0) * dem.spacing_m);
       slope_deg.at<float>(r, c) = static_cast<float>(std::atan(std::hypot(dzdx, dzdy)) * kRadToDeg);
     }
-  }
+  });
   cv::Mat elevation_8u;
   cv::normalize(z, elevation_8u, 0, 255, cv::NORM_MINMAX, CV_8UC1);
   cv::Mat elevation_color;
@@ -159,16 +162,19 @@ void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double m
   cv::Mat safety_small = SafetyMapImage(safety_classes), safety;
   cv::resize(safety_small, safety, z.size(), 0, 0, cv::INTER_NEAREST);
   const std::filesystem::path dir(out_dir);
-  for (const auto& [name, map] : {std::pair<const char*, const cv::Mat*>{"elevation.png", &elevation_color},
-                                  {"slope.png", &slope_color},
-                                  {"hazards.png", &hazards},
-                                  {"safety.png", &safety}}) {
+  const std::array<std::pair<const char*, const cv::Mat*>, 4> maps = {{{"elevation.png", &elevation_color},
+                                                                       {"slope.png", &slope_color},
+                                                                       {"hazards.png", &hazards},
+                                                                       {"safety.png", &safety}}};
+  // Each map is encoded and written by one worker: PNG encoding is most of the time.
+  util::ParallelFor("map files", static_cast<int>(maps.size()), threads, [&](int i) {
+    const auto& [name, map] = maps[static_cast<size_t>(i)];
     util::WriteFileAtomically(dir / name, images::EncodePng(*map));
     // Its preview for the report (the bytes a report would make from the
     // written PNG, which decodes to this image), when the map is larger.
     const std::string preview = PreviewPng(*map, kMapPreviewSidePx);
     if (!preview.empty()) util::WriteFileAtomically(dir / kMapPreviewFolder / name, preview);
-  }
+  });
 }
 
 }  // namespace hdabench::datasets::synth

@@ -77,23 +77,32 @@ auto PoseOfFrames(int frame1, int frame2, Query query) {
 const char* ToString(RangeSource source) { return source == RangeSource::kLrf ? "lrf" : "navigation"; }
 
 std::pair<int, int> DefaultFramePair(const datasets::Dataset& dataset) {
-  const int n = static_cast<int>(dataset.frames.size());
-  if (n < 2) {
-    throw InputError("dataset " + dataset.name + " has " + std::to_string(n) +
-                     " frame(s): the flight method needs 2");
+  const std::vector<int> imaged = datasets::FramesWithImages(dataset.frames);
+  if (imaged.size() < 2) {
+    throw InputError("dataset " + dataset.name + " has " + std::to_string(imaged.size()) +
+                     " frame(s) with an image: the flight method needs 2");
   }
-  const double range = RangeAtFrame(dataset, 0).range_m;
-  int best = 1;
+  const int first = imaged.front();
+  const double range = RangeAtFrame(dataset, first).range_m;
+  int best = imaged[1];
   double best_error = std::numeric_limits<double>::infinity();
-  for (int j = 1; j < n; ++j) {
-    const double error =
-        std::abs(PoseOfFrames(0, j, [&] { return dataset.BaselineM(0, j); }) / range - kPaperBaselineToRange);
+  for (size_t k = 1; k < imaged.size(); ++k) {
+    const int j = imaged[k];
+    const double error = std::abs(PoseOfFrames(first, j, [&] { return dataset.BaselineM(first, j); }) / range -
+                                  kPaperBaselineToRange);
     if (error < best_error) {
       best_error = error;
       best = j;
     }
   }
-  return {0, best};
+  return {first, best};
+}
+
+std::vector<int> PairFramesToRender(const datasets::Dataset& dataset, bool with_next) {
+  const std::pair<int, int> pair = DefaultFramePair(dataset);
+  std::vector<int> frames = {pair.first, pair.second};
+  if (with_next && pair.second + 1 < static_cast<int>(dataset.frames.size())) frames.push_back(pair.second + 1);
+  return frames;
 }
 
 hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int frame2, RangeSource* range_source) {
@@ -110,6 +119,13 @@ hda::HdaInput MakeHdaInput(const datasets::Dataset& dataset, int frame1, int fra
   }
   const datasets::FrameRecord& record1 = dataset.frames[static_cast<size_t>(frame1)];
   const datasets::FrameRecord& record2 = dataset.frames[static_cast<size_t>(frame2)];
+  for (const datasets::FrameRecord* record : {&record1, &record2}) {
+    if (!record->HasImage()) {
+      throw InputError("frame " + std::to_string(record->index) +
+                       " has no image in the dataset (frames with images: " +
+                       util::JoinInts(datasets::FramesWithImages(dataset.frames)) + ")");
+    }
+  }
   if (record1.image.empty() || record2.image.empty()) {
     throw InputError("the images of frames " + std::to_string(frame1) + " and " +
                      std::to_string(frame2) + " are not loaded");

@@ -22,11 +22,18 @@ namespace hdabench::reference {
 // 566 m. Frames are paired so that baseline / range is closest to this ratio.
 inline constexpr double kPaperBaselineToRange = 30.0 / 566.0;
 
-// The default pair: frame 0 and the frame j > 0 whose measured (navigation)
-// baseline divided by the LRF range at frame 0 is closest to
-// kPaperBaselineToRange (the first such j on a tie). Throws InputError when the
-// dataset has fewer than 2 frames.
+// The default pair, among the frames with an image: the first of them, f,
+// and the later one j whose measured (navigation) baseline divided by the LRF
+// range at f is closest to kPaperBaselineToRange (the first such j on a tie).
+// For a dataset with every image, f = 0. Throws InputError when fewer than 2
+// frames have an image.
 std::pair<int, int> DefaultFramePair(const datasets::Dataset& dataset);
+
+// The frames to render for a scene that feeds `run` (and `compare`, the gate
+// and the fault study): DefaultFramePair, and with `with_next` the frame after
+// image 2 when there is one (the frame that takes image 2's place when it is
+// dropped). For synth::SynthOptions::frames_to_render.
+std::vector<int> PairFramesToRender(const datasets::Dataset& dataset, bool with_next);
 
 // Where the slant range at image 1 came from.
 enum class RangeSource {

@@ -171,6 +171,8 @@ std::string EntryDataset(const GateEntry& entry, const GateSuite& suite, const G
     }
     datasets::synth::ScaleTerrain(options.terrain_scale, &terrain);
     options.threads = o.synth_threads;
+    // The entries take the default pair, and a dropped-frame fault the frame after it.
+    options.frames_to_render = [](const datasets::Dataset& d) { return PairFramesToRender(d, /*with_next=*/true); };
     datasets::WriteDataset(datasets::synth::GenerateSynthDataset(options, terrain, e.synth_seed),
                            staging.string());
   } else {

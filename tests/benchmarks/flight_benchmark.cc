@@ -76,7 +76,7 @@ std::string PairDir(int size_px) {
     fs::remove_all(dir);
     fs::create_directories(dir.parent_path());
     const std::string command = std::string(HDABENCH_EXE) + " synth --out " + dir.string() +
-                                " --seed 1 --quiet --image-size " + std::to_string(size_px) +
+                                " --seed 1 --quiet --frames pair --image-size " + std::to_string(size_px) +
                                 " --set collection_s=2.4" +
                                 // Above 2048 px the DEM keeps the 2048 px scene's spacing: the
                                 // pixel footprint's would exceed the generator's 60 M nodes.

@@ -40,6 +40,11 @@ struct SynthCommandOptions {
   // Sensor faults "NAME[=M]" (docs/faults.md), one magnitude each, applied in
   // order to the pair `hdabench run` takes; the truth stays the scene's.
   std::vector<std::string> faults;
+  // The frames rendered: "all", "pair" (the pair `hdabench run` takes),
+  // "pair+next" (and the frame after it, which the dropped-frame fault needs),
+  // or frame indices and ranges ("0,6", "0-6"). The rest of the dataset is
+  // the same whichever.
+  std::string frames = "all";
   bool quiet = false;                   // no progress lines
 };
 int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream& err);

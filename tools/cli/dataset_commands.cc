@@ -39,7 +39,10 @@ void PrintSummary(const datasets::Dataset& dataset, const std::string& dir, int 
   out << "  camera:      " << camera.LensModelName() << ", " << camera.WidthPx() << " x "
       << camera.HeightPx() << " px (" << dataset.camera_model_file << ")\n";
   out << "  frames:      " << dataset.frames.size() << ", " << util::FixedText(first.time_s, 3) << " .. "
-      << util::FixedText(last.time_s, 3) << " s (" << util::FixedText(last.time_s - first.time_s, 3) << " s)\n";
+      << util::FixedText(last.time_s, 3) << " s (" << util::FixedText(last.time_s - first.time_s, 3) << " s)";
+  const std::vector<int> imaged = datasets::FramesWithImages(dataset.frames);
+  if (imaged.size() != dataset.frames.size()) out << "; images for frames " << util::JoinInts(imaged);
+  out << "\n";
   out << "  navigation:  " << dataset.nav.size() << " samples, " << util::FixedText(dataset.nav.front().time_s, 3)
       << " .. " << util::FixedText(dataset.nav.back().time_s, 3) << " s"
       << (dataset.nav_has_velocity ? ", velocity" : "") << (dataset.nav_has_sigmas ? ", sigmas" : "")

@@ -63,6 +63,7 @@ int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
   synth.seed = options.seed;
   synth.image_size_px = options.image_size_px;
   synth.threads = options.threads;
+  synth.frames = "pair";  // compare takes the default pair only
   out << "== Generating the default synthetic dataset (preset novac-lateral, seed " << options.seed
       << ")\n";
   const int created = RunSynth(synth, out, err);

@@ -34,6 +34,38 @@ namespace hdabench::tools {
 namespace fs = std::filesystem;
 namespace synth = datasets::synth;
 
+namespace {
+
+// synth --frames: "all" (no chooser), "pair", "pair+next", or indices and
+// ranges "0,6", "0-6". InputError naming the bad item.
+std::function<std::vector<int>(const datasets::Dataset&)> FramesToRenderFlag(const std::string& text) {
+  const std::string_view trimmed = util::Trim(text);
+  if (trimmed == "all") return {};
+  if (trimmed == "pair" || trimmed == "pair+next") {
+    const bool with_next = trimmed == "pair+next";
+    return [with_next](const datasets::Dataset& dataset) { return reference::PairFramesToRender(dataset, with_next); };
+  }
+  std::vector<int> frames;
+  for (const std::string_view item : util::SplitAtCommas(trimmed)) {
+    const std::string_view part = util::Trim(item);
+    const size_t dash = part.find('-', 1);
+    int first = 0, last = 0;
+    const bool ok = dash == std::string_view::npos
+                        ? util::ParseInt(part, &first) == util::ParseStatus::kOk && (last = first, true)
+                        : util::ParseInt(part.substr(0, dash), &first) == util::ParseStatus::kOk &&
+                              util::ParseInt(part.substr(dash + 1), &last) == util::ParseStatus::kOk;
+    if (!ok || first < 0 || last < first) {
+      throw InputError("--frames: '" + std::string(part) +
+                       "' is not a frame index or a range FIRST-LAST; expected all, pair, pair+next or a list "
+                       "such as 0,6 or 0-6");
+    }
+    for (int f = first; f <= last; ++f) frames.push_back(f);
+  }
+  return [frames](const datasets::Dataset&) { return frames; };
+}
+
+}  // namespace
+
 int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream& err) {
   std::error_code ec;
   if (fs::exists(options.out_dir, ec) &&
@@ -63,6 +95,7 @@ int RunSynth(const SynthCommandOptions& options, std::ostream& out, std::ostream
                            &terrain);
     }
     synth::ScaleTerrain(synth_options.terrain_scale, &terrain);
+    synth_options.frames_to_render = FramesToRenderFlag(options.frames);
   } catch (const InputError& e) {
     err << "hdabench synth: " << e.what() << "\n";
     return kExitUsage;
@@ -223,6 +256,11 @@ Command AddSynthCommand(CLI::App& app) {
   synth_app->add_option("--fault", options->faults,
                         "A sensor fault NAME[=M] on the pair hdabench run takes, the truth left as the\n"
                         "scene's (repeatable, applied in order; hdabench faults --list, docs/faults.md)");
+  synth_app->add_option("--frames", options->frames,
+                        "Frames to render: all, pair (the pair hdabench run takes), pair+next (and the frame\n"
+                        "after it, for the dropped-frame fault) or a list such as 0,6 or 0-6; the other frames\n"
+                        "keep their times, navigation and LRF, without an image")
+      ->capture_default_str();
   synth_app->add_flag("--quiet", options->quiet, "No progress lines");
   return {synth_app, [options] { return RunSynth(*options, std::cout, std::cerr); }};
 }

@@ -30,6 +30,12 @@ std::string VectorText(const Eigen::VectorXd& values) {
 
 std::string CsvNumber(double value) { return std::isfinite(value) ? nlohmann::json(value).dump() : ""; }
 
+std::string JoinInts(const std::vector<int>& values) {
+  std::string text;
+  for (const int value : values) text += (text.empty() ? "" : ", ") + std::to_string(value);
+  return text.empty() ? "none" : text;
+}
+
 std::string FixedText(double value, int digits) {
   char buffer[512];
   // Beyond 1e15 fixed point would print every digit of the number (309 of

@@ -44,6 +44,9 @@ std::string SignedCell(double value, int digits);
 // 1.00e+308, not 309 digits).
 std::string FixedText(double value, int digits);
 
+// Whole numbers separated by ", " ("0, 6"); "none" for an empty list.
+std::string JoinInts(const std::vector<int>& values);
+
 // Columns aligned to their widest cell; `left` columns are left-aligned, the
 // others right-aligned; a rule of dashes under the header (the first row).
 std::string FormatTextTable(const std::vector<std::vector<std::string>>& rows,

@@ -96,7 +96,8 @@ double SmallestRoiSidePx(const FlightRun& flight) {
 }
 
 // colmap-nav and colmap-free (whichever are wanted) in one COLMAP run: the
-// pair first, then, with use_all_frames, every other frame of the window.
+// pair first, then, with use_all_frames, every other frame of the window that
+// has an image.
 ColmapResults RunColmapMethods(const datasets::Dataset& dataset, int frame1, int frame2,
                                const CompareOptions& options, bool nav, bool free,
                                double smallest_roi_px, const std::string& workspace) {
@@ -105,7 +106,7 @@ ColmapResults RunColmapMethods(const datasets::Dataset& dataset, int frame1, int
   }
   std::vector<int> frames = {frame1, frame2};
   if (options.colmap.use_all_frames) {
-    for (int f = 0; f < static_cast<int>(dataset.frames.size()); ++f) {
+    for (const int f : datasets::FramesWithImages(dataset.frames)) {
       if (f != frame1 && f != frame2) frames.push_back(f);
     }
   }

@@ -124,6 +124,62 @@ TEST(GenerateSynthDataset, SameSeedSameBytesWhateverTheThreadCount) {
   EXPECT_TRUE(any_differs) << "seed 8 gave the same files as seed 7";
 }
 
+// Rendering some frames changes nothing else: those frames' images and truth
+// points, the navigation, the LRF and the truth DEM are the bytes of the whole
+// render; the other frames keep their times without an image, and a command
+// that needs one of them is told which frames have images.
+TEST(GenerateSynthDataset, SomeFramesRenderedAreTheSameBytesAsInTheWholeRender) {
+  const SynthOptions whole_options = SmallPreset("novac-lateral");
+  SynthOptions some_options = whole_options;
+  some_options.frames_to_render = [](const Dataset&) { return std::vector<int>{3, 1}; };
+  const fs::path dir = FreshTestDir();
+  SynthSummary summary;
+  const Dataset some = GenerateSynthDataset(some_options, TerrainFor(some_options), 5, {}, &summary);
+  EXPECT_EQ(summary.rendered_frames, (std::vector<int>{1, 3}));
+  EXPECT_NE(summary.Summary().find("(images for 1, 3)"), std::string::npos) << summary.Summary();
+  WriteDataset(GenerateSynthDataset(whole_options, TerrainFor(whole_options), 5), (dir / "whole").string());
+  WriteDataset(some, (dir / "some").string());
+  ASSERT_GE(some.frames.size(), 4u);
+  for (const FrameRecord& frame : some.frames) {
+    EXPECT_EQ(frame.HasImage(), frame.index == 1 || frame.index == 3) << frame.index;
+  }
+  EXPECT_EQ(FramesWithImages(some.frames), (std::vector<int>{1, 3}));
+  for (const char* file : {"images/frame_000001.png", "images/frame_000003.png", "truth/points_000001.npy",
+                           "truth/points_000003.npy", "nav.csv", "lrf.csv", "truth/dem.npy", "truth/rocks.csv",
+                           "truth/nav_truth.csv", "camera.cameramodel"}) {
+    EXPECT_EQ(ReadText(dir / "some" / file), ReadText(dir / "whole" / file)) << file;
+  }
+  EXPECT_FALSE(fs::exists(dir / "some" / "images" / "frame_000000.png"));
+  EXPECT_FALSE(fs::exists(dir / "some" / "truth" / "points_000000.npy"));
+  EXPECT_NE(ReadText(dir / "some" / "frames.csv").find("\n0,0,\n"), std::string::npos) << ReadText(dir / "some" / "frames.csv");
+
+  const DatasetLoadResult loaded = LoadDataset((dir / "some").string());
+  ASSERT_TRUE(loaded.Ok()) << (loaded.problems.empty() ? "" : loaded.problems[0].ToString());
+  EXPECT_EQ(loaded.dataset->frames.size(), some.frames.size());
+  EXPECT_EQ(FramesWithImages(loaded.dataset->frames), (std::vector<int>{1, 3}));
+  LoadOptions pair_0_3;
+  pair_0_3.frames_used = [](const Dataset&) { return std::vector<int>{0, 3}; };
+  const DatasetLoadResult refused = LoadDataset((dir / "some").string(), pair_0_3);
+  ASSERT_EQ(refused.problems.size(), 1u);
+  EXPECT_EQ(refused.problems[0].ToString(),
+            "frames.csv:2: frame 0 has no image (its image cell is empty), but the command uses it; frames with "
+            "images: 1, 3");
+
+  // Bad choices are refused before anything is rendered.
+  for (const auto& [chosen, expected] : std::vector<std::pair<std::vector<int>, std::string>>{
+           {{1}, "render at least 2 frames"}, {{1, 1}, "frame 1 is given twice"},
+           {{0, 99}, "frame 99 is not a frame of the scene, which has frames 0.."}}) {
+    SynthOptions bad = whole_options;
+    bad.frames_to_render = [chosen = chosen](const Dataset&) { return chosen; };
+    try {
+      GenerateSynthDataset(bad, TerrainFor(bad), 5);
+      ADD_FAILURE() << "expected InputError containing: " << expected;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
+  }
+}
+
 void ExpectInputError(const SynthOptions& options, const TerrainOptions& terrain, const std::string& expected) {
   try {
     GenerateSynthDataset(options, terrain, 1);
@@ -190,6 +246,10 @@ TEST(SynthCommand, BadOptionsAreUsageErrorsAndABadCameraModelAnInputError) {
       // Finite, but a blur whose taps outgrow the render's margins (this crashed).
       {{"--set", "render.f_number=1e308"}, "give a diffraction blur of sigma"},
       {{"--set", "render.pixel_pitch_um=1e-300"}, "expected at most 10 px"},
+      {{"--frames", "0,x"}, "--frames: 'x' is not a frame index or a range FIRST-LAST"},
+      {{"--frames", "6-2"}, "--frames: '6-2' is not a frame index"},
+      {{"--frames", "0,99"}, "frame 99 is not a frame of the scene, which has frames 0..12"},
+      {{"--frames", "3"}, "render at least 2 frames"},
   };
   for (const auto& [flags, message] : cases) {
     std::vector<std::string> args = {"synth", "--out", out.string(), "--image-size", "64", "--quiet"};

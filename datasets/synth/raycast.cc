@@ -16,11 +16,20 @@ constexpr double kFootprintSlack = 1e-9;
 // heights, the ray's height at a t is rounded.
 constexpr double kHeightSlackM = 1e-6;
 
+// floor(x) as an int, for x within the range of int: what
+// static_cast<int>(std::floor(x)) gives, without the call to floor() that
+// baseline x86-64 makes of it.
+inline int FloorToInt(double x) {
+  const int truncated = static_cast<int>(x);
+  return x < truncated ? truncated - 1 : truncated;
+}
+
 // The t-range where z0 + dz * t lies in [z_lo, z_hi], intersected with
-// [*t_in, *t_out]; false when empty.
-bool ClipToHeightRange(double z0, double dz, double z_lo, double z_hi, double* t_in, double* t_out) {
+// [*t_in, *t_out]; false when empty. `inv_dz` is 1 / dz.
+bool ClipToHeightRange(double z0, double dz, double inv_dz, double z_lo, double z_hi, double* t_in,
+                       double* t_out) {
   if (dz == 0.0) return z0 >= z_lo && z0 <= z_hi && *t_in <= *t_out;
-  const double inv = 1.0 / dz;
+  const double inv = inv_dz;
   double ta = (z_lo - z0) * inv;
   double tb = (z_hi - z0) * inv;
   if (ta > tb) std::swap(ta, tb);
@@ -56,6 +65,7 @@ struct SceneRaycaster::RayState {
   double u0, v0, z0;
   double du, dv, dz;
   double inv_du, inv_dv;  // infinite for a zero component
+  double inv_dz;          // 1 / dz (infinite for zero; ClipToHeightRange does not use it then)
   double t_max;           // hits beyond are ignored
 };
 
@@ -63,16 +73,21 @@ struct SceneRaycaster::RayState {
 // element range [c_lo, c_hi] x [r_lo, r_hi], for t in [t_in, t_out]. Calls
 // visit(r, c, t_a, t_b) in ray order with the element's t-range (clipped to
 // [t_in, t_out]); stops early when visit returns true and then returns true.
+// `inv_size` is 1 / size when that is exact (a power of two), else 0: a
+// position is then divided by size, as multiplying by a rounded inverse could
+// put it in another element.
 template <typename Visit>
 static bool WalkGrid(double u0, double v0, double du, double dv, double inv_du, double inv_dv,
-                     double size, int c_lo, int c_hi, int r_lo, int r_hi, double t_in, double t_out,
-                     Visit&& visit) {
+                     double size, double inv_size, int c_lo, int c_hi, int r_lo, int r_hi, double t_in,
+                     double t_out, Visit&& visit) {
   // The starting element comes from the position at t_in, clamped into range:
   // t_in is on the range's boundary when the range was entered there.
   const double u_in = u0 + du * t_in;
   const double v_in = v0 + dv * t_in;
-  int c = std::clamp(static_cast<int>(std::floor(u_in / size)), c_lo, c_hi);
-  int r = std::clamp(static_cast<int>(std::floor(v_in / size)), r_lo, r_hi);
+  const double u_elements = inv_size != 0.0 ? u_in * inv_size : u_in / size;
+  const double v_elements = inv_size != 0.0 ? v_in * inv_size : v_in / size;
+  int c = std::clamp(FloorToInt(u_elements), c_lo, c_hi);
+  int r = std::clamp(FloorToInt(v_elements), r_lo, r_hi);
   const int step_c = du > 0.0 ? 1 : -1;
   const int step_r = dv > 0.0 ? 1 : -1;
   double t_next_c = du == 0.0 ? kInf : ((c + (du > 0.0 ? 1 : 0)) * size - u0) * inv_du;
@@ -279,8 +294,9 @@ bool SceneRaycaster::TerrainLevel(const RayState& ray, int level, int block_row,
     c_hi = std::min(c_hi, c_lo + kBlock - 1);
     r_hi = std::min(r_hi, r_lo + kBlock - 1);
   }
-  return WalkGrid(ray.u0, ray.v0, ray.du, ray.dv, ray.inv_du, ray.inv_dv, child_size, c_lo, c_hi, r_lo,
-                  r_hi, t_in, t_out, [&](int r, int c, double t_a, double t_b) {
+  // Block sides are powers of kBlock (4): their inverses are exact.
+  return WalkGrid(ray.u0, ray.v0, ray.du, ray.dv, ray.inv_du, ray.inv_dv, child_size, 1.0 / child_size, c_lo,
+                  c_hi, r_lo, r_hi, t_in, t_out, [&](int r, int c, double t_a, double t_b) {
                     if (child < 0) {
                       double t;
                       if (!CellHit(ray, r, c, &t)) return false;
@@ -292,7 +308,7 @@ bool SceneRaycaster::TerrainLevel(const RayState& ray, int level, int block_row,
                     const Level& lv = levels_[child];
                     const size_t i = static_cast<size_t>(r) * lv.cols + c;
                     double a = t_a, b = t_b;
-                    if (!ClipToHeightRange(ray.z0, ray.dz, double{lv.min_z_m[i]} - kHeightSlackM,
+                    if (!ClipToHeightRange(ray.z0, ray.dz, ray.inv_dz, double{lv.min_z_m[i]} - kHeightSlackM,
                                            double{lv.max_z_m[i]} + kHeightSlackM, &a, &b)) {
                       return false;
                     }
@@ -315,6 +331,7 @@ bool SceneRaycaster::MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3
   ray->dz = direction.z();
   ray->inv_du = ray->du == 0.0 ? kInf : 1.0 / ray->du;
   ray->inv_dv = ray->dv == 0.0 ? kInf : 1.0 / ray->dv;
+  ray->inv_dz = ray->dz == 0.0 ? kInf : 1.0 / ray->dz;
   ray->t_max = t_max;
   return true;
 }
@@ -323,7 +340,7 @@ bool SceneRaycaster::TerrainHit(const RayState& ray, double* t_hit, int* cell_ro
   double t0 = 0.0;
   double t1 = ray.t_max;
   if (!ClipToBox(ray.u0, ray.du, ray.v0, ray.dv, cells_x_, cells_y_, &t0, &t1)) return false;
-  if (!ClipToHeightRange(ray.z0, ray.dz, terrain_min_z_m_ - kHeightSlackM,
+  if (!ClipToHeightRange(ray.z0, ray.dz, ray.inv_dz, terrain_min_z_m_ - kHeightSlackM,
                          terrain_max_z_m_ + kHeightSlackM, &t0, &t1)) {
     return false;
   }
@@ -355,18 +372,18 @@ bool SceneRaycaster::RockHit(const RayState& ray, double t_max, bool any_hit, do
   double t1 = t_max;
   // Visible rock points are above the terrain, so above its minimum.
   if (!ClipToBox(ray.u0, ray.du, ray.v0, ray.dv, cells_x_, cells_y_, &t0, &t1) ||
-      !ClipToHeightRange(ray.z0, ray.dz, terrain_min_z_m_ - kHeightSlackM,
+      !ClipToHeightRange(ray.z0, ray.dz, ray.inv_dz, terrain_min_z_m_ - kHeightSlackM,
                          rocks_max_z_m_ + kHeightSlackM, &t0, &t1)) {
     return false;
   }
   double best = t1;
   int best_index = -1;
-  WalkGrid(ray.u0, ray.v0, ray.du, ray.dv, ray.inv_du, ray.inv_dv, rock_cell_cells_, 0, rock_cols_ - 1,
-           0, rock_rows_ - 1, t0, t1, [&](int r, int c, double t_a, double t_b) {
+  WalkGrid(ray.u0, ray.v0, ray.du, ray.dv, ray.inv_du, ray.inv_dv, rock_cell_cells_, /*inv_size=*/0.0, 0,
+           rock_cols_ - 1, 0, rock_rows_ - 1, t0, t1, [&](int r, int c, double t_a, double t_b) {
              const size_t i = static_cast<size_t>(r) * rock_cols_ + c;
              double a = t_a, b = t_b;
              const RockCell& cell = rock_cells_[i];
-             if (ClipToHeightRange(ray.z0, ray.dz, double{cell.min_z_m} - kHeightSlackM,
+             if (ClipToHeightRange(ray.z0, ray.dz, ray.inv_dz, double{cell.min_z_m} - kHeightSlackM,
                                    double{cell.max_z_m} + kHeightSlackM, &a, &b)) {
                const std::vector<Rock>& rocks = scene_.rocks;
                for (std::uint32_t k = rock_cell_offsets_[i]; k < rock_cell_offsets_[i + 1]; ++k) {

@@ -113,7 +113,14 @@ struct YawStencil {
   double yaw_deg = 0.0;
   std::vector<cv::Point> pads;  // (column, row) offsets
   std::vector<cv::Point> body;
+  // The pad triples (i < j < k, in that order) whose triangle holds the
+  // centre: the planes the lander may rest on, the same on every cell.
+  std::vector<std::array<int, 3>> triangles;
 };
+
+// Most pads a lander has (LanderGeometry::Validate) and most triangles of them.
+constexpr int kMaxLegs = 12;
+constexpr int kMaxTriangles = kMaxLegs * (kMaxLegs - 1) * (kMaxLegs - 2) / 6;
 
 YawStencil MakeYawStencil(double spacing_m, double yaw_deg, const LanderGeometry& lander) {
   YawStencil y;
@@ -127,6 +134,20 @@ YawStencil MakeYawStencil(double spacing_m, double yaw_deg, const LanderGeometry
                         static_cast<int>(std::lround(-radius_cells * std::sin(angle))));
     y.pads.push_back(pad);
     corners.emplace_back(pad.x, -pad.y);  // x, y in cells, counter-clockwise
+  }
+  // Pads in metres from the centre, as AtYawOnCell places them.
+  const int n = static_cast<int>(y.pads.size());
+  std::vector<Eigen::Vector2d> pads_m;
+  for (const cv::Point& q : y.pads) pads_m.emplace_back(q.x * spacing_m, -q.y * spacing_m);
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      for (int k = j + 1; k < n; ++k) {
+        if (InTriangle(pads_m[static_cast<size_t>(i)], pads_m[static_cast<size_t>(j)], pads_m[static_cast<size_t>(k)],
+                       Eigen::Vector2d::Zero())) {
+          y.triangles.push_back({i, j, k});
+        }
+      }
+    }
   }
   const int reach = static_cast<int>(std::ceil(radius_cells)) + 1;
   for (int dr = -reach; dr <= reach; ++dr) {
@@ -207,44 +228,37 @@ LandingAtYaw AtYawOnCell(const SurfaceGrid& s, const cv::Mat& pad_max, const cv:
   out.yaw_deg = y.yaw_deg;
   const int n = static_cast<int>(y.pads.size());
   const double sp = s.spacing_m;
-  std::vector<Eigen::Vector2d> pads(static_cast<size_t>(n));
-  std::vector<Eigen::Vector3d> contacts(static_cast<size_t>(n));
+  // Fixed arrays, not vectors: this runs for every cell and yaw of a safety map.
+  std::array<Eigen::Vector3d, kMaxLegs> contacts;
   for (int i = 0; i < n; ++i) {
     const cv::Point& q = y.pads[static_cast<size_t>(i)];
-    pads[static_cast<size_t>(i)] = Eigen::Vector2d(q.x * sp, -q.y * sp);  // metres from the centre
     contacts[static_cast<size_t>(i)] =
-        Eigen::Vector3d(q.x * sp, -q.y * sp, pad_max.at<float>(r + q.y, c + q.x));
+        Eigen::Vector3d(q.x * sp, -q.y * sp, pad_max.at<float>(r + q.y, c + q.x));  // metres from the centre
   }
-  const Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   // The planes the lander can rest on; the worst decides.
   double worst_slope = 0.0;
-  std::vector<Eigen::Vector3d> normals, points;
-  for (int i = 0; i < n; ++i) {
-    for (int j = i + 1; j < n; ++j) {
-      for (int k = j + 1; k < n; ++k) {
-        if (!InTriangle(pads[static_cast<size_t>(i)], pads[static_cast<size_t>(j)], pads[static_cast<size_t>(k)],
-                        centre)) {
-          continue;
-        }
-        const Eigen::Vector3d& a = contacts[static_cast<size_t>(i)];
-        Eigen::Vector3d normal = (contacts[static_cast<size_t>(j)] - a).cross(contacts[static_cast<size_t>(k)] - a);
-        if (normal.z() < 0) normal = -normal;
-        if (!(normal.z() > 0)) continue;  // a vertical plane: no rest
-        normal.normalize();
-        bool rests = true;
-        for (int m = 0; m < n && rests; ++m) {
-          if (m == i || m == j || m == k) continue;
-          // Height of contact m above the plane, measured vertically.
-          if (normal.dot(contacts[static_cast<size_t>(m)] - a) / normal.z() > kOnPlaneM) rests = false;
-        }
-        if (!rests) continue;
-        worst_slope = std::max(worst_slope, std::acos(std::clamp(normal.z(), -1.0, 1.0)) * util::kRadToDeg);
-        normals.push_back(normal);
-        points.push_back(a);
-      }
+  std::array<Eigen::Vector3d, kMaxTriangles> normals, points;
+  size_t planes = 0;
+  for (const std::array<int, 3>& triangle : y.triangles) {
+    const auto [i, j, k] = triangle;
+    const Eigen::Vector3d& a = contacts[static_cast<size_t>(i)];
+    Eigen::Vector3d normal = (contacts[static_cast<size_t>(j)] - a).cross(contacts[static_cast<size_t>(k)] - a);
+    if (normal.z() < 0) normal = -normal;
+    if (!(normal.z() > 0)) continue;  // a vertical plane: no rest
+    normal.normalize();
+    bool rests = true;
+    for (int m = 0; m < n && rests; ++m) {
+      if (m == i || m == j || m == k) continue;
+      // Height of contact m above the plane, measured vertically.
+      if (normal.dot(contacts[static_cast<size_t>(m)] - a) / normal.z() > kOnPlaneM) rests = false;
     }
+    if (!rests) continue;
+    worst_slope = std::max(worst_slope, std::acos(std::clamp(normal.z(), -1.0, 1.0)) * util::kRadToDeg);
+    normals[planes] = normal;
+    points[planes] = a;
+    ++planes;
   }
-  if (normals.empty()) return out;  // cannot happen for a convex ring of pads; no verdict if it does
+  if (planes == 0) return out;  // cannot happen for a convex ring of pads; no verdict if it does
   out.defined = true;
   out.slope_deg = worst_slope;
   out.unsafe_by_slope = worst_slope > lander.max_slope_deg;
@@ -254,13 +268,14 @@ LandingAtYaw AtYawOnCell(const SurfaceGrid& s, const cv::Mat& pad_max, const cv:
     // around minus that is a bound on the clearance (measured vertically,
     // so also along the normal).
     double lowest = std::numeric_limits<double>::infinity();
-    for (size_t m = 0; m < normals.size(); ++m) {
-      for (const Eigen::Vector3d& q : contacts) {
+    for (size_t m = 0; m < planes; ++m) {
+      for (int pad = 0; pad < n; ++pad) {
+        const Eigen::Vector3d& q = contacts[static_cast<size_t>(pad)];
         lowest = std::min(lowest, points[m].z() - (normals[m].x() * (q.x() - points[m].x()) +
                                                    normals[m].y() * (q.y() - points[m].y())) / normals[m].z());
       }
     }
-    const double bound = body_max.at<float>(r, c) - lowest;
+    const double bound = double{body_max.at<float>(r, c)} - lowest;
     if (bound <= lander.body_clearance_m) {
       out.clearance_m = std::max(0.0, bound);
       return out;
@@ -269,7 +284,7 @@ LandingAtYaw AtYawOnCell(const SurfaceGrid& s, const cv::Mat& pad_max, const cv:
   double clearance = 0.0;
   for (const cv::Point& b : y.body) {
     const Eigen::Vector3d q(b.x * sp, -b.y * sp, s.height_m.at<float>(r + b.y, c + b.x));
-    for (size_t m = 0; m < normals.size(); ++m) clearance = std::max(clearance, normals[m].dot(q - points[m]));
+    for (size_t m = 0; m < planes; ++m) clearance = std::max(clearance, normals[m].dot(q - points[m]));
     if (decide_only && clearance > lander.body_clearance_m) break;
   }
   out.clearance_m = clearance;

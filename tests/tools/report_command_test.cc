@@ -322,6 +322,9 @@ TEST(ReportCommand, CompareFolderWithAFailedMethodRendersAndShowsTheFailure) {
 // report renders with the per-ROI table of every method and every figure,
 // including the method plots (the default scene has ROIs with a fit and
 // truth) and the scene's maps.
+// Over 60 s (130 s in CI): the README's whole main job (the scene, every
+// method, COLMAP's included, on the default pair, the report's figures), then
+// the page loaded in headless Chromium.
 TEST(ReportCommand, TheDefaultDatasetsReportRendersWithTheTableAndEveryFigure) {
   SKIP_WITHOUT_CHROMIUM();
   const fs::path dir = FreshTestDir();

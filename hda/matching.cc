@@ -27,6 +27,9 @@ namespace {
 constexpr int kOrbExtraPadPx = 2;
 // ORB descriptors: 256 bits.
 constexpr int kOrbDescriptorBytes = 32;
+// Half-width of the Gaussian blur (7 x 7) cv::ORB applies before it samples
+// its pattern.
+constexpr int kOrbBlurHalfWidthPx = 3;
 constexpr size_t kOrbDescriptorWords = 4;
 // Largest ORB patch and LK window accepted, pixels (a sanity bound).
 constexpr int kMaxWindowPx = 255;
@@ -85,8 +88,8 @@ cv::Rect Padded(const cv::Rect& box, int pad, const cv::Size& image_size) {
 // level's border, the 2n best by FAST score, the Harris response (7 x 7
 // block, k = 0.04), the n best by Harris, the intensity-centroid angle, the
 // level's scale. The descriptors are then cv::ORB's own, computed for these
-// keypoints on the same crop. Result: the keypoints and descriptors cv::ORB
-// gives for the crop and mask, at a fraction of the cost (the test
+// keypoints on these levels (Describe). Result: the keypoints and descriptors
+// cv::ORB gives for the crop and mask, at a fraction of the cost (the test
 // hda.DetectOrbInBox compares the two on every field and byte).
 class OrbInBox {
  public:
@@ -121,11 +124,64 @@ class OrbInBox {
       kept.insert(kept.end(), keypoints.begin(), keypoints.end());
     }
     for (cv::KeyPoint& keypoint : kept) {
-      const size_t level = static_cast<size_t>(keypoint.octave);
-      keypoint.angle = CentroidAngle(images_[level], keypoint.pt);
-      keypoint.pt *= scales_[level];
+      keypoint.angle = CentroidAngle(images_[static_cast<size_t>(keypoint.octave)], keypoint.pt);
     }
     return kept;
+  }
+
+  // cv::ORB's descriptors of Detect()'s keypoints (in their level's pixels,
+  // grouped by level), one row each, in their order; then the keypoints put
+  // into the crop's pixels, as cv::ORB gives them. cv::ORB given the whole
+  // crop would build its own pyramid of it again and blur every level whole.
+  // The levels here are its levels, so each level's keypoints go to a
+  // one-level cv::ORB with only the part of the level their descriptors
+  // read: the keypoints' extent and the reach of the sampling pattern and of
+  // the 7 x 7 blur before it. Every pixel a descriptor compares is then the
+  // same blurred value, and so is every bit.
+  cv::Mat Describe(std::vector<cv::KeyPoint>* keypoints) const {
+    const int patch = options_.orb_patch_size_px;
+    // cv::ORB's sampling reach (ceil(patch / 2 * sqrt 2)) and its blur's half-width.
+    const int reach = static_cast<int>(std::ceil((patch / 2) * std::sqrt(2.0))) + kOrbBlurHalfWidthPx;
+    // A part ends `reach` beyond the keypoints, or at its level's border,
+    // which is at least the patch size away: cv::ORB keeps keypoints that far
+    // inside what it is given. Beyond the part cv::ORB reads the level's own
+    // pixels (a view, not isolated) and beyond the level it reflects, as it
+    // does for the whole crop.
+    const int inside = std::min(reach, patch);
+    cv::Ptr<cv::ORB> orb = cv::ORB::create(
+        static_cast<int>(keypoints->size()), static_cast<float>(options_.orb_scale_factor), /*nlevels=*/1,
+        /*edgeThreshold=*/inside, /*firstLevel=*/0, /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, patch,
+        options_.orb_fast_threshold);
+    cv::Mat descriptors(static_cast<int>(keypoints->size()), kOrbDescriptorBytes, CV_8UC1);
+    size_t begin = 0;
+    while (begin < keypoints->size()) {
+      const int level = (*keypoints)[begin].octave;
+      size_t end = begin;
+      cv::Rect extent;
+      std::vector<cv::KeyPoint> in_part;
+      for (; end < keypoints->size() && (*keypoints)[end].octave == level; ++end) {
+        const cv::Point at(cvRound((*keypoints)[end].pt.x), cvRound((*keypoints)[end].pt.y));
+        extent |= cv::Rect(at, cv::Size(1, 1));
+      }
+      const cv::Rect part =
+          cv::Rect(extent.x - reach, extent.y - reach, extent.width + 2 * reach, extent.height + 2 * reach) &
+          cv::Rect(0, 0, Level(level).cols, Level(level).rows);
+      for (size_t i = begin; i < end; ++i) {
+        cv::KeyPoint keypoint = (*keypoints)[i];
+        keypoint.pt -= cv::Point2f(static_cast<float>(part.x), static_cast<float>(part.y));
+        keypoint.octave = 0;
+        in_part.push_back(keypoint);
+      }
+      cv::Mat part_descriptors;
+      orb->detectAndCompute(Level(level)(part), cv::noArray(), in_part, part_descriptors,
+                            /*useProvidedKeypoints=*/true);
+      // cv::ORB keeps every keypoint given: each lies `inside` within the part.
+      CV_Assert(in_part.size() == end - begin && part_descriptors.rows == static_cast<int>(end - begin));
+      part_descriptors.copyTo(descriptors.rowRange(static_cast<int>(begin), static_cast<int>(end)));
+      begin = end;
+    }
+    for (cv::KeyPoint& keypoint : *keypoints) keypoint.pt *= scales_[static_cast<size_t>(keypoint.octave)];
+    return descriptors;
   }
 
   // How many keypoints Detect() would give, without the angles, and with the
@@ -157,7 +213,7 @@ class OrbInBox {
     // Where a keypoint can be: inside the mask's extent (when there is a
     // mask) and the edge threshold from the border.
     cv::Rect extent(patch, patch, image.cols - 2 * patch, image.rows - 2 * patch);
-    if (!masks_.empty()) extent &= cv::boundingRect(masks_[static_cast<size_t>(level)]);
+    if (masked_) extent &= mask_boxes_[static_cast<size_t>(level)];
     std::vector<cv::KeyPoint> keypoints;
     if (extent.width > 0 && extent.height > 0) {
       // FAST tests pixels 3 or more from the edge of what it is given and
@@ -171,7 +227,15 @@ class OrbInBox {
       cv::FAST(image(searched), keypoints, options_.orb_fast_threshold, /*nonmaxSuppression=*/true);
       const cv::Point2f shift(static_cast<float>(searched.x), static_cast<float>(searched.y));
       for (cv::KeyPoint& keypoint : keypoints) keypoint.pt += shift;
-      if (!masks_.empty()) cv::KeyPointsFilter::runByPixelsMask(keypoints, masks_[static_cast<size_t>(level)]);
+      // FAST's corners lie on whole pixels: inside the mask is inside its box.
+      if (masked_) {
+        const cv::Rect& box = mask_boxes_[static_cast<size_t>(level)];
+        keypoints.erase(std::remove_if(keypoints.begin(), keypoints.end(),
+                                       [&box](const cv::KeyPoint& k) {
+                                         return !box.contains(cv::Point(cvRound(k.pt.x), cvRound(k.pt.y)));
+                                       }),
+                        keypoints.end());
+      }
     }
     cv::KeyPointsFilter::runByImageBorder(keypoints, image.size(), patch);
     cv::KeyPointsFilter::retainBest(keypoints, 2 * features_[static_cast<size_t>(level)]);
@@ -183,16 +247,26 @@ class OrbInBox {
   }
 
   void BuildPyramid(const cv::Mat& crop, const cv::Rect& box_in_crop, double scale_factor) {
-    const bool masked = !box_in_crop.empty();
+    masked_ = !box_in_crop.empty();
     images_.resize(static_cast<size_t>(levels_));
-    if (masked) masks_.resize(static_cast<size_t>(levels_));
     scales_.resize(static_cast<size_t>(levels_));
+    mask_boxes_.assign(static_cast<size_t>(levels_), cv::Rect());
     images_[0] = crop;
-    if (masked) {
-      masks_[0] = cv::Mat::zeros(crop.size(), CV_8UC1);
-      masks_[0](box_in_crop).setTo(255);
-    }
     scales_[0] = 1.0f;
+    // The mask, level by level. cv::ORB resizes a mask image with the crop
+    // and keeps the pixels still at 255. A box stays a box: a pixel is 255
+    // only when every pixel its interpolation weighs is, and the weights
+    // along x depend on x alone, along y on y alone. So the box's columns
+    // and its rows are resized apart, as one-row images, the same way; the
+    // level's mask is the box of the columns and rows still at 255.
+    cv::Mat columns, rows;
+    if (masked_) {
+      mask_boxes_[0] = box_in_crop;
+      columns = cv::Mat::zeros(1, crop.cols, CV_8UC1);
+      columns.colRange(box_in_crop.x, box_in_crop.x + box_in_crop.width).setTo(255);
+      rows = cv::Mat::zeros(1, crop.rows, CV_8UC1);
+      rows.colRange(box_in_crop.y, box_in_crop.y + box_in_crop.height).setTo(255);
+    }
     for (size_t level = 1; level < images_.size(); ++level) {
       const float scale = static_cast<float>(std::pow(scale_factor, static_cast<double>(level)));
       scales_[level] = scale;
@@ -204,10 +278,24 @@ class OrbInBox {
       const cv::Size size(cvRound(static_cast<float>(crop.cols) * inverse),
                           cvRound(static_cast<float>(crop.rows) * inverse));
       cv::resize(images_[level - 1], images_[level], size, 0, 0, cv::INTER_LINEAR_EXACT);
-      if (!masked) continue;
-      cv::resize(masks_[level - 1], masks_[level], size, 0, 0, cv::INTER_LINEAR_EXACT);
-      cv::threshold(masks_[level], masks_[level], 254, 0, cv::THRESH_TOZERO);
+      if (!masked_) continue;
+      const cv::Range x = ResizedMaskRun(&columns, size.width);
+      const cv::Range y = ResizedMaskRun(&rows, size.height);
+      if (!x.empty() && !y.empty()) mask_boxes_[level] = cv::Rect(x.start, y.start, x.size(), y.size());
     }
+  }
+
+  // `line` (one row, 0 or 255) resized to `length` as cv::ORB resizes its
+  // mask, then kept where it is 255; the run of 255s (empty if none).
+  static cv::Range ResizedMaskRun(cv::Mat* line, int length) {
+    cv::Mat resized;
+    cv::resize(*line, resized, cv::Size(length, 1), 0, 0, cv::INTER_LINEAR_EXACT);
+    cv::threshold(resized, *line, 254, 0, cv::THRESH_TOZERO);
+    const std::uint8_t* values = line->ptr<std::uint8_t>(0);
+    const std::uint8_t* first = std::find(values, values + length, 255);
+    const std::uint8_t* end = first;
+    while (end != values + length && *end == 255) ++end;
+    return cv::Range(static_cast<int>(first - values), static_cast<int>(end - values));
   }
 
   // max_features shared over the levels in a geometric series, as
@@ -296,7 +384,9 @@ class OrbInBox {
   const MatchingOptions& options_;
   int levels_;
   int max_features_;
-  std::vector<cv::Mat> images_, masks_;
+  bool masked_ = false;
+  std::vector<cv::Mat> images_;
+  std::vector<cv::Rect> mask_boxes_;  // per level, when masked_: the keypoints' allowed box
   std::vector<float> scales_;
   std::vector<int> features_;
   std::vector<int> half_rows_;
@@ -328,19 +418,10 @@ OrbFeatures DetectInBox(const cv::Mat& image, const cv::Rect& box, const Matchin
   }
   if (levels == 0) return features;
 
-  const cv::Mat crop_image = image(crop);
-  features.keypoints = OrbInBox(crop_image, box - crop.tl(), levels, options, options.orb_features_per_roi).Detect();
+  const OrbInBox orb(image(crop), box - crop.tl(), levels, options, options.orb_features_per_roi);
+  features.keypoints = orb.Detect();
   if (features.keypoints.empty()) return features;
-  const size_t detected = features.keypoints.size();
-  cv::Ptr<cv::ORB> orb = cv::ORB::create(
-      options.orb_features_per_roi, static_cast<float>(options.orb_scale_factor), levels, patch,
-      /*firstLevel=*/0, /*WTA_K=*/2, cv::ORB::HARRIS_SCORE, patch, options.orb_fast_threshold);
-  orb->detectAndCompute(crop_image, cv::noArray(), features.keypoints, features.descriptors,
-                        /*useProvidedKeypoints=*/true);
-  // cv::ORB keeps every keypoint given (each lies at least the edge
-  // threshold inside its level, so inside the crop by more).
-  CV_Assert(features.keypoints.size() == detected &&
-            features.descriptors.rows == static_cast<int>(detected));
+  features.descriptors = orb.Describe(&features.keypoints);
   const cv::Point2f offset(static_cast<float>(crop.x), static_cast<float>(crop.y));
   for (cv::KeyPoint& keypoint : features.keypoints) keypoint.pt += offset;
   return features;
@@ -456,6 +537,14 @@ const std::array<double, 256> kByteValues = [] {
   return values;
 }();
 
+// WarpRefine's per-pixel arrays: the template value and the Jacobian row
+// (d/dx2, d/dy2; d/d offset is -1). One per box, reused by its matches: every
+// element is written before it is read, so a match neither allocates nor
+// clears them.
+struct WarpWindow {
+  std::vector<double> templ, jx, jy;
+};
+
 // Nav-aided refinement of one match at full resolution. The image-1 window
 // of window_px x window_px pixels centred on the whole pixel p1 is compared
 // with image 2 at p2 + J u (u the pixel's offset in the window, J the local
@@ -466,7 +555,7 @@ const std::array<double, 256> kByteValues = [] {
 // when a window leaves its image, the window has no texture, or the
 // iteration does not converge.
 bool WarpRefine(const cv::Mat& image1, const cv::Mat& image2, const cv::Matx22d& jacobian,
-                int window_px, const cv::Point& p1, cv::Point2d* p2) {
+                int window_px, const cv::Point& p1, WarpWindow* window, cv::Point2d* p2) {
   const int half = window_px / 2;
   if (p1.x - half < 1 || p1.y - half < 1 || p1.x + half + 1 >= image1.cols ||
       p1.y + half + 1 >= image1.rows) {
@@ -474,9 +563,12 @@ bool WarpRefine(const cv::Mat& image1, const cv::Mat& image2, const cv::Matx22d&
   }
   const cv::Matx22d to_image2 = jacobian.inv().t();
   const size_t count = static_cast<size_t>(window_px) * static_cast<size_t>(window_px);
-  // Per window pixel: the template value and the Jacobian row (d/dx2, d/dy2;
-  // d/d offset is -1).
-  std::vector<double> templ(count), jx(count), jy(count);
+  window->templ.resize(count);
+  window->jx.resize(count);
+  window->jy.resize(count);
+  double* const templ = window->templ.data();
+  double* const jx = window->jx.data();
+  double* const jy = window->jy.data();
   double sxx = 0, sxy = 0, syy = 0, sx = 0, sy = 0;
   size_t k = 0;
   for (int v = -half; v <= half; ++v) {
@@ -589,6 +681,7 @@ int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& 
 
   int rejected = 0;
   size_t kept = 0;
+  WarpWindow warp_window;
   for (size_t i = 0; i < previous.size(); ++i) {
     const double x = static_cast<double>(next[i].x), y = static_cast<double>(next[i].y);
     const double shift =
@@ -608,7 +701,7 @@ int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& 
       const cv::Vec2d moved = motion_jacobian * cv::Vec2d(whole.x - point1.x, whole.y - point1.y);
       refined += cv::Point2d(moved[0], moved[1]);
       const cv::Point2d start = refined;
-      if (!WarpRefine(image1, image2, motion_jacobian, options.warp_refine_window_px, whole,
+      if (!WarpRefine(image1, image2, motion_jacobian, options.warp_refine_window_px, whole, &warp_window,
                       &refined) ||
           !(std::hypot(refined.x - start.x, refined.y - start.y) <= options.max_refine_shift_px)) {
         ++rejected;

@@ -667,9 +667,10 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
     return;
   }
   RecordPlane(plane, covariances_in_local, n, roi);
-  PredictSlopeSigmaAndArea(ctx, points_in_cam1, plane, local_r_cam1, roi);
   // The windows' lean under the fitted plane's motion: corrected, or carried
-  // in the sigma as a term of its own.
+  // in the sigma as a term of its own. The sigma and the area are predicted
+  // once, for the plane the ROI keeps.
+  bool predicted = false;
   std::vector<Eigen::Vector3d> moved_in_cam1;
   std::vector<cv::Point2d> moved2_px;
   if (PointsWithoutLeans(ctx, *roi, bearings1, points_in_cam1, &moved_in_cam1, &moved2_px)) {
@@ -685,12 +686,15 @@ void FitAndClassify(const Context& ctx, const std::vector<Eigen::Vector3d>& bear
         RecordPlane(moved, covariances_in_local, n, roi);
         PredictSlopeSigmaAndArea(ctx, moved_in_cam1, moved, local_r_cam1, roi);
       } else {
+        PredictSlopeSigmaAndArea(ctx, points_in_cam1, plane, local_r_cam1, roi);
         const double lean_deg = std::abs(moved.slope_deg - plane.slope_deg);
         roi->slope_sigma_terms.lean_deg = lean_deg;
         roi->slope_sigma_deg = std::sqrt(roi->slope_sigma_deg * roi->slope_sigma_deg + lean_deg * lean_deg);
       }
+      predicted = true;
     }
   }
+  if (!predicted) PredictSlopeSigmaAndArea(ctx, points_in_cam1, plane, local_r_cam1, roi);
   Classify(options, n, roi);
 }
 

@@ -516,7 +516,9 @@ TEST(DetectOrbInBox, GivesExactlyWhatOrbGivesOnThePaddedBox) {
     double scale;
   };
   const std::vector<Case> cases = {{500, 3, 31, 10, 1.2}, {60, 3, 31, 10, 1.2}, {500, 4, 31, 5, 1.5},
-                                   {30, 2, 15, 20, 2.0},  {500, 1, 31, 10, 1.2}, {200, 5, 21, 8, 1.3}};
+                                   {30, 2, 15, 20, 2.0},  {500, 1, 31, 10, 1.2}, {200, 5, 21, 8, 1.3},
+                                   // A patch so small that the descriptor's reach and blur exceed it.
+                                   {100, 3, 7, 10, 1.2}};
   std::uniform_int_distribution<int> side(4, 160), place(-40, kSizePx);
   int compared = 0, capped = 0, at_border = 0;
   for (const Case& c : cases) {

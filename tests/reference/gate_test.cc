@@ -9,6 +9,7 @@
 #include <chrono>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -236,7 +237,7 @@ TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {
 // every threshold is for a method its suite compares.
 TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
   const fs::path gate = fs::path(HDABENCH_SOURCE_DIR) / "gate";
-  for (const std::string name : {"", "-ci", "-lateral", "-decision"}) {
+  for (const std::string name : {"", "-ci", "-lateral", "-decision", "-scale"}) {
     SCOPED_TRACE("gate/suite" + name + ".json");
     const GateSuite suite = ReadGateSuite((gate / ("suite" + name + ".json")).string());
     const GateThresholds thresholds = ReadGateThresholds((gate / ("thresholds" + name + ".json")).string());
@@ -903,6 +904,39 @@ TEST(RunGateSuite, ANewBuildRegeneratesItsDatasetsAndTheSameBuildReusesThem) {
   EXPECT_TRUE(fs::exists(dir / "out" / "datasets" / second[0] / "manifest.json"));
   const nlohmann::json record = nlohmann::json::parse(ReadText(dir / "out" / "entries" / "scene" / "gate_entry.json"));
   EXPECT_EQ(record.at("build"), "build-b");
+}
+
+// A synthetic entry's scene has images for the default pair only, and for
+// the frame after it too where an entry on that scene drops a frame (which
+// puts the next frame in image 2's place).
+TEST(RunGateSuite, ScenesRenderThePairAndTheNextFrameOnlyForADroppedFrame) {
+  const fs::path dir = FreshTestDir();
+  const nlohmann::json dropped_scene = {{"preset", "novac-lateral"}, {"seed", 3}, {"image_size", 128}};
+  const nlohmann::json plain_scene = {{"preset", "novac-lateral"}, {"seed", 4}, {"image_size", 128}};
+  WriteText(dir / "suite.json",
+            nlohmann::json({{"format", "hdabench-gate-suite"},
+                            {"format_version", 1},
+                            {"methods", {"flight"}},
+                            {"entries",
+                             {{{"name", "clean"}, {"synth", dropped_scene}},
+                              {{"name", "dropped"}, {"synth", dropped_scene}, {"fault", "frame-dropped"}},
+                              {{"name", "plain"}, {"synth", plain_scene}}}}})
+                .dump(1));
+  GateRunOptions options;
+  options.out_dir = (dir / "out").string();
+  options.jobs = 1;
+  for (const GateEntryOutcome& outcome : RunGateSuite(ReadGateSuite((dir / "suite.json").string()), options, nullptr)) {
+    EXPECT_TRUE(outcome.ok) << outcome.error;
+  }
+  std::map<std::string, int> images;  // dataset owner -> image files
+  for (const auto& item : fs::directory_iterator(dir / "out" / "datasets")) {
+    const std::string name = item.path().filename().string();
+    const std::string owner = name.substr(0, name.rfind('-'));
+    for (const auto& image : fs::directory_iterator(item.path() / "images")) {
+      if (image.is_regular_file()) ++images[owner];
+    }
+  }
+  EXPECT_EQ(images, (std::map<std::string, int>{{"clean", 3}, {"plain", 2}}));
 }
 
 // Without a build given, the running program's identity keys the caches: the

@@ -10,6 +10,7 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -45,7 +46,7 @@ std::function<std::vector<int>(const datasets::Dataset&)> FramesToRenderFlag(con
     const bool with_next = trimmed == "pair+next";
     return [with_next](const datasets::Dataset& dataset) { return reference::PairFramesToRender(dataset, with_next); };
   }
-  std::vector<int> frames;
+  std::vector<std::pair<int, int>> ranges;  // FIRST-LAST, inclusive
   for (const std::string_view item : util::SplitAtCommas(trimmed)) {
     const std::string_view part = util::Trim(item);
     const size_t dash = part.find('-', 1);
@@ -59,9 +60,22 @@ std::function<std::vector<int>(const datasets::Dataset&)> FramesToRenderFlag(con
                        "' is not a frame index or a range FIRST-LAST; expected all, pair, pair+next or a list "
                        "such as 0,6 or 0-6");
     }
-    for (int f = first; f <= last; ++f) frames.push_back(f);
+    ranges.emplace_back(first, last);
   }
-  return [frames](const datasets::Dataset&) { return frames; };
+  // Expanded against the scene's frames: a range past the last frame stops at
+  // the first frame the scene does not have, which the check of the list then
+  // names (a range such as 0-2000000000 costs nothing).
+  return [ranges](const datasets::Dataset& dataset) {
+    const int count = static_cast<int>(dataset.frames.size());
+    std::vector<int> frames;
+    for (const auto& [first, last] : ranges) {
+      for (int f = first; f <= last; ++f) {
+        frames.push_back(f);
+        if (f >= count) break;
+      }
+    }
+    return frames;
+  };
 }
 
 }  // namespace

@@ -249,6 +249,8 @@ TEST(SynthCommand, BadOptionsAreUsageErrorsAndABadCameraModelAnInputError) {
       {{"--frames", "0,x"}, "--frames: 'x' is not a frame index or a range FIRST-LAST"},
       {{"--frames", "6-2"}, "--frames: '6-2' is not a frame index"},
       {{"--frames", "0,99"}, "frame 99 is not a frame of the scene, which has frames 0..12"},
+      // A range far past the scene is refused as quickly, naming its first frame too many.
+      {{"--frames", "0-2000000000"}, "frame 13 is not a frame of the scene, which has frames 0..12"},
       {{"--frames", "3"}, "render at least 2 frames"},
   };
   for (const auto& [flags, message] : cases) {

@@ -131,9 +131,6 @@ std::mutex& DatasetFolderLock(const std::string& folder) {
   return locks[folder];
 }
 
-// The folder name of a dataset the gate makes: the owner's name and a hash of
-// its source and the build (a new build makes its datasets again, since the
-// scene generator may have changed).
 // Whether a synthetic dataset renders the frame after the default pair: when
 // an entry that shares it drops a frame (the next frame takes image 2's place).
 bool RendersNextFrame(const GateEntry& owner, const GateSuite& suite) {
@@ -143,10 +140,11 @@ bool RendersNextFrame(const GateEntry& owner, const GateSuite& suite) {
   });
 }
 
-// The folder name of an owner's made dataset: its name and a hash of what
-// makes it (the spec, the frames rendered, the build).
-std::string MadeDatasetName(const GateEntry& owner, const GateSuite& suite, const GateRunOptions& o) {
-  const std::string frames = RendersNextFrame(owner, suite) ? "pair+next" : "pair";
+// The folder name of a dataset the gate makes: the owner's name and a hash of
+// its source, the frames rendered and the build (a new build makes its
+// datasets again, since the scene generator may have changed).
+std::string MadeDatasetName(const GateEntry& owner, bool with_next, const GateRunOptions& o) {
+  const std::string frames = with_next ? "pair+next" : "pair";
   return owner.name + "-" +
          Hex(Fnv1a(EntryDatasetSpecJson(owner).dump() + "\n" + frames + "\n" + BuildOf(o))).substr(0, 8);
 }
@@ -169,7 +167,10 @@ std::string EntryDataset(const GateEntry& entry, const GateSuite& suite, const G
   const GateEntry& e = DatasetOwner(entry, suite);
   const fs::path suite_dir = fs::path(suite.file).parent_path();
   if (e.dataset_dir) return (suite_dir / *e.dataset_dir).lexically_normal().string();
-  const fs::path made = fs::path(o.out_dir) / "datasets" / MadeDatasetName(e, suite, o);
+  // The entries take the default pair; a dropped-frame fault on an entry
+  // that shares the dataset takes the frame after it too.
+  const bool with_next = RendersNextFrame(e, suite);
+  const fs::path made = fs::path(o.out_dir) / "datasets" / MadeDatasetName(e, with_next, o);
   const std::lock_guard<std::mutex> folder_lock(DatasetFolderLock(made.string()));
   if (fs::exists(made / "manifest.json")) return made.string();
   const fs::path staging = made.string() + ".partial-" + std::to_string(::getpid());
@@ -185,9 +186,6 @@ std::string EntryDataset(const GateEntry& entry, const GateSuite& suite, const G
     }
     datasets::synth::ScaleTerrain(options.terrain_scale, &terrain);
     options.threads = o.synth_threads;
-    // The entries take the default pair; a dropped-frame fault on an entry
-    // that shares the dataset takes the frame after it too.
-    const bool with_next = RendersNextFrame(e, suite);
     options.frames_to_render = [with_next](const datasets::Dataset& d) { return PairFramesToRender(d, with_next); };
     datasets::WriteDataset(datasets::synth::GenerateSynthDataset(options, terrain, e.synth_seed),
                            staging.string());

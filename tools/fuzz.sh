@@ -48,7 +48,7 @@ if [[ ! -f $build_dir/CMakeCache.txt ]]; then
   printf '== Configuring %s\n' "$build_dir"
   cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DCMAKE_CXX_COMPILER="$clang" \
-    -DCMAKE_C_COMPILER="${clang%++*}${clang##*++}" -DHDABENCH_FUZZ=ON -DHDABENCH_BUILD_TESTS=OFF \
+    -DCMAKE_C_COMPILER="${clang%++*}${clang##*++}" -DHDABENCH_FUZZ=ON -DHDABENCH_BUILD_TESTS=OFF -DHDABENCH_PCH=OFF \
     -DCMAKE_UNITY_BUILD=ON >/dev/null || die "configuring $build_dir failed (is libFuzzer there: libclang-rt-14-dev?)" 3
 fi
 printf '== Building the harnesses in %s\n' "$build_dir"

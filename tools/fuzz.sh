@@ -22,7 +22,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build_dir=${HDABENCH_FUZZ_BUILD_DIR:-$root/build-fuzz}
 jobs=${HDABENCH_JOBS:-$(nproc)}
-all=(npy png cameramodel dataset field_log colmap_model gate_files report_records)
+all=(npy png cameramodel dataset field_log colmap_model gate_files external_output report_records)
 limit=(-max_total_time=30)
 only=()
 

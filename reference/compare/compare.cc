@@ -9,6 +9,7 @@
 #include "reference/compare/method.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
+#include "tools/util/text.h"
 
 namespace hdabench::reference {
 
@@ -143,13 +144,21 @@ SlopeSample SampleOfMethodRoi(const MethodRoi& roi, const RoiTruthValue* truth) 
 
 std::vector<std::string> AllMethodNames() {
   std::vector<std::string> names;
+  for (const MethodEntry& method : MethodTable()) {
+    if (method.in_all) names.push_back(method.name);
+  }
+  return names;
+}
+
+std::vector<std::string> KnownMethodNames() {
+  std::vector<std::string> names;
   for (const MethodEntry& method : MethodTable()) names.push_back(method.name);
   return names;
 }
 
 std::vector<std::string> ParseMethodList(const std::string& comma_separated) {
-  const std::vector<std::string> all = AllMethodNames();
-  if (comma_separated == "all") return all;
+  if (comma_separated == "all") return AllMethodNames();
+  const std::vector<std::string> all = KnownMethodNames();
   std::vector<std::string> methods;
   std::set<std::string> seen;
   size_t start = 0;
@@ -212,9 +221,17 @@ CeresRefineOptions DefaultRefineOptions() {
   return refine;
 }
 
+std::vector<std::string> ExternalMethodOptions::Validate() const {
+  std::vector<std::string> errors;
+  if (!(timeout_s > 0.0) || !std::isfinite(timeout_s)) {
+    errors.push_back("timeout_s = " + util::ShortestText(timeout_s) + ": expected a finite number of seconds > 0");
+  }
+  return errors;
+}
+
 std::vector<std::string> CompareOptions::Validate() const {
   std::vector<std::string> errors;
-  const std::vector<std::string> all = AllMethodNames();
+  const std::vector<std::string> all = KnownMethodNames();
   for (const std::string& m : methods) {
     if (std::find(all.begin(), all.end(), m) == all.end()) {
       errors.push_back("methods: unknown method '" + m + "'");
@@ -228,6 +245,10 @@ std::vector<std::string> CompareOptions::Validate() const {
   for (const std::string& e : opengv.Validate()) errors.push_back("opengv." + e);
   for (const std::string& e : direct_plane.Validate()) errors.push_back("direct_plane." + e);
   for (const std::string& e : dense_stereo.Validate()) errors.push_back("dense_stereo." + e);
+  for (const std::string& e : external.Validate()) errors.push_back("external." + e);
+  if (std::find(methods.begin(), methods.end(), kMethodExternal) != methods.end() && external.program.empty()) {
+    errors.push_back("external.program: the external method needs a program (--external-program)");
+  }
   for (const std::string& e : refine.Validate()) errors.push_back("refine." + e);
   if (!(fit_pixel_sigma_px > 0.0 && std::isfinite(fit_pixel_sigma_px))) {
     errors.push_back("fit_pixel_sigma_px = " + std::to_string(fit_pixel_sigma_px) +

@@ -43,6 +43,7 @@ inline constexpr char kMethodColmapFree[] = "colmap-free";
 inline constexpr char kOpenGvMethodPrefix[] = "opengv-";
 inline constexpr char kMethodDenseNav[] = "dense-nav";
 inline constexpr char kMethodPlaneNav[] = "plane-nav";
+inline constexpr char kMethodExternal[] = "external";
 
 // The image-1 tiles whose features join the ROIs' in the OpenGV methods'
 // pose: squares of the largest ROI side on a grid over the image, every k-th
@@ -53,8 +54,12 @@ inline constexpr char kMethodPlaneNav[] = "plane-nav";
 std::vector<cv::Rect> OverlapTiles(int image_width_px, int image_height_px,
                                    const std::vector<cv::Rect>& roi_boxes_px, int max_tiles);
 
-// Every method name, in the order of the tables.
+// Every method `all` stands for, in the order of the tables: the table's
+// methods but those that run only when named (external, which needs a
+// program).
 std::vector<std::string> AllMethodNames();
+// Every method name of the table, those that run only when named included.
+std::vector<std::string> KnownMethodNames();
 // "flight,colmap-nav" -> {"flight", "colmap-nav"}; "all" -> AllMethodNames().
 // The flight method is always run (it finds the ROIs); it is added first when
 // not listed. Throws InputError naming an unknown or repeated method and
@@ -81,6 +86,21 @@ struct ColmapSettings {
 // pair (FlightRun::options).
 CeresRefineOptions DefaultRefineOptions();
 
+// The external method (methods/external.cc, docs/external-method.md): the
+// program it runs as `program args... INPUT_JSON OUTPUT_JSON`, in work_dir.
+struct ExternalMethodOptions {
+  std::string program;            // a path, or a name looked up in PATH; empty: none given
+  std::vector<std::string> args;  // before the two file arguments
+  // Wall-time limit of the program, seconds; on expiry it and every process it
+  // started are ended, and the column fails. A learned or dense method on one
+  // pair takes seconds to minutes; ten minutes is far past a working one.
+  double timeout_s = 600.0;
+  // Its input, output and log (input.json, output.json, program.log); empty:
+  // a temporary folder, removed after the run.
+  std::string work_dir;
+  std::vector<std::string> Validate() const;
+};
+
 struct CompareOptions {
   std::vector<std::string> methods = AllMethodNames();
   // The flight method (and the matcher the OpenGV methods use); the keys not
@@ -92,6 +112,7 @@ struct CompareOptions {
   CeresRefineOptions refine = DefaultRefineOptions();
   DirectPlaneOptions direct_plane;  // plane-nav
   DenseStereoOptions dense_stereo;  // dense-nav
+  ExternalMethodOptions external;   // external
   // The matches the OpenGV methods use: the flight matcher's ORB matches with
   // the flight's options (false), or denser ones over the same boxes (true:
   // 2000 ORB keypoints per box at a FAST threshold of 5, the rest as the
@@ -268,6 +289,18 @@ RoiFit FitRoiPoints(const std::vector<Eigen::Vector3d>& points_in_local,
                     const Eigen::Vector3d& camera1_centre_in_local,
                     const Eigen::Vector3d& camera2_centre_in_local,
                     const Eigen::Vector3d& gravity_in_local, int min_points);
+
+// The external method's output.json (docs/external-method.md) as text: one
+// MethodRoi per id of `roi_ids` (the flight method's ROIs, in their order),
+// an ROI it does not give "failed" with that reason; slopes against
+// `gravity_in_local`, point accuracy against `dem` when given; *note the
+// output's note and how many ROIs it left out. Throws InputError naming
+// `where_file` and the record for anything unusable (not JSON, another format,
+// an unknown or repeated id, an unknown status, "ok" without a finite,
+// non-zero normal).
+void ParseExternalOutput(const std::string& text, const std::string& where_file, const std::vector<int>& roi_ids,
+                         const Eigen::Vector3d& gravity_in_local, const datasets::TruthDem* dem,
+                         std::vector<MethodRoi>* rois, std::string* note);
 
 // Point accuracy against the truth DEM (see PointAccuracy).
 PointAccuracy ComputePointAccuracy(const std::vector<Eigen::Vector3d>& points_in_local,

@@ -113,6 +113,9 @@ struct MethodEntry {
   std::string name;     // as on the command line and in every record
   std::string summary;  // one line: what it is (the CLI's help, the docs)
   MethodNeeds needs;
+  // False: run only when named (`--methods all` and the default leave it out),
+  // for a method that needs something the user gives (external: a program).
+  bool in_all = true;
   // Fills the method's ROIs (parallel to the flight's) and its summary. A
   // method that cannot run on this pair throws (InputError with what and
   // where): the loop marks its column failed with the message.

@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -26,6 +28,7 @@
 #include "tools/util/files.h"
 #include "tools/util/options_check.h"
 #include "tools/util/parallel_for.h"
+#include "tools/util/process.h"
 
 namespace hdabench::reference {
 
@@ -84,6 +87,17 @@ const std::vector<std::string>& EntryMethods(const GateEntry& e, const GateSuite
   return e.methods.empty() ? suite.methods : e.methods;
 }
 
+// The bytes of the external method's program (looked up in PATH when it is a
+// bare name); empty when it cannot be read, and the entry's run then fails
+// with the reason.
+std::string ProgramBytes(const std::string& program) {
+  const std::string path = util::FindExecutable(program);
+  if (path.empty()) return "";
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "";
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
 // The settings an entry's results depend on: a complete folder with other
 // settings is redone.
 std::string EntrySettings(const GateEntry& e, const GateSuite& suite, const GateRunOptions& o) {
@@ -101,6 +115,14 @@ std::string EntrySettings(const GateEntry& e, const GateSuite& suite, const Gate
   j["fault_match_noise_px"] = o.fault_match_noise_px;
   j["flight_compute_budget_s"] = kGateComputeBudgetS;
   j["colmap"] = o.colmap_executable;
+  const std::vector<std::string>& methods = EntryMethods(e, suite);
+  if (std::find(methods.begin(), methods.end(), kMethodExternal) != methods.end()) {
+    // The program's command and its file's bytes: an entry is redone when the program changes.
+    j["external"] = {{"program", suite.external.program},
+                     {"args", suite.external.args},
+                     {"timeout_s", suite.external.timeout_s},
+                     {"program_fnv1a", Hex(Fnv1a(ProgramBytes(suite.external.program)))}};
+  }
   // Results of another build are not reused.
   j["build"] = BuildOf(o);
   return j.dump(1) + "\n";
@@ -306,6 +328,7 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     compare.hda.Set("compute_budget_s", kGateComputeBudgetS, "gate");
     compare.colmap.executable = o.colmap_executable;
     suite.colmap.ApplyTo(&compare.colmap);
+    compare.external = suite.external;
     // The entries that run at once share the cores: each entry's own thread
     // pools (the exact matcher, the figures) get its share, not every core.
     // Neither changes what they compute.
@@ -314,6 +337,7 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     const fs::path staging = final_dir.string() + ".partial-" + std::to_string(::getpid());
     fs::remove_all(staging);
     fs::create_directories(staging);
+    compare.external.work_dir = (staging / "external").string();
     const CompareRun run =
         RunCompare(*dataset, pair.first, pair.second, compare, (staging / "colmap").string());
     WriteCompareOutputs(run, dataset->frames[static_cast<size_t>(pair.first)].image,

@@ -79,6 +79,10 @@ struct GateSuite {
   std::string description;
   std::vector<std::string> methods;      // compared on every entry (reference::ParseMethodList)
   ColmapSettings colmap;                 // COLMAP's settings for every entry ("colmap": {...})
+  // The external method's program for every entry that lists it ("external":
+  // {"program", "args", "timeout_s"}; the program's path resolved against the
+  // suite's folder when it names a folder).
+  ExternalMethodOptions external;
   std::vector<GateEntry> entries;
 };
 

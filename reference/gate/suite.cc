@@ -1,7 +1,9 @@
 // The gate's suite and thresholds files read and checked (docs/gate.md).
 #include "reference/gate/gate.h"
 
+#include <algorithm>
 #include <cstdint>
+#include <filesystem>
 #include <map>
 #include <set>
 
@@ -43,6 +45,32 @@ ColmapSettings ReadColmapOptions(const Json& c, const std::string& where) {
   ColmapOptions options;
   out.ApplyTo(&options);
   ThrowIfInvalid(where + ": ", options.Validate());
+  return out;
+}
+
+// A suite's "external" object: the external method's program, its
+// arguments and time limit. A program named with a folder is taken relative
+// to the suite's folder (as the entries' datasets are); a bare name is looked
+// up in PATH when it runs.
+ExternalMethodOptions ReadExternalOptions(const Json& x, const std::string& suite_path, const std::string& where) {
+  if (!x.is_object()) throw InputError(where + ": expected an object");
+  OnlyKeys(x, {"program", "args", "timeout_s"}, where);
+  ExternalMethodOptions out;
+  out.program = StringField(x, "program", where);
+  if (out.program.empty()) throw InputError(where + ": field 'program' must not be empty");
+  const std::filesystem::path program(out.program);
+  if (program.is_relative() && out.program.find('/') != std::string::npos) {
+    out.program = (std::filesystem::path(suite_path).parent_path() / program).lexically_normal().string();
+  }
+  if (x.contains("args")) {
+    if (!x["args"].is_array()) throw InputError(where + ": field 'args' must be a list of strings");
+    for (const Json& a : x["args"]) {
+      if (!a.is_string()) throw InputError(where + ": field 'args' must be a list of strings");
+      out.args.push_back(a.get<std::string>());
+    }
+  }
+  if (x.contains("timeout_s")) out.timeout_s = NumberField(x, "timeout_s", where);
+  ThrowIfInvalid(where + ": ", out.Validate());
   return out;
 }
 
@@ -154,7 +182,7 @@ datasets::Fault ReadOneFault(const std::string& text, const std::string& where) 
 GateSuite ReadGateSuite(const std::string& path) {
   const Json j = ReadJsonFile(path);
   CheckFormat(j, kGateSuiteFormatName, path);
-  OnlyKeys(j, {"format", "format_version", "description", "methods", "colmap", "entries"}, path);
+  OnlyKeys(j, {"format", "format_version", "description", "methods", "colmap", "external", "entries"}, path);
   GateSuite suite;
   suite.file = path;
   if (j.contains("description")) suite.description = StringField(j, "description", path);
@@ -166,6 +194,7 @@ GateSuite ReadGateSuite(const std::string& path) {
     if (!c.is_object()) throw InputError(where + ": expected an object");
     suite.colmap = ReadColmapOptions(c, where);
   }
+  if (j.contains("external")) suite.external = ReadExternalOptions(j["external"], path, path + ": external");
   if (!j.contains("entries") || !j["entries"].is_array() || j["entries"].empty()) {
     throw InputError(path + ": field 'entries' must be a non-empty list");
   }
@@ -266,6 +295,11 @@ GateSuite ReadGateSuite(const std::string& path) {
       if (e.observability) throw InputError(where + ": 'methods' applies to a dataset, not to an observability study");
       e.methods = ReadMethods(ej["methods"], where);
     }
+    const std::vector<std::string>& methods = e.methods.empty() ? suite.methods : e.methods;
+    if (!e.observability && suite.external.program.empty() &&
+        std::find(methods.begin(), methods.end(), kMethodExternal) != methods.end()) {
+      throw InputError(where + ": the method 'external' needs the suite's \"external\": {\"program\": ...}");
+    }
     suite.entries.push_back(e);
   }
   return suite;
@@ -280,7 +314,7 @@ GateThresholds ReadGateThresholds(const std::string& path) {
   }
   GateThresholds result;
   result.file = path;
-  const std::vector<std::string> all_methods = AllMethodNames();
+  const std::vector<std::string> all_methods = KnownMethodNames();
   const std::vector<std::string>& metrics = MetricNames();
   std::set<std::string> seen;
   for (size_t i = 0; i < j["thresholds"].size(); ++i) {

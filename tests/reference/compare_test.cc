@@ -1,6 +1,7 @@
 #include "reference/compare/compare.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -538,6 +539,195 @@ TEST_F(CompareOnSyntheticScene, AMethodRegisteredInTheTableJoinsCompare) {
   const nlohmann::json json = nlohmann::json::parse(CompareResultJson(run));
   EXPECT_EQ(json["methods"][1]["name"], "level-ground");
   EXPECT_EQ(json["rois"][0]["methods"]["level-ground"]["reason"], "level by assumption");
+}
+
+// The external method runs only when named, and only with a program.
+TEST(ExternalMethod, RunsOnlyWhenNamedAndNeedsAProgram) {
+  const std::vector<std::string> all = AllMethodNames();
+  EXPECT_EQ(std::find(all.begin(), all.end(), kMethodExternal), all.end());
+  const std::vector<std::string> known = KnownMethodNames();
+  EXPECT_NE(std::find(known.begin(), known.end(), kMethodExternal), known.end());
+  EXPECT_EQ(ParseMethodList("external"), (std::vector<std::string>{"flight", "external"}));
+  CompareOptions options;
+  options.methods = {kMethodFlight, kMethodExternal};
+  const std::vector<std::string> without = options.Validate();
+  ASSERT_EQ(without.size(), 1u);
+  EXPECT_NE(without[0].find("needs a program"), std::string::npos) << without[0];
+  options.external.program = "/bin/true";
+  EXPECT_TRUE(options.Validate().empty());
+  options.external.timeout_s = 0.0;
+  ASSERT_EQ(options.Validate().size(), 1u);
+  EXPECT_NE(options.Validate()[0].find("external.timeout_s"), std::string::npos);
+}
+
+// The output's text: anything unusable is an InputError naming the file and
+// the record (a number past a double's range included: the JSON parser's
+// out-of-range error, found by the fuzz harness); a huge but finite normal
+// still has a direction.
+TEST(ExternalMethod, AnUnusableOutputIsAnInputErrorNamingTheFileAndRecord) {
+  const std::vector<int> ids = {4, 9};
+  const Eigen::Vector3d gravity(0.0, 0.0, -1.62);
+  const std::string head = R"({"format": "hdabench-external-output", "format_version": 1, "rois": [)";
+  const auto message = [&](const std::string& text) {
+    std::vector<MethodRoi> rois;
+    std::string note;
+    try {
+      ParseExternalOutput(text, "out.json", ids, gravity, nullptr, &rois, &note);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message("2773888e7777772").find("out.json: not JSON"), std::string::npos);
+  EXPECT_NE(message(head + R"({"id": 4, "status": "ok", "normal_in_local": [0, 0, 1e999]}]})").find("not JSON"),
+            std::string::npos);
+  EXPECT_NE(message("[]").find("expected an object with \"format\""), std::string::npos);
+  EXPECT_NE(message(head + R"({"id": 4, "status": "degenerate"}, {"id": 4, "status": "ok"}]})")
+                .find("out.json: rois[1]: ROI 4 is given twice"),
+            std::string::npos);
+  EXPECT_NE(message(head + R"({"id": 4, "status": "ok", "normal_in_local": [0, 0]}]})")
+                .find("rois[0]: normal_in_local: expected a list of 3 numbers"),
+            std::string::npos);
+  EXPECT_NE(message(head + R"({"id": 9, "status": "too few points", "num_points": -1}]})").find("num_points"),
+            std::string::npos);
+  std::vector<MethodRoi> rois;
+  std::string note;
+  ParseExternalOutput(head + R"({"id": 9, "status": "ok", "normal_in_local": [1e308, 0, 1e308]}]})", "out.json", ids,
+                      gravity, nullptr, &rois, &note);
+  ASSERT_EQ(rois.size(), 2u);
+  EXPECT_EQ(rois[0].status, MethodRoiStatus::kFailed);
+  EXPECT_EQ(rois[0].reason, "the program gave no result for ROI 4");
+  EXPECT_EQ(rois[1].status, MethodRoiStatus::kOk);
+  EXPECT_NEAR(rois[1].slope_deg, 45.0, 1e-12);
+  EXPECT_EQ(note, "1 ROI(s) without a result from the program");
+}
+
+// The example program fits the flight method's own points by total least
+// squares: where an ROI has enough of them, its plane is hda::FitPlane's of
+// the same points (numpy against Eigen, through JSON's shortest round-trip
+// decimals: the same plane to far under 1e-6 deg), and it says why where it
+// has none. Its input, output and log stay in the method's folder.
+TEST_F(CompareOnSyntheticScene, TheExampleExternalProgramFitsTheFlightPoints) {
+  CompareOptions options;
+  options.methods = ParseMethodList("external");
+  options.external.program = std::string(HDABENCH_SOURCE_DIR) + "/tools/external/plane_fit.py";
+  const fs::path out = FreshTestDir();
+  options.external.work_dir = (out / "external").string();
+  const datasets::Dataset dataset = Load();
+  const CompareRun run = RunCompare(dataset, 0, 6, options, (out / "colmap").string());
+  ASSERT_EQ(run.methods, (std::vector<std::string>{"flight", "external"}));
+  ASSERT_TRUE(run.summaries[1].ok) << run.summaries[1].failure;
+  EXPECT_NE(run.summaries[1].note.find("plane_fit.py"), std::string::npos) << run.summaries[1].note;
+  for (const char* file : {"input.json", "output.json", "image1.png", "image2.png", "camera.cameramodel"}) {
+    EXPECT_TRUE(fs::exists(out / "external" / file)) << file;
+  }
+  int fitted = 0;
+  for (size_t i = 0; i < run.rois[1].size(); ++i) {
+    const std::vector<Eigen::Vector3d>& points = run.flight.result.rois[i].points_in_local_m;
+    const MethodRoi& roi = run.rois[1][i];
+    EXPECT_EQ(roi.num_points, static_cast<int>(points.size()));
+    if (static_cast<int>(points.size()) < std::max(3, options.min_points)) {
+      EXPECT_EQ(roi.status, MethodRoiStatus::kTooFewPoints) << i;
+      EXPECT_FALSE(roi.has_fit);
+      continue;
+    }
+    ASSERT_EQ(roi.status, MethodRoiStatus::kOk) << i << ": " << roi.reason;
+    const hda::PlaneFitResult tls = hda::FitPlane(points, dataset.gravity_in_local_mps2, options.min_points);
+    ASSERT_EQ(tls.status, hda::PlaneFitStatus::kOk);
+    EXPECT_NEAR(roi.slope_deg, tls.slope_deg, 1e-6) << i;
+    EXPECT_NEAR((roi.normal_in_local - tls.normal_in_local).norm(), 0.0, 1e-8) << i;
+    EXPECT_NEAR(roi.roughness_rms_m, tls.roughness_rms_m, 1e-9) << i;
+    EXPECT_NEAR(roi.roughness_max_m, tls.roughness_max_m, 1e-9) << i;
+    ++fitted;
+  }
+  EXPECT_GT(fitted, 10);
+  EXPECT_EQ(run.summaries[1].rois_with_fit, fitted);
+  const nlohmann::json json = nlohmann::json::parse(CompareResultJson(run));
+  EXPECT_EQ(json["methods"][1]["name"], "external");
+}
+
+// A program that fails, hangs past its time limit or writes an output the
+// bench cannot use fails the external column with a reason that says which;
+// the flight method's column is the same as without it.
+TEST_F(CompareOnSyntheticScene, AFailingHangingOrGarbledExternalProgramFailsOnlyItsColumn) {
+  const datasets::Dataset dataset = Load();
+  const fs::path dir = FreshTestDir();
+  CompareOptions flight_only;
+  flight_only.methods = {kMethodFlight};
+  const CompareRun clean = RunCompare(dataset, 0, 6, flight_only, (dir / "colmap").string());
+  const std::string flight_json = nlohmann::json::parse(CompareResultJson(clean))["rois"].dump();
+  // One line of the output, for ROI `id`, in a valid file.
+  const auto output_with = [](const std::string& roi) {
+    return "printf '%s' '{\"format\": \"hdabench-external-output\", \"format_version\": 1, \"rois\": [" + roi +
+           "]}' > \"$2\"\n";
+  };
+  const std::string id = std::to_string(clean.flight.result.rois[0].id);
+  struct Case {
+    std::string name, script, expected;
+    double timeout_s = 600.0;
+  };
+  const std::vector<Case> cases = {
+      {"exits-3", "echo 'cannot read the images' >&2\nexit 3\n", "exited with code 3; its last line: cannot read the images"},
+      {"hangs", "sleep 30\n", "timed out after 1 s", 1.0},
+      {"garbled", "printf '{\"format\": \"hdabench-external-output\", ' > \"$2\"\n", "output.json: not JSON"},
+      {"no-output", "exit 0\n", "the program exited 0 but wrote no"},
+      {"wrong-format", "echo '{\"format\": \"something\"}' > \"$2\"\n", "expected an object with \"format\""},
+      {"unknown-id", output_with("{\"id\": 99999, \"status\": \"ok\", \"normal_in_local\": [0, 0, 1]}"),
+       "id 99999 is not an ROI of the input"},
+      {"unknown-status", output_with("{\"id\": " + id + ", \"status\": \"fine\"}"), "unknown status 'fine'"},
+      {"zero-normal", output_with("{\"id\": " + id + ", \"status\": \"ok\", \"normal_in_local\": [0, 0, 0]}"),
+       "normal_in_local is the zero vector"},
+      {"no-normal", output_with("{\"id\": " + id + ", \"status\": \"ok\"}"), "status 'ok' needs 'normal_in_local'"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    const fs::path program = dir / (c.name + ".sh");
+    testing_support::WriteText(program, "#!/bin/sh\n" + c.script);
+    fs::permissions(program, fs::perms::owner_all, fs::perm_options::add);
+    CompareOptions options;
+    options.methods = {kMethodFlight, kMethodExternal};
+    options.external.program = program.string();
+    options.external.timeout_s = c.timeout_s;
+    options.external.work_dir = (dir / c.name).string();
+    const auto start = std::chrono::steady_clock::now();
+    const CompareRun run = RunCompare(dataset, 0, 6, options, (dir / "colmap").string());
+    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 25.0);
+    ASSERT_EQ(run.summaries.size(), 2u);
+    EXPECT_TRUE(run.summaries[0].ok);
+    EXPECT_FALSE(run.summaries[1].ok);
+    EXPECT_NE(run.summaries[1].failure.find(c.expected), std::string::npos) << run.summaries[1].failure;
+    for (const MethodRoi& roi : run.rois[1]) EXPECT_EQ(roi.status, MethodRoiStatus::kFailed);
+    nlohmann::json json = nlohmann::json::parse(CompareResultJson(run));
+    for (nlohmann::json& roi : json["rois"]) roi["methods"].erase(kMethodExternal);
+    EXPECT_EQ(json["rois"].dump(), flight_json);
+  }
+}
+
+// An ROI the program leaves out is "failed" with that reason; the others are its.
+TEST_F(CompareOnSyntheticScene, AnRoiTheExternalProgramLeavesOutIsFailedWithTheReason) {
+  const datasets::Dataset dataset = Load();
+  const fs::path dir = FreshTestDir();
+  CompareOptions options;
+  options.methods = {kMethodFlight};
+  const int id = RunCompare(dataset, 0, 6, options, (dir / "colmap").string()).flight.result.rois[0].id;
+  const fs::path program = dir / "one-roi.sh";
+  testing_support::WriteText(program, "#!/bin/sh\nprintf '%s' '{\"format\": \"hdabench-external-output\", "
+                                      "\"format_version\": 1, \"rois\": [{\"id\": " +
+                                          std::to_string(id) +
+                                          ", \"status\": \"ok\", \"normal_in_local\": [0, 0.1, 1]}]}' > \"$2\"\n");
+  fs::permissions(program, fs::perms::owner_all, fs::perm_options::add);
+  options.methods = {kMethodFlight, kMethodExternal};
+  options.external.program = program.string();
+  const CompareRun run = RunCompare(dataset, 0, 6, options, (dir / "colmap").string());
+  ASSERT_TRUE(run.summaries[1].ok) << run.summaries[1].failure;
+  ASSERT_GT(run.rois[1].size(), 1u);
+  EXPECT_EQ(run.rois[1][0].status, MethodRoiStatus::kOk);
+  EXPECT_NEAR(run.rois[1][0].slope_deg, std::atan(0.1) * 180.0 / M_PI, 1e-9);
+  for (size_t i = 1; i < run.rois[1].size(); ++i) {
+    EXPECT_EQ(run.rois[1][i].status, MethodRoiStatus::kFailed);
+    EXPECT_NE(run.rois[1][i].reason.find("the program gave no result for ROI"), std::string::npos);
+  }
+  EXPECT_NE(run.summaries[1].note.find("without a result from the program"), std::string::npos);
 }
 
 // Every method is deterministic: the same bytes on a second run, COLMAP's

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <string>
@@ -237,7 +238,7 @@ TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {
 // every threshold is for a method its suite compares.
 TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
   const fs::path gate = fs::path(HDABENCH_SOURCE_DIR) / "gate";
-  for (const std::string name : {"", "-ci", "-lateral", "-decision", "-scale"}) {
+  for (const std::string name : {"", "-ci", "-lateral", "-decision", "-scale", "-external"}) {
     SCOPED_TRACE("gate/suite" + name + ".json");
     const GateSuite suite = ReadGateSuite((gate / ("suite" + name + ".json")).string());
     const GateThresholds thresholds = ReadGateThresholds((gate / ("thresholds" + name + ".json")).string());
@@ -530,6 +531,49 @@ TEST_F(GateCommand, PassesCleanAndFailsNamingTheMetricWhenTheFlightMethodIsMadeW
   EXPECT_NE(regressed.err.find("regressed from the baseline's"), std::string::npos) << regressed.err;
   // The second run reused the entries of the first.
   EXPECT_NE(regressed.err.find("complete from an earlier run"), std::string::npos) << regressed.err;
+}
+
+// The external method in the gate: its metrics are gated like a built-in
+// method's, a rerun reuses the entry, and a changed program redoes it. A suite
+// that lists it without a program is refused when read.
+TEST_F(GateCommand, TheExternalMethodIsGatedAndAChangedProgramRedoesTheEntry) {
+  const fs::path dir = FreshTestDir();
+  const fs::path program = dir / "plane_fit.py";
+  fs::copy_file(fs::path(HDABENCH_SOURCE_DIR) / "tools" / "external" / "plane_fit.py", program);
+  nlohmann::json suite = {{"format", "hdabench-gate-suite"},
+                          {"format_version", 1},
+                          {"methods", {"flight", "external"}},
+                          {"entries", {{{"name", "sites-10m"}, {"dataset", scene_->string()}}}}};
+  WriteText(dir / "no-program.json", suite.dump(1));
+  try {
+    ReadGateSuite((dir / "no-program.json").string());
+    ADD_FAILURE() << "a suite with the external method and no program was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("entries[0]: the method 'external' needs the suite's \"external\""),
+              std::string::npos)
+        << e.what();
+  }
+  // "./": a program in the suite's folder (a bare name is looked up in PATH).
+  suite["external"] = {{"program", "./plane_fit.py"}, {"timeout_s", 120}};
+  WriteText(dir / "suite.json", suite.dump(1));
+  // The flight method's own bar: the example fits the flight method's points.
+  const fs::path thresholds = WriteThresholds(
+      dir, "thresholds.json",
+      {{{"method", "external"}, {"metric", "slope_error_median_deg"}, {"max", 1.0}, {"tolerance", 0.1}},
+       {{"method", "external"}, {"metric", "rois_with_slope_share"}, {"min", 0.5}, {"tolerance", 0.1}}});
+  const std::vector<std::string> args = {"gate", "--suite", (dir / "suite.json").string(), "--thresholds",
+                                         thresholds.string(), "--out", (dir / "out").string()};
+  const CommandResult first = RunHdabench(args, dir);
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  EXPECT_NE(first.out.find("| external | slope_error_median_deg |"), std::string::npos) << first.out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "entries" / "sites-10m" / "external" / "output.json"));
+  const CommandResult again = RunHdabench(args, dir);
+  EXPECT_EQ(again.exit_code, 0) << again.err;
+  EXPECT_NE(again.err.find("complete from an earlier run"), std::string::npos) << again.err;
+  std::ofstream(program, std::ios::app) << "# changed\n";
+  const CommandResult changed = RunHdabench(args, dir);
+  EXPECT_EQ(changed.exit_code, 0) << changed.err;
+  EXPECT_EQ(changed.err.find("complete from an earlier run"), std::string::npos) << changed.err;
 }
 
 // Starts the gate in the background and kills it (SIGKILL) once the first

@@ -146,3 +146,37 @@ TEST(CompareCommand, SigtermOrSigintWhileColmapRunsIsNamedAndTheRerunFinishes) {
 }
 
 }  // namespace
+
+namespace {
+
+// The external method through the command line: refused without a program
+// (exit 2, before anything runs); run with the example program (exit 0, its
+// folder in the output); a program that fails fails its column only (exit 4,
+// compare.json written with the flight method's results and the reason).
+TEST(CompareCommand, TheExternalMethodNeedsAProgramRunsItAndNamesItsFailure) {
+  const fs::path dir = FreshTestDir();
+  const fs::path dataset = SmallSyntheticDataset();
+  const CommandResult without = RunInOwnFolder(
+      {"compare", dataset.string(), "--out", (dir / "without").string(), "--methods", "external"});
+  EXPECT_EQ(without.exit_code, 2) << without.err;
+  EXPECT_NE(without.err.find("the external method needs a program (--external-program)"), std::string::npos)
+      << without.err;
+  const std::string example = std::string(HDABENCH_SOURCE_DIR) + "/tools/external/plane_fit.py";
+  const CommandResult ok =
+      RunInOwnFolder({"compare", dataset.string(), "--out", (dir / "ok").string(), "--methods", "external",
+                      "--external-program", example, "--no-figures", "--no-report", "--quiet"});
+  ASSERT_EQ(ok.exit_code, 0) << ok.err;
+  EXPECT_TRUE(fs::exists(dir / "ok" / "external" / "output.json"));
+  EXPECT_TRUE(MethodNamed(nlohmann::json::parse(ReadText(dir / "ok" / "compare.json")), "external").at("ok").get<bool>());
+  const CommandResult failing =
+      RunInOwnFolder({"compare", dataset.string(), "--out", (dir / "failing").string(), "--methods", "external",
+                      "--external-program", "/bin/false", "--no-figures", "--no-report", "--quiet"});
+  EXPECT_EQ(failing.exit_code, 4) << failing.err;
+  EXPECT_NE(failing.err.find("method external failed: /bin/false: exited with code 1"), std::string::npos)
+      << failing.err;
+  const nlohmann::json compare = nlohmann::json::parse(ReadText(dir / "failing" / "compare.json"));
+  EXPECT_FALSE(MethodNamed(compare, "external").at("ok").get<bool>());
+  EXPECT_TRUE(MethodNamed(compare, "flight").at("ok").get<bool>());
+}
+
+}  // namespace

@@ -96,6 +96,9 @@ struct CompareCommandOptions {
   int colmap_octave_resolution = 3;           // ColmapOptions::sift_octave_resolution
   double colmap_peak_threshold = 0.02 / 3;    // ColmapOptions::sift_peak_threshold
   bool opengv_dense = false;                  // OpenGV on denser ORB matches than the flight's
+  std::string external_program;               // the external method's program (--external-program)
+  std::vector<std::string> external_args;     // its arguments before the two files (--external-arg)
+  std::optional<double> external_timeout_s;   // --external-timeout-s (default ExternalMethodOptions's)
   int opengv_overlap_tiles = 128;             // OpenGV's pose: overlap tiles at most (0: ROIs only)
   bool figures = true;                        // write flight/figures/ (PNG)
   bool report = true;                         // write report.html and report.md (docs/report.md)

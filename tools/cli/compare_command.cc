@@ -12,6 +12,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/text.h"
 #include "datasets/dataset.h"
 #include "hda/hda_options.h"
 #include "reference/compare/compare.h"
@@ -57,6 +58,10 @@ int RunCompareCommand(const CompareCommandOptions& options, std::ostream& out, s
   colmap.ApplyTo(&compare.colmap);
   compare.opengv_dense_features = options.opengv_dense;
   compare.opengv_overlap_tiles = options.opengv_overlap_tiles;
+  compare.external.program = options.external_program;
+  compare.external.args = options.external_args;
+  if (options.external_timeout_s) compare.external.timeout_s = *options.external_timeout_s;
+  compare.external.work_dir = (std::filesystem::path(options.out_dir) / "external").string();
   const std::vector<std::string> invalid = compare.Validate();
   if (!invalid.empty()) {
     err << "hdabench compare: unusable options:\n";
@@ -205,6 +210,16 @@ Command AddCompareCommand(CLI::App& app) {
                       "OpenGV's pair pose also from features over the whole overlap: at most this many\n"
                       "tiles of the ROIs' size spread over image 1, clear of the ROIs (0: the ROIs' matches only)")
       ->capture_default_str();
+  compare->add_option("--external-program", options.external_program,
+                      "The external method's program (docs/external-method.md): run as PROGRAM [ARGS]\n"
+                      "INPUT_JSON OUTPUT_JSON in <out>/external; a path, or a name on PATH");
+  compare->add_option("--external-arg", options.external_args,
+                      "An argument of the external method's program, before the two files (repeatable)")
+      ->allow_extra_args(false);
+  compare->add_option("--external-timeout-s", options.external_timeout_s,
+                      "Time limit of the external method's program, seconds; past it the program is ended\n"
+                      "and its column fails")
+      ->default_str(util::ShortestText(reference::ExternalMethodOptions().timeout_s));
   compare->add_flag("--no-figures", args->no_figures, "Do not write flight/figures/");
   compare->add_flag("--no-report", args->no_report, "Do not write report.html and report.md");
   compare->add_flag("--quiet", options.quiet, "No progress lines");

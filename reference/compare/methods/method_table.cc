@@ -15,6 +15,7 @@ MethodEntry ColmapFreeMethod();
 MethodEntry OpenGvMethod(OpenGvSolver solver);
 MethodEntry DenseNavMethod();
 MethodEntry PlaneNavMethod();
+MethodEntry ExternalMethod();
 
 namespace {
 
@@ -29,6 +30,7 @@ std::vector<MethodEntry> BuiltInMethods() {
   for (const OpenGvSolver solver : AllOpenGvSolvers()) table.push_back(OpenGvMethod(solver));  // methods/opengv.cc
   table.push_back(DenseNavMethod());       // methods/dense_nav.cc
   table.push_back(PlaneNavMethod());       // methods/plane_nav.cc
+  table.push_back(ExternalMethod());       // methods/external.cc
   return table;
 }
 

@@ -93,9 +93,9 @@ const std::vector<std::string>& EntryMethods(const GateEntry& e, const GateSuite
 std::string ProgramBytes(const std::string& program) {
   const std::string path = util::FindExecutable(program);
   if (path.empty()) return "";
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return "";
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  std::string bytes;
+  std::string error;
+  return util::ReadFileBytes(path, &bytes, &error) ? bytes : "";
 }
 
 // The settings an entry's results depend on: a complete folder with other

@@ -177,6 +177,113 @@ datasets::Fault ReadOneFault(const std::string& text, const std::string& where) 
   }
 }
 
+// An entry's "synth" object: the preset, terrain and overrides, each checked now, not halfway.
+void ReadSynthEntry(const Json& s, const std::string& where, GateEntry* e) {
+  if (!s.is_object()) throw InputError(where + ": expected an object");
+  OnlyKeys(s, {"preset", "terrain", "seed", "image_size", "set"}, where);
+  e->synth_preset = StringField(s, "preset", where);
+  if (s.contains("terrain")) e->synth_terrain = StringField(s, "terrain", where);
+  if (s.contains("seed")) {
+    if (!s["seed"].is_number_unsigned()) throw InputError(where + ": field 'seed' must be an integer >= 0");
+    e->synth_seed = s["seed"].get<std::uint64_t>();
+  }
+  if (s.contains("image_size")) {
+    if (!s["image_size"].is_number_integer()) throw InputError(where + ": field 'image_size' must be an integer");
+    e->synth_image_size_px = s["image_size"].get<int>();
+  }
+  if (s.contains("set")) {
+    if (!s["set"].is_object()) throw InputError(where + ": field 'set' must be an object of key: value");
+    for (const auto& item : s["set"].items()) {
+      const Json& v = item.value();
+      std::string value = v.is_string() ? v.get<std::string>() : v.dump();
+      e->synth_overrides.emplace_back(item.key(), value);
+    }
+  }
+  try {
+    datasets::synth::SynthOptions options = datasets::synth::SynthPreset(*e->synth_preset);
+    datasets::synth::TerrainOptions terrain =
+        datasets::synth::TerrainPreset(e->synth_terrain.empty() ? options.terrain : e->synth_terrain);
+    for (const auto& [key, value] : e->synth_overrides) {
+      datasets::synth::ApplyOverride(key, value, &options, &terrain);
+    }
+  } catch (const InputError& ex) {
+    throw InputError(where + ": " + ex.what());
+  }
+}
+
+// An entry's "hda" or "site_size_m": the flight method's parameters it sets.
+void ReadEntryHda(const Json& ej, const std::string& where, GateEntry* e) {
+  if (ej.contains("site_size_m")) {
+    const double site = NumberField(ej, "site_size_m", where);
+    if (!(site > 0)) throw InputError(where + ": field 'site_size_m' must be > 0");
+    e->hda.Set("quadtree.site_size_m", site, where);
+  }
+  if (ej.contains("hda")) {
+    if (ej.contains("site_size_m")) {
+      throw InputError(where + ": give the site size once: 'site_size_m' or 'hda'");
+    }
+    e->hda.SetAll(ej["hda"], where + ".hda");
+    for (const char* key : {"compute_budget_s", "processor_scale", "fault_match_noise_px"}) {
+      if (e->hda.given.count(key) != 0) {
+        throw InputError(where + ".hda: '" + key + "' is the gate's own (gate --processor-scale, " +
+                         "--fault-match-noise-px; an unlimited budget), not an entry's");
+      }
+    }
+  }
+  e->hda.Validate(where);
+}
+
+// One entry of the suite, at `where`; its name is checked against `names` (and added).
+GateEntry ReadGateEntry(const Json& ej, const std::string& where, const GateSuite& suite,
+                        std::set<std::string>* names) {
+  if (!ej.is_object()) throw InputError(where + ": expected an object");
+  OnlyKeys(ej,
+           {"name", "synth", "dataset", "stereolunar", "observability", "site_size_m", "hda", "fault", "pool",
+            "methods"},
+           where);
+  GateEntry e;
+  e.name = StringField(ej, "name", where);
+  if (!ValidName(e.name)) {
+    throw InputError(where + ": name '" + e.name + "' must be letters, digits, '.', '_' or '-'");
+  }
+  if (!names->insert(e.name).second) throw InputError(where + ": name '" + e.name + "' is repeated");
+  const int sources = static_cast<int>(ej.contains("synth")) + static_cast<int>(ej.contains("dataset")) +
+                      static_cast<int>(ej.contains("stereolunar")) + static_cast<int>(ej.contains("observability"));
+  if (sources != 1) {
+    throw InputError(where + ": give exactly one of 'synth', 'dataset', 'stereolunar', 'observability'");
+  }
+  if (ej.contains("observability")) ReadObservabilityEntry(ej["observability"], where + ".observability", &e);
+  if (ej.contains("synth")) ReadSynthEntry(ej["synth"], where + ".synth", &e);
+  if (ej.contains("dataset")) e.dataset_dir = StringField(ej, "dataset", where);
+  if (ej.contains("stereolunar")) {
+    const Json& s = ej["stereolunar"];
+    if (!s.is_object()) throw InputError(where + ".stereolunar: expected an object");
+    OnlyKeys(s, {"pair", "sun"}, where + ".stereolunar");
+    e.stereolunar_pair_dir = StringField(s, "pair", where + ".stereolunar");
+    if (s.contains("sun")) e.stereolunar_sun = static_cast<int>(NumberField(s, "sun", where + ".stereolunar"));
+  }
+  ReadEntryHda(ej, where, &e);
+  for (const char* key : {"fault", "pool", "methods"}) {
+    if (e.observability && ej.contains(key)) {
+      throw InputError(where + ": '" + key + "' applies to a dataset, not to an observability study");
+    }
+  }
+  if (ej.contains("fault")) e.fault = ReadOneFault(StringField(ej, "fault", where), where + ": fault");
+  if (ej.contains("pool")) {
+    e.pool = StringField(ej, "pool", where);
+    if (!ValidName(e.pool)) {
+      throw InputError(where + ": pool '" + e.pool + "' must be letters, digits, '.', '_' or '-'");
+    }
+  }
+  if (ej.contains("methods")) e.methods = ReadMethods(ej["methods"], where);
+  const std::vector<std::string>& methods = e.methods.empty() ? suite.methods : e.methods;
+  if (!e.observability && suite.external.program.empty() &&
+      std::find(methods.begin(), methods.end(), kMethodExternal) != methods.end()) {
+    throw InputError(where + ": the method 'external' needs the suite's \"external\": {\"program\": ...}");
+  }
+  return e;
+}
+
 }  // namespace
 
 GateSuite ReadGateSuite(const std::string& path) {
@@ -200,107 +307,8 @@ GateSuite ReadGateSuite(const std::string& path) {
   }
   std::set<std::string> names;
   for (size_t i = 0; i < j["entries"].size(); ++i) {
-    const Json& ej = j["entries"][i];
-    const std::string where = path + ": entries[" + std::to_string(i) + "]";
-    if (!ej.is_object()) throw InputError(where + ": expected an object");
-    OnlyKeys(ej,
-             {"name", "synth", "dataset", "stereolunar", "observability", "site_size_m", "hda", "fault", "pool",
-              "methods"},
-             where);
-    GateEntry e;
-    e.name = StringField(ej, "name", where);
-    if (!ValidName(e.name)) {
-      throw InputError(where + ": name '" + e.name + "' must be letters, digits, '.', '_' or '-'");
-    }
-    if (!names.insert(e.name).second) throw InputError(where + ": name '" + e.name + "' is repeated");
-    const int sources = static_cast<int>(ej.contains("synth")) + static_cast<int>(ej.contains("dataset")) +
-                        static_cast<int>(ej.contains("stereolunar")) + static_cast<int>(ej.contains("observability"));
-    if (sources != 1) {
-      throw InputError(where + ": give exactly one of 'synth', 'dataset', 'stereolunar', 'observability'");
-    }
-    if (ej.contains("observability")) ReadObservabilityEntry(ej["observability"], where + ".observability", &e);
-    if (ej.contains("synth")) {
-      const Json& s = ej["synth"];
-      const std::string swhere = where + ".synth";
-      if (!s.is_object()) throw InputError(swhere + ": expected an object");
-      OnlyKeys(s, {"preset", "terrain", "seed", "image_size", "set"}, swhere);
-      e.synth_preset = StringField(s, "preset", swhere);
-      if (s.contains("terrain")) e.synth_terrain = StringField(s, "terrain", swhere);
-      if (s.contains("seed")) {
-        if (!s["seed"].is_number_unsigned()) throw InputError(swhere + ": field 'seed' must be an integer >= 0");
-        e.synth_seed = s["seed"].get<std::uint64_t>();
-      }
-      if (s.contains("image_size")) {
-        if (!s["image_size"].is_number_integer()) throw InputError(swhere + ": field 'image_size' must be an integer");
-        e.synth_image_size_px = s["image_size"].get<int>();
-      }
-      if (s.contains("set")) {
-        if (!s["set"].is_object()) throw InputError(swhere + ": field 'set' must be an object of key: value");
-        for (const auto& item : s["set"].items()) {
-          const Json& v = item.value();
-          std::string value = v.is_string() ? v.get<std::string>() : v.dump();
-          e.synth_overrides.emplace_back(item.key(), value);
-        }
-      }
-      // The preset, terrain and overrides must be usable now, not halfway.
-      try {
-        datasets::synth::SynthOptions options = datasets::synth::SynthPreset(*e.synth_preset);
-        datasets::synth::TerrainOptions terrain = datasets::synth::TerrainPreset(
-            e.synth_terrain.empty() ? options.terrain : e.synth_terrain);
-        for (const auto& [key, value] : e.synth_overrides) {
-          datasets::synth::ApplyOverride(key, value, &options, &terrain);
-        }
-      } catch (const InputError& ex) {
-        throw InputError(swhere + ": " + ex.what());
-      }
-    }
-    if (ej.contains("dataset")) e.dataset_dir = StringField(ej, "dataset", where);
-    if (ej.contains("stereolunar")) {
-      const Json& s = ej["stereolunar"];
-      if (!s.is_object()) throw InputError(where + ".stereolunar: expected an object");
-      OnlyKeys(s, {"pair", "sun"}, where + ".stereolunar");
-      e.stereolunar_pair_dir = StringField(s, "pair", where + ".stereolunar");
-      if (s.contains("sun")) e.stereolunar_sun = static_cast<int>(NumberField(s, "sun", where + ".stereolunar"));
-    }
-    if (ej.contains("site_size_m")) {
-      const double site = NumberField(ej, "site_size_m", where);
-      if (!(site > 0)) throw InputError(where + ": field 'site_size_m' must be > 0");
-      e.hda.Set("quadtree.site_size_m", site, where);
-    }
-    if (ej.contains("hda")) {
-      if (ej.contains("site_size_m")) {
-        throw InputError(where + ": give the site size once: 'site_size_m' or 'hda'");
-      }
-      e.hda.SetAll(ej["hda"], where + ".hda");
-      for (const char* key : {"compute_budget_s", "processor_scale", "fault_match_noise_px"}) {
-        if (e.hda.given.count(key) != 0) {
-          throw InputError(where + ".hda: '" + key + "' is the gate's own (gate --processor-scale, " +
-                           "--fault-match-noise-px; an unlimited budget), not an entry's");
-        }
-      }
-    }
-    e.hda.Validate(where);
-    if (ej.contains("fault")) {
-      if (e.observability) throw InputError(where + ": 'fault' applies to a dataset, not to an observability study");
-      e.fault = ReadOneFault(StringField(ej, "fault", where), where + ": fault");
-    }
-    if (ej.contains("pool")) {
-      if (e.observability) throw InputError(where + ": 'pool' applies to a dataset, not to an observability study");
-      e.pool = StringField(ej, "pool", where);
-      if (!ValidName(e.pool)) {
-        throw InputError(where + ": pool '" + e.pool + "' must be letters, digits, '.', '_' or '-'");
-      }
-    }
-    if (ej.contains("methods")) {
-      if (e.observability) throw InputError(where + ": 'methods' applies to a dataset, not to an observability study");
-      e.methods = ReadMethods(ej["methods"], where);
-    }
-    const std::vector<std::string>& methods = e.methods.empty() ? suite.methods : e.methods;
-    if (!e.observability && suite.external.program.empty() &&
-        std::find(methods.begin(), methods.end(), kMethodExternal) != methods.end()) {
-      throw InputError(where + ": the method 'external' needs the suite's \"external\": {\"program\": ...}");
-    }
-    suite.entries.push_back(e);
+    suite.entries.push_back(
+        ReadGateEntry(j["entries"][i], path + ": entries[" + std::to_string(i) + "]", suite, &names));
   }
   return suite;
 }

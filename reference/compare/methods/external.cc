@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <iterator>
 #include <map>
 #include <memory>
@@ -284,9 +283,10 @@ MethodEntry ExternalMethod() {
       throw InputError(why);
     }
     const fs::path output = dir / "output.json";
-    std::ifstream in(output, std::ios::binary);
-    if (!in) throw InputError("the program exited 0 but wrote no " + output.string());
-    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::string text;
+    std::string error;
+    if (!fs::exists(output)) throw InputError("the program exited 0 but wrote no " + output.string());
+    if (!util::ReadFileBytes(output, &text, &error)) throw InputError(output.string() + ": " + error);
     std::vector<int> ids;
     for (const hda::RoiResult& r : ctx.flight().result.rois) ids.push_back(r.id);
     const datasets::TruthDem* dem = ctx.dataset().truth.dem.has_value() ? &*ctx.dataset().truth.dem : nullptr;

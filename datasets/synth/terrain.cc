@@ -304,6 +304,19 @@ void ValidateCraterLaw(const TerrainOptions& o, bool extent_ok, Checker& check) 
   }
 }
 
+// Each of extra_pads: a finite centre and azimuth, a positive side, a slope in [0, 80].
+void ValidateExtraPads(const TerrainOptions& o, Checker& check) {
+  for (size_t i = 0; i < o.extra_pads.size(); ++i) {
+    const TerrainOptions::Pad& pad = o.extra_pads[i];
+    const std::string name = "extra_pads[" + std::to_string(i) + "].";
+    check.Finite(name + "center_in_local_m.x", pad.center_in_local_m.x());
+    check.Finite(name + "center_in_local_m.y", pad.center_in_local_m.y());
+    check.Positive(name + "side_m", pad.side_m);
+    check.InClosed(name + "slope_deg", pad.slope_deg, 0.0, 80.0);
+    check.Finite(name + "downhill_azimuth_deg", pad.downhill_azimuth_deg);
+  }
+}
+
 // Each of extra_craters: a finite centre, a positive diameter, a depth up to half of it.
 void ValidateExtraCraters(const TerrainOptions& o, Checker& check) {
   for (size_t i = 0; i < o.extra_craters.size(); ++i) {
@@ -481,6 +494,25 @@ struct SurfaceModel {
   double relief_scale = 0.0;
   double gradient_x = 0.0;  // dz/dx
   double gradient_y = 0.0;  // dz/dy
+  // TerrainOptions::extra_pads: their squares and planes (height at the
+  // centre, gradient).
+  struct PadPlane {
+    double min_x, max_x, min_y, max_y;
+    double centre_x, centre_y, centre_z;
+    double gradient_x, gradient_y;
+  };
+  std::vector<PadPlane> pads;
+
+  // The plane's height at (x, y): the last pad's that holds it, else the
+  // regional plane's.
+  double PlaneAt(double x, double y) const {
+    for (auto pad = pads.rbegin(); pad != pads.rend(); ++pad) {
+      if (x >= pad->min_x && x < pad->max_x && y >= pad->min_y && y < pad->max_y) {
+        return pad->centre_z + pad->gradient_x * (x - pad->centre_x) + pad->gradient_y * (y - pad->centre_y);
+      }
+    }
+    return gradient_x * x + gradient_y * y;
+  }
 };
 
 // The plane and relief of the options, measuring the relief's unit RMS into stats.
@@ -500,6 +532,14 @@ SurfaceModel MakeSurfaceModel(const TerrainOptions& o, std::uint64_t seed, Terra
   const double azimuth_rad = o.regional_slope_downhill_azimuth_deg * kDegToRad;
   surface.gradient_x = -tan_slope * std::sin(azimuth_rad);
   surface.gradient_y = -tan_slope * std::cos(azimuth_rad);
+  for (const TerrainOptions::Pad& pad : o.extra_pads) {
+    const double x = pad.center_in_local_m.x(), y = pad.center_in_local_m.y(), half = 0.5 * pad.side_m;
+    const double tan_pad = std::tan(pad.slope_deg * kDegToRad);
+    const double pad_azimuth_rad = pad.downhill_azimuth_deg * kDegToRad;
+    surface.pads.push_back({x - half, x + half, y - half, y + half, x, y,
+                            surface.gradient_x * x + surface.gradient_y * y, -tan_pad * std::sin(pad_azimuth_rad),
+                            -tan_pad * std::cos(pad_azimuth_rad)});
+  }
   return surface;
 }
 
@@ -512,7 +552,7 @@ void FillSurfaceBlock(const Grid& grid, const SurfaceModel& surface, int row_beg
     double* row = block->data() + static_cast<size_t>(r - row_begin) * grid.width;
     for (int c = 0; c < grid.width; ++c) {
       const double x = grid.origin_x_m + c * grid.spacing_m;
-      double z = surface.gradient_x * x + surface.gradient_y * y;
+      double z = surface.pads.empty() ? surface.gradient_x * x + surface.gradient_y * y : surface.PlaneAt(x, y);
       if (surface.relief_on) {
         z += surface.relief_scale * FractalNoise(surface.relief_seed, x, y, surface.finest_m,
                                                  surface.largest_wavelength_m, surface.hurst);
@@ -596,6 +636,7 @@ std::vector<std::string> TerrainOptions::Validate() const {
   ValidateRelief(*this, extent.spacing_ok, check);
   ValidateCraterLaw(*this, extent.extent_ok, check);
   ValidateExtraCraters(*this, check);
+  ValidateExtraPads(*this, check);
   ValidateRockLaw(*this, extent.extent_ok, check);
   ValidateExtraRocks(*this, extent.extent_ok, check);
   ValidateAlbedo(*this, check);

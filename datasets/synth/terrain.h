@@ -85,6 +85,20 @@ struct TerrainOptions {
   // ILS). Their depth_m is used as given; the rim follows the ratio above.
   std::vector<Crater> extra_craters;
 
+  // Square pads of their own slope set into the regional plane (a landing
+  // site of one slope inside surroundings of another): inside a pad (its
+  // sides along x and y), the regional plane is replaced by the pad's, which
+  // passes through the regional plane's height at the pad's centre; the
+  // relief and the craters are kept. The edges are steps where the planes
+  // part. Applied in this order (a later pad wins where two overlap).
+  struct Pad {
+    Eigen::Vector2d center_in_local_m = Eigen::Vector2d::Zero();
+    double side_m = 10.0;                 // > 0
+    double slope_deg = 0.0;               // in [0, 80]
+    double downhill_azimuth_deg = 0.0;    // degrees from north, as regional_slope_downhill_azimuth_deg
+  };
+  std::vector<Pad> extra_pads;
+
   // ---- Rocks: spheres partly buried, uniform over the extent (they may
   // overlap each other), with diameters from a size-frequency law
   // (docs/synthetic-scenes.md "Rocks"; the named laws: RockLawNames()).

@@ -27,9 +27,8 @@ Eigen::Vector3d UpInLocal(const Dataset& dataset) {
   return -dataset.gravity_in_local_mps2.normalized();
 }
 
-}  // namespace
-
-RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi) {
+// The frame's truth raster; throws InputError when the dataset has none.
+const cv::Mat& TruthRaster(const Dataset& dataset, int frame) {
   const TruthPoints* truth = nullptr;
   for (const TruthPoints& t : dataset.truth.points) {
     if (t.frame == frame) truth = &t;
@@ -37,7 +36,82 @@ RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi)
   if (truth == nullptr || truth->points_in_local_m.empty()) {
     throw InputError("frame " + std::to_string(frame) + " has no truth points in the dataset");
   }
-  const cv::Mat& raster = truth->points_in_local_m;
+  return truth->points_in_local_m;
+}
+
+struct TruthPlane {
+  Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit, up
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double slope_deg = 0.0;
+};
+
+// The total-least-squares plane of `points`, each weighted by weights[k]
+// (empty: alike), its normal up. Throws InputError, naming `what`, for fewer
+// than 3 points, no positive weight, or collinear points.
+TruthPlane PlaneOfTruthPoints(const std::vector<Eigen::Vector3d>& points, const std::vector<double>& weights,
+                              const Eigen::Vector3d& up, const std::string& what) {
+  if (points.size() < 3) {
+    throw InputError(what + " holds " + std::to_string(points.size()) + " true points; a plane needs at least 3");
+  }
+  const auto weight = [&](size_t k) { return weights.empty() ? 1.0 : weights[k]; };
+  double total = 0.0;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (size_t k = 0; k < points.size(); ++k) {
+    centroid += weight(k) * points[k];
+    total += weight(k);
+  }
+  if (!(total > 0.0)) throw InputError(what + ": no true point has a positive weight");
+  centroid /= total;
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (size_t k = 0; k < points.size(); ++k) {
+    covariance += weight(k) * (points[k] - centroid) * (points[k] - centroid).transpose();
+  }
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
+  const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
+  if (eigenvalues(1) <= 1e-12 * std::max(1.0, eigenvalues(2))) {
+    throw InputError(what + "'s true points are collinear: no plane");
+  }
+  TruthPlane plane;
+  plane.normal = solver.eigenvectors().col(0).normalized();
+  if (plane.normal.dot(up) < 0) plane.normal = -plane.normal;
+  plane.centroid = centroid;
+  plane.slope_deg = std::acos(std::clamp(plane.normal.dot(up), -1.0, 1.0)) * kRadToDeg;
+  return plane;
+}
+
+// The truth point at an image-1 position (pixel centres at whole numbers),
+// bilinear between the four pixels around it; false where one of them with
+// a share has no truth (its ray hit nothing) or it leaves the raster.
+bool TruthPointAt(const cv::Mat& raster, const Eigen::Vector2d& pixel, Eigen::Vector3d* point) {
+  if (!(pixel.x() >= 0.0 && pixel.y() >= 0.0 && pixel.x() <= raster.cols - 1 && pixel.y() <= raster.rows - 1)) {
+    return false;
+  }
+  // The lower neighbours, kept one short of the last row and column so that
+  // a position on the raster's far edge interpolates with weight 0 beyond it.
+  const int c0 = std::max(0, std::min(static_cast<int>(pixel.x()), raster.cols - 2));
+  const int r0 = std::max(0, std::min(static_cast<int>(pixel.y()), raster.rows - 2));
+  const double fx = pixel.x() - c0;
+  const double fy = pixel.y() - r0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int dr = 0; dr <= 1; ++dr) {
+    for (int dc = 0; dc <= 1; ++dc) {
+      const double w = (dc == 1 ? fx : 1.0 - fx) * (dr == 1 ? fy : 1.0 - fy);
+      if (w == 0.0) continue;
+      const int r = std::min(r0 + dr, raster.rows - 1);
+      const int c = std::min(c0 + dc, raster.cols - 1);
+      const cv::Vec3f& p = raster.at<cv::Vec3f>(r, c);
+      if (!(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]))) return false;
+      sum += w * Eigen::Vector3d(p[0], p[1], p[2]);
+    }
+  }
+  *point = sum;
+  return true;
+}
+
+}  // namespace
+
+RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi) {
+  const cv::Mat& raster = TruthRaster(dataset, frame);
   // Compared without a sum that could overflow (x, width near INT_MAX).
   if (roi.width <= 0 || roi.height <= 0 || roi.x < 0 || roi.y < 0 || roi.x > raster.cols - roi.width ||
       roi.y > raster.rows - roi.height) {
@@ -56,29 +130,16 @@ RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi)
       }
     }
   }
-  if (points.size() < 3) {
-    throw InputError("the ROI holds " + std::to_string(points.size()) +
-                     " true points; a plane needs at least 3");
-  }
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) centroid += p;
-  centroid /= static_cast<double>(points.size());
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points) covariance += (p - centroid) * (p - centroid).transpose();
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(covariance);
-  const Eigen::Vector3d eigenvalues = solver.eigenvalues();  // ascending
-  if (eigenvalues(1) <= 1e-12 * std::max(1.0, eigenvalues(2))) {
-    throw InputError("the ROI's true points are collinear: no plane");
-  }
   const Eigen::Vector3d up = UpInLocal(dataset);
-  Eigen::Vector3d normal = solver.eigenvectors().col(0).normalized();
-  if (normal.dot(up) < 0) normal = -normal;
+  const TruthPlane plane = PlaneOfTruthPoints(points, {}, up, "the ROI");
+  const Eigen::Vector3d& normal = plane.normal;
+  const Eigen::Vector3d& centroid = plane.centroid;
 
   RoiTruth result;
   result.num_points = static_cast<int>(points.size());
   result.normal_in_local = normal;
   result.centroid_in_local_m = centroid;
-  result.slope_deg = std::acos(std::clamp(normal.dot(up), -1.0, 1.0)) * kRadToDeg;
+  result.slope_deg = plane.slope_deg;
   double sum_squares = 0.0;
   for (const Eigen::Vector3d& p : points) {
     const double d = std::abs(normal.dot(p - centroid));
@@ -106,6 +167,34 @@ RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi)
     }
   }
   result.hazard_height_m = std::max(result.roughness_max_m, result.max_rock_height_m);
+  return result;
+}
+
+SupportTruth ComputeSupportTruth(const Dataset& dataset, int frame, const std::vector<Eigen::Vector2d>& pixels,
+                                 const std::vector<double>& weights) {
+  const cv::Mat& raster = TruthRaster(dataset, frame);
+  if (!weights.empty() && weights.size() != pixels.size()) {
+    throw InputError("the support has " + std::to_string(pixels.size()) + " pixels but " +
+                     std::to_string(weights.size()) + " weights");
+  }
+  std::vector<Eigen::Vector3d> points;
+  std::vector<double> kept_weights;
+  for (size_t k = 0; k < pixels.size(); ++k) {
+    const double w = weights.empty() ? 1.0 : weights[k];
+    if (!(std::isfinite(w) && w >= 0.0)) {
+      throw InputError("support pixel " + std::to_string(k) + " has the weight " + std::to_string(w) +
+                       " (expected finite, >= 0)");
+    }
+    Eigen::Vector3d point;
+    if (w == 0.0 || !TruthPointAt(raster, pixels[k], &point)) continue;
+    points.push_back(point);
+    if (!weights.empty()) kept_weights.push_back(w);
+  }
+  const TruthPlane plane = PlaneOfTruthPoints(points, kept_weights, UpInLocal(dataset), "the support");
+  SupportTruth result;
+  result.num_points = static_cast<int>(points.size());
+  result.normal_in_local = plane.normal;
+  result.slope_deg = plane.slope_deg;
   return result;
 }
 

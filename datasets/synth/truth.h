@@ -14,6 +14,9 @@
 #pragma once
 
 #include <string>
+#include <vector>
+
+#include <Eigen/Core>
 
 #include "datasets/dataset.h"
 
@@ -42,6 +45,21 @@ struct RoiTruth {
 // has no truth points, the ROI leaves the image or is empty, or fewer than 3
 // points (or only collinear ones) fall inside it.
 RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi);
+
+// The truth of a method's support: the plane of the ground and the weighting
+// a method's own plane stands for, as ComputeRoiTruth's but over the image
+// positions `pixels` (pixel centres at whole numbers; the truth point
+// bilinear between the four pixels around each, left out where one of them
+// has none), each weighted by weights[k] (empty: alike; zero: left out).
+struct SupportTruth {
+  int num_points = 0;  // the support's positions with a truth point and a positive weight
+  double slope_deg = 0.0;
+  Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();
+};
+// Throws InputError as ComputeRoiTruth, and for weights not one per pixel or
+// not finite and >= 0.
+SupportTruth ComputeSupportTruth(const Dataset& dataset, int frame, const std::vector<Eigen::Vector2d>& pixels,
+                                 const std::vector<double>& weights);
 
 // Writes elevation.png, slope.png, hazards.png (slope over max_slope_deg
 // measured over a 1 m baseline, or a rock taller than max_hazard_m) and

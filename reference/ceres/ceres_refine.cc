@@ -5,11 +5,13 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <ceres/autodiff_cost_function.h>
+#include <ceres/dynamic_autodiff_cost_function.h>
 #include <ceres/loss_function.h>
 #include <ceres/manifold.h>
 #include <ceres/ordered_groups.h>
@@ -126,6 +128,28 @@ struct NavPriorResidual {
   }
 };
 
+// The range finder on the ground around its spot: the range along the beam
+// (unit, from `origin`) to the plane of normal `normal` through the centroid
+// of the support's points, minus the measured range, over its sigma.
+struct LrfResidual {
+  Eigen::Vector3d origin;
+  Eigen::Vector3d beam;
+  Eigen::Vector3d normal;
+  double range_m;
+  double sigma_m;
+  int num_points;
+
+  template <typename T>
+  bool operator()(T const* const* points, T* residual) const {
+    Eigen::Matrix<T, 3, 1> centroid = Eigen::Matrix<T, 3, 1>::Zero();
+    for (int k = 0; k < num_points; ++k) centroid += Eigen::Map<const Eigen::Matrix<T, 3, 1>>(points[k]);
+    centroid /= T(num_points);
+    const T range = normal.cast<T>().dot(centroid - origin.cast<T>()) / T(normal.dot(beam));
+    residual[0] = (range - T(range_m)) / T(sigma_m);
+    return true;
+  }
+};
+
 // The covariance check and its whitening matrix; an empty string when usable.
 std::string Whitening(const Eigen::Matrix<double, 6, 6>& covariance,
                       Eigen::Matrix<double, 6, 6>* whitening) {
@@ -175,6 +199,25 @@ std::string CheckInput(const CeresRefineInput& input) {
   const double norm = nav.rotation.norm();
   if (std::abs(norm - 1.0) > kUnitQuaternionTolerance) {
     return "nav cam2_from_cam1 rotation has norm " + util::ShortestText(norm) + ": expected a unit quaternion";
+  }
+  if (input.lrf.has_value()) {
+    const CeresRefineInput::Lrf& lrf = *input.lrf;
+    if (!lrf.origin_in_cam1_m.allFinite() || !lrf.beam_in_cam1.allFinite() || !(lrf.beam_in_cam1.norm() > 0) ||
+        !lrf.ground_normal_in_cam1.allFinite() || !(lrf.ground_normal_in_cam1.norm() > 0)) {
+      return "lrf: origin " + util::VectorText(lrf.origin_in_cam1_m) + ", beam " +
+             util::VectorText(lrf.beam_in_cam1) + ", ground normal " + util::VectorText(lrf.ground_normal_in_cam1) +
+             ": expected finite, and a non-zero beam and normal";
+    }
+    for (const auto& [name, value] : {std::pair<const char*, double>{"range_m", lrf.range_m},
+                                      {"range_sigma_m", lrf.range_sigma_m},
+                                      {"support_radius_m", lrf.support_radius_m}}) {
+      if (!(std::isfinite(value) && value > 0)) {
+        return std::string("lrf: ") + name + " = " + util::ShortestText(value) + ": expected a finite value > 0";
+      }
+    }
+    if (lrf.support_points < 3) {
+      return "lrf: support_points = " + std::to_string(lrf.support_points) + ": expected >= 3";
+    }
   }
   return "";
 }
@@ -271,8 +314,65 @@ struct Refinement {
   ProblemState initial;
   std::vector<MatchResidual> residuals;  // whitened, one per match
   std::vector<bool> used;                // evaluable at the start; the others are left out
+  std::optional<LrfResidual> lrf;        // the range finder's constraint, when it has a support
+  std::vector<size_t> lrf_support;       // its points
+  double lrf_offset_m = 0.0;             // their centroid's distance from the beam, at the start
   CeresRefineResult result;
 };
+
+// The range finder's support (the used points nearest the beam, within its
+// radius) and residual; none, with the reason in result.lrf_note, with fewer
+// than three points or a beam that grazes the ground.
+void SetUpLrf(const CeresRefineInput::Lrf& lrf, Refinement* run) {
+  const Eigen::Vector3d beam = lrf.beam_in_cam1.normalized();
+  const auto point = [&](size_t i) {
+    return Eigen::Vector3d(run->state.points[3 * i], run->state.points[3 * i + 1], run->state.points[3 * i + 2]);
+  };
+  // The used points by their distance from the beam's line (index order on ties).
+  std::vector<std::pair<double, size_t>> by_distance;
+  for (size_t i = 0; i < run->used.size(); ++i) {
+    if (!run->used[i]) continue;
+    const Eigen::Vector3d offset = point(i) - lrf.origin_in_cam1_m;
+    by_distance.emplace_back((offset - offset.dot(beam) * beam).norm(), i);
+  }
+  std::sort(by_distance.begin(), by_distance.end());
+  // The smallest of a quarter, a half and the whole radius that holds three
+  // points: the nearer the ground, the less it can differ from the spot's.
+  double radius_m = 0.25 * lrf.support_radius_m;
+  const auto within = [&](double r) {
+    return std::count_if(by_distance.begin(), by_distance.end(), [&](const auto& d) { return d.first <= r; });
+  };
+  while (radius_m < lrf.support_radius_m && within(radius_m) < 3) radius_m *= 2.0;
+  std::vector<Eigen::Vector3d> points;
+  for (const auto& [distance, i] : by_distance) {
+    if (distance > radius_m || points.size() >= static_cast<size_t>(lrf.support_points)) break;
+    run->lrf_support.push_back(i);
+    points.push_back(point(i));
+  }
+  const std::string radius = util::ShortestText(lrf.support_radius_m) + " m of the beam";
+  if (points.size() < 3) {
+    run->result.lrf_note = "no range constraint: " + std::to_string(points.size()) + " points within " + radius +
+                           " (3 needed): the scale is the nav baseline's";
+    run->lrf_support.clear();
+    return;
+  }
+  const Eigen::Vector3d normal = lrf.ground_normal_in_cam1.normalized();
+  // A plane the beam grazes (within 10 degrees) gives no range.
+  if (!(std::abs(normal.dot(beam)) > std::sin(10.0 * kDegToRad))) {
+    run->result.lrf_note = "no range constraint: the beam meets the ground within 10 degrees of grazing: the "
+                           "scale is the nav baseline's";
+    run->lrf_support.clear();
+    return;
+  }
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  const Eigen::Vector3d offset = centroid - lrf.origin_in_cam1_m;
+  run->lrf_offset_m = (offset - offset.dot(beam) * beam).norm();
+  run->lrf = LrfResidual{lrf.origin_in_cam1_m, beam, normal, lrf.range_m, lrf.range_sigma_m,
+                         static_cast<int>(points.size())};
+  run->result.lrf_points = static_cast<int>(points.size());
+}
 
 // The residual functors (whitened) and which points can be evaluated at the
 // start: a point behind a camera there is left out of the adjustment.
@@ -307,6 +407,20 @@ std::vector<double> PointRms(const Refinement& run, const ProblemState& at) {
   return rms;
 }
 
+// The range constraint's line of the result: its points and the range the
+// returned state gives along the beam.
+void NoteLrf(const Refinement& run, const ProblemState& at, CeresRefineResult* result) {
+  if (!run.lrf.has_value()) return;
+  std::vector<const double*> points;
+  for (const size_t i : run.lrf_support) points.push_back(&at.points[3 * i]);
+  double residual = 0.0;
+  (*run.lrf)(points.data(), &residual);
+  const double range = run.lrf->range_m + residual * run.lrf->sigma_m;
+  result->lrf_note = "range constraint on " + std::to_string(run.lrf->num_points) + " points " +
+                     util::FixedText(run.lrf_offset_m, 1) + " m from the beam: " + util::FixedText(range, 3) +
+                     " m along the beam, measured " + util::FixedText(run.lrf->range_m, 3) + " m";
+}
+
 // Every outcome returns through here: the status and the state `at` (refined
 // or initial) with its per-point RMS.
 CeresRefineResult Finish(Refinement* run, const ProblemState& at, CeresRefineStatus status,
@@ -318,6 +432,7 @@ CeresRefineResult Finish(Refinement* run, const ProblemState& at, CeresRefineSta
   result.cam2_from_cam1 = PoseOf(at);
   result.points_in_cam1_m = PointsOf(at);
   result.reprojection_rms_px = PointRms(*run, at);
+  NoteLrf(*run, at, &result);
   result.wall_s = Seconds(run->start);
   return result;
 }
@@ -339,7 +454,7 @@ std::unique_ptr<ceres::LossFunction> MakeLoss(const CeresRefineOptions& options)
 // in parts, and the Schur ordering (points first, then the pose).
 struct ResidualBlocks {
   std::vector<ceres::ResidualBlockId> image;
-  std::vector<ceres::ResidualBlockId> prior;
+  std::vector<ceres::ResidualBlockId> prior;  // the nav prior, and the range finder's when used
   std::shared_ptr<ceres::ParameterBlockOrdering> ordering;
 };
 
@@ -370,6 +485,19 @@ ResidualBlocks AddResidualBlocks(const Rigid3d& nav, const Matrix6d& whitening,
       nullptr, state.rotation_xyzw, state.translation)};
   blocks.ordering->AddElementToGroup(state.rotation_xyzw, 1);
   blocks.ordering->AddElementToGroup(state.translation, 1);
+  if (run->lrf.has_value()) {
+    auto* cost = new ceres::DynamicAutoDiffCostFunction<LrfResidual>(new LrfResidual(*run->lrf));
+    std::vector<double*> points;
+    for (const size_t i : run->lrf_support) {
+      cost->AddParameterBlock(3);
+      points.push_back(&state.points[3 * i]);
+      // The range couples its points: they join the pose's group, so that the
+      // first group (eliminated by the Schur complement) stays independent.
+      blocks.ordering->AddElementToGroup(points.back(), 1);
+    }
+    cost->SetNumResiduals(1);
+    blocks.prior.push_back(problem->AddResidualBlock(cost, nullptr, points));
+  }
   return blocks;
 }
 
@@ -432,6 +560,7 @@ CeresRefineResult FinishSolve(const ceres::Solver::Summary& summary, ceres::Prob
   }
   return Finish(run, run->state, CeresRefineStatus::kOk, "");
 }
+
 
 // Builds the Ceres problem on run->state, solves it and finishes.
 CeresRefineResult BuildAndSolve(const Rigid3d& nav, const Matrix6d& whitening, Refinement* run) {
@@ -547,6 +676,7 @@ CeresRefineResult RefineTwoView(const CeresRefineInput& input, const CeresRefine
   run.state = StateFrom(nav, input.points_in_cam1_m);
   run.initial = run.state;
   SetUpResiduals(input, &run);
+  if (input.lrf.has_value()) SetUpLrf(*input.lrf, &run);
 
   const int usable = static_cast<int>(n) - run.result.excluded;
   if (usable < options.min_points) {

@@ -26,7 +26,8 @@
 //
 // What the geometry can observe: the images fix the relative rotation and the
 // direction of the baseline (the epipolar geometry), never the baseline's
-// length: the scale comes from the nav prior alone. How much of the rest they
+// length: the scale comes from the nav prior, and from the range finder where
+// it is given (CeresRefineInput::lrf). How much of the rest they
 // fix depends on the spread of the points. One 10 m site at 565 m (about one
 // degree of the field) observes little more than the offset of the epipolar
 // lines across the baseline (a rotation about the baseline traded against a
@@ -106,6 +107,30 @@ struct CeresRefineInput {
   std::optional<Eigen::Matrix<double, 6, 6>> nav_covariance;
   // Focal length of the camera, pixels: turns angular residuals into pixels.
   double focal_px = 0.0;
+  // The laser range finder at camera 1, when it is used: the range it
+  // measured along its beam fixes the scale, which the images cannot (see the
+  // file comment). The support_points points nearest the beam's line (at the
+  // start), of those within the smallest of a quarter, a half and the whole
+  // of support_radius_m that holds three, stand for the ground it hit: the plane of normal ground_normal_in_cam1 through their centroid,
+  // where the beam meets it, is range_m away, to range_sigma_m. The normal is
+  // given, not fitted: two-view points tilt a plane fitted to a few of them
+  // by degrees (their depth noise runs along the lines of sight), and the
+  // range errs by the centroid's distance from the beam times the tangent of
+  // the tilt (12 m and 3.5 deg: 0.7 m, in the default scene); with level
+  // ground as the normal it errs by that distance times the local slope.
+  // Fewer than three such points, or a beam within 10 degrees of grazing the
+  // plane: no range constraint (CeresRefineResult::lrf_points is 0 and
+  // lrf_note says why).
+  struct Lrf {
+    Eigen::Vector3d origin_in_cam1_m = Eigen::Vector3d::Zero();
+    Eigen::Vector3d beam_in_cam1 = Eigen::Vector3d::UnitZ();  // any positive length
+    double range_m = 0.0;          // > 0
+    double range_sigma_m = 0.1;    // > 0: the range's 1-sigma noise
+    double support_radius_m = 5.0;  // > 0
+    int support_points = 20;        // >= 3
+    Eigen::Vector3d ground_normal_in_cam1 = -Eigen::Vector3d::UnitY();  // any non-zero length
+  };
+  std::optional<Lrf> lrf;
 };
 
 enum class CeresRefineStatus {
@@ -124,7 +149,7 @@ const char* ToString(CeresRefineStatus status);  // "ok", "not converged", ...
 struct RefineCost {
   double total = 0.0;
   double reprojection = 0.0;  // the image residuals' part (with the robust loss)
-  double prior = 0.0;         // the nav prior's part
+  double prior = 0.0;         // the nav prior's part, with the range finder's where it is used
 };
 
 struct CeresRefineResult {
@@ -142,6 +167,8 @@ struct CeresRefineResult {
   // returned state; +infinity for an excluded point.
   std::vector<double> reprojection_rms_px;
   int excluded = 0;  // points left out: behind a camera at the start (returned as given)
+  int lrf_points = 0;    // points the range constraint stands on; 0: none (lrf_note says why)
+  std::string lrf_note;  // one line: the range constraint's points and its range at the end, or why none
   RefineCost initial_cost;
   RefineCost final_cost;  // never above initial_cost.total
   int iterations = 0;     // Ceres iterations (steps tried, accepted or not), <= max_iterations

@@ -6,6 +6,7 @@
 #include <set>
 #include <utility>
 
+#include "datasets/synth/truth.h"
 #include "reference/compare/method.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
@@ -105,6 +106,10 @@ void Summarise(const CompareRun& run, size_t m, size_t colmap_nav_index, double 
   s->slope_vs_truth_deg = pool.Slope();
   s->tilt_vs_truth_deg = pool.Tilt();
   s->slope_bias_deg = pool.Bias();
+  s->tilt_definition_deg = pool.DefinitionTilt();
+  s->tilt_estimation_deg = pool.EstimationTilt();
+  s->slope_definition_bias_deg = pool.DefinitionBias();
+  s->slope_estimation_bias_deg = pool.EstimationBias();
   s->roughness_vs_truth_m = pool.Roughness();
   s->slope_vs_colmap_nav_deg = ComputeErrorStats(vs_colmap);
   s->time_ratio_to_flight = flight_seconds > 0.0 ? s->wall_s / flight_seconds : 0.0;
@@ -138,6 +143,12 @@ SlopeSample SampleOfMethodRoi(const MethodRoi& roi, const RoiTruthValue* truth) 
     s.error_deg = roi.slope_deg - truth->slope_deg;
     s.tilt_error_deg = TiltErrorDeg(roi.normal_in_local, truth->normal_in_local);
     s.roughness_error_m = std::abs(roi.roughness_rms_m - truth->roughness_rms_m);
+    if (roi.own_truth.available) {
+      s.definition_tilt_deg = TiltErrorDeg(roi.own_truth.normal_in_local, truth->normal_in_local);
+      s.estimation_tilt_deg = TiltErrorDeg(roi.normal_in_local, roi.own_truth.normal_in_local);
+      s.definition_error_deg = roi.own_truth.slope_deg - truth->slope_deg;
+      s.estimation_error_deg = roi.slope_deg - roi.own_truth.slope_deg;
+    }
   }
   return s;
 }
@@ -245,6 +256,8 @@ std::vector<std::string> CompareOptions::Validate() const {
   for (const std::string& e : opengv.Validate()) errors.push_back("opengv." + e);
   for (const std::string& e : direct_plane.Validate()) errors.push_back("direct_plane." + e);
   for (const std::string& e : dense_stereo.Validate()) errors.push_back("dense_stereo." + e);
+  RequireOption(std::isfinite(lrf_range_sigma_m) && lrf_range_sigma_m > 0, "lrf_range_sigma_m", lrf_range_sigma_m,
+                "> 0 (metres)", &errors);
   for (const std::string& e : external.Validate()) errors.push_back("external." + e);
   if (std::find(methods.begin(), methods.end(), kMethodExternal) != methods.end() && external.program.empty()) {
     errors.push_back("external.program: the external method needs a program (--external-program)");
@@ -305,7 +318,7 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
   PairContext ctx(dataset, frame1, frame2, options, progress);
 
   ctx.Say("flight method on frames " + std::to_string(frame1) + "," + std::to_string(frame2));
-  run.flight = RunFlight(dataset, frame1, frame2, options.hda);
+  run.flight = RunFlight(dataset, frame1, frame2, options.hda, options.given_rois_px);
   ctx.SetFlight(&run.flight);
   run.any_truth = run.flight.AnyTruth();
 
@@ -338,8 +351,38 @@ CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
       RunGuarded(methods[m], ctx, &run.rois[m], &run.summaries[m]);
     }
   }
+  AttachOwnTruths(dataset, &run);
   SummariseCompareRun(&run);
   return run;
+}
+
+void AttachOwnTruths(const datasets::Dataset& dataset, CompareRun* run) {
+  for (size_t i = 0; i < run->flight.result.rois.size(); ++i) {
+    const bool site_truth = i < run->flight.truths.size() && run->flight.truths[i].available;
+    for (std::vector<MethodRoi>& rois : run->rois) {
+      MethodRoi& roi = rois[i];
+      MethodRoi::OwnTruth& own = roi.own_truth;
+      own = MethodRoi::OwnTruth();
+      if (!roi.has_fit) {
+        own.why = "no plane";
+      } else if (!site_truth) {
+        own.why = "the ROI has no truth";
+      } else if (roi.support_px.empty()) {
+        own.why = "the method names no support";
+      } else {
+        try {
+          const datasets::synth::SupportTruth truth =
+              datasets::synth::ComputeSupportTruth(dataset, run->flight.frame1, roi.support_px, roi.support_weights);
+          own.available = true;
+          own.num_points = truth.num_points;
+          own.slope_deg = truth.slope_deg;
+          own.normal_in_local = truth.normal_in_local;
+        } catch (const InputError& e) {
+          own.why = e.what();
+        }
+      }
+    }
+  }
 }
 
 void SummariseCompareRun(CompareRun* run) {

@@ -110,9 +110,16 @@ struct CompareOptions {
   ColmapOptions colmap;           // workspace: <out>/colmap
   OpenGvOptions opengv;
   CeresRefineOptions refine = DefaultRefineOptions();
+  // flight-refined: the range finder's 1-sigma range noise, metres, the
+  // weight of its range in the adjustment (the synthetic scenes' LRF has
+  // 0.10 m; a flight laser altimeter is of that order).
+  double lrf_range_sigma_m = 0.10;
   DirectPlaneOptions direct_plane;  // plane-nav
   DenseStereoOptions dense_stereo;  // dense-nav
   ExternalMethodOptions external;   // external
+  // The ROIs (image-1 boxes) instead of the quadtree's, when not empty
+  // (hda::HdaInput::given_rois_px): every method judges these.
+  std::vector<cv::Rect> given_rois_px;
   // The matches the OpenGV methods use: the flight matcher's ORB matches with
   // the flight's options (false), or denser ones over the same boxes (true:
   // 2000 ORB keypoints per box at a FAST threshold of 5, the rest as the
@@ -200,6 +207,23 @@ struct MethodRoi {
   std::string configuration;      // OpenGV, colmap-free: the pair's (well-conditioned, planar, low parallax, too few points)
   PointAccuracy accuracy;
   std::vector<Eigen::Vector3d> points_in_local_m;  // the method's points in the ROI
+  // The image-1 positions the method's plane stands on (pixel centres at
+  // whole numbers) and their weights in its fit (empty: alike): its points'
+  // pixels, or a photometric fit's pixels with their information. Empty when
+  // the method does not say (external).
+  std::vector<Eigen::Vector2d> support_px;
+  std::vector<double> support_weights;
+  // The truth of that support (RunCompare, where the dataset has truth
+  // points): the plane of the ground the method looks at, weighted as it
+  // weighs it (datasets/synth/truth.h, ComputeSupportTruth).
+  struct OwnTruth {
+    bool available = false;
+    std::string why;  // when not available
+    int num_points = 0;
+    double slope_deg = 0.0;
+    Eigen::Vector3d normal_in_local = Eigen::Vector3d::UnitZ();
+  };
+  OwnTruth own_truth;
   double wall_s = 0.0;           // wall time spent on this ROI (per-ROI methods only)
 };
 
@@ -223,6 +247,14 @@ struct MethodSummary {
   ErrorStats slope_vs_truth_deg;    // |slope - truth| over ROIs with a slope, truth and >= kMinPointsForSlopeStats points
   ErrorStats tilt_vs_truth_deg;     // TiltErrorDeg against the true plane, same ROIs
   double slope_bias_deg = 0.0;      // mean of slope - truth (signed), same ROIs; 0 when there are none
+  // The tilt error taken apart, over those of the same ROIs with an own truth
+  // (MethodRoi::own_truth): the definition part (own truth against the
+  // site's), the estimation part (the method against its own truth), and
+  // each one's signed slope bias (0 when there are none).
+  ErrorStats tilt_definition_deg;
+  ErrorStats tilt_estimation_deg;
+  double slope_definition_bias_deg = 0.0;
+  double slope_estimation_bias_deg = 0.0;
   ErrorStats slope_vs_colmap_nav_deg;  // |slope - colmap-nav's| where both have a fit with enough points
   ErrorStats roughness_vs_truth_m; // |roughness rms - truth rms|, metres, same ROIs as slope_vs_truth
   PointAccuracy accuracy;       // over all the method's points inside ROIs
@@ -256,6 +288,11 @@ using CompareProgress = std::function<void(const std::string& message)>;
 CompareRun RunCompare(const datasets::Dataset& dataset, int frame1, int frame2,
                       const CompareOptions& options, const std::string& colmap_workspace,
                       const CompareProgress& progress = nullptr);
+
+// RunCompare's step after the methods: each method ROI's own truth
+// (MethodRoi::own_truth) from the dataset's truth points of frame 1, where
+// the ROI has a plane, a site truth and a support; the reason elsewhere.
+void AttachOwnTruths(const datasets::Dataset& dataset, CompareRun* run);
 
 // RunCompare's last step: each method's statistics (MethodSummary's counts,
 // errors against the truth and colmap-nav, point accuracy, time ratio) from

@@ -57,6 +57,25 @@ Json MethodRoiJson(const MethodRoi& r) {
   return j;
 }
 
+// The ROI's own truth and the tilt error's parts against it (null where it
+// has none; own_truth then says why).
+void AddOwnTruthJson(const MethodRoi& r, const RoiTruthValue* truth, Json* j) {
+  const MethodRoi::OwnTruth& own = r.own_truth;
+  if (own.available) {
+    (*j)["own_truth"] = {{"num_points", own.num_points},
+                         {"slope_deg", Number(own.slope_deg)},
+                         {"normal", Json::array({Number(own.normal_in_local.x()), Number(own.normal_in_local.y()),
+                                                 Number(own.normal_in_local.z())})}};
+  } else {
+    (*j)["own_truth"] = {{"why", own.why.empty() ? "the dataset has no truth" : own.why}};
+  }
+  const SlopeSample sample = SampleOfMethodRoi(r, truth);
+  (*j)["tilt_definition_deg"] = Number(sample.definition_tilt_deg);
+  (*j)["tilt_estimation_deg"] = Number(sample.estimation_tilt_deg);
+  (*j)["slope_definition_error_deg"] = Number(sample.definition_error_deg);
+  (*j)["slope_estimation_error_deg"] = Number(sample.estimation_error_deg);
+}
+
 double SlopeError(const CompareRun& run, size_t m, size_t i) {
   const MethodRoi& r = run.rois[m][i];
   const RoiTruthValue* t = TruthOf(run, i);
@@ -112,6 +131,12 @@ std::string CompareResultJson(const CompareRun& run) {
     mj["slope_error_vs_truth_deg"] = StatsJson(s.slope_vs_truth_deg);
     mj["tilt_error_vs_truth_deg"] = StatsJson(s.tilt_vs_truth_deg);
     mj["slope_bias_vs_truth_deg"] = s.slope_vs_truth_deg.count > 0 ? Number(s.slope_bias_deg) : Json(nullptr);
+    mj["tilt_definition_part_deg"] = StatsJson(s.tilt_definition_deg);
+    mj["tilt_estimation_part_deg"] = StatsJson(s.tilt_estimation_deg);
+    mj["slope_bias_definition_part_deg"] =
+        s.tilt_definition_deg.count > 0 ? Number(s.slope_definition_bias_deg) : Json(nullptr);
+    mj["slope_bias_estimation_part_deg"] =
+        s.tilt_estimation_deg.count > 0 ? Number(s.slope_estimation_bias_deg) : Json(nullptr);
     mj["roughness_error_vs_truth_m"] = StatsJson(s.roughness_vs_truth_m);
     mj["slope_difference_vs_colmap_nav_deg"] = StatsJson(s.slope_vs_colmap_nav_deg);
     mj["point_accuracy"] = AccuracyJson(s.accuracy);
@@ -144,6 +169,7 @@ std::string CompareResultJson(const CompareRun& run) {
       Json mr = MethodRoiJson(run.rois[m][i]);
       mr["slope_error_deg"] = Number(SlopeError(run, m, i));
       mr["tilt_error_deg"] = Number(TiltError(run, m, i));
+      if (run.any_truth) AddOwnTruthJson(run.rois[m][i], t, &mr);
       per_method[run.methods[m]] = mr;
     }
     rj["methods"] = per_method;
@@ -174,7 +200,8 @@ std::string CompareTimingsJson(const CompareRun& run) {
 std::string CompareRoisCsv(const CompareRun& run) {
   std::ostringstream out;
   out << "roi,method,status,num_points,slope_deg,slope_sigma_deg,truth_slope_deg,slope_error_deg,"
-         "tilt_error_deg,roughness_rms_m,truth_roughness_rms_m,configuration,points_within_0_3_m\n";
+         "tilt_error_deg,roughness_rms_m,truth_roughness_rms_m,configuration,points_within_0_3_m,"
+         "tilt_definition_deg,tilt_estimation_deg\n";
   const auto quoted = [](const std::string& text) {
     std::string q = "\"";
     for (const char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
@@ -184,13 +211,15 @@ std::string CompareRoisCsv(const CompareRun& run) {
     const RoiTruthValue* t = TruthOf(run, i);
     for (size_t m = 0; m < run.methods.size(); ++m) {
       const MethodRoi& r = run.rois[m][i];
+      const SlopeSample parts = SampleOfMethodRoi(r, t);
       out << run.flight.result.rois[i].id << "," << run.methods[m] << "," << quoted(r.StatusName()) << ","
           << r.num_points << "," << (r.has_fit ? util::CsvNumber(r.slope_deg) : "") << ","
           << (r.has_fit && r.has_sigma ? util::CsvNumber(r.slope_sigma_deg) : "") << ","
           << (t != nullptr ? util::CsvNumber(t->slope_deg) : "") << "," << util::CsvNumber(SlopeError(run, m, i))
           << "," << util::CsvNumber(TiltError(run, m, i)) << "," << (r.has_fit ? util::CsvNumber(r.roughness_rms_m) : "") << ","
           << (t != nullptr ? util::CsvNumber(t->roughness_rms_m) : "") << "," << r.configuration << ","
-          << (r.accuracy.available ? util::CsvNumber(r.accuracy.within_0_3_m) : "") << "\n";
+          << (r.accuracy.available ? util::CsvNumber(r.accuracy.within_0_3_m) : "") << ","
+          << util::CsvNumber(parts.definition_tilt_deg) << "," << util::CsvNumber(parts.estimation_tilt_deg) << "\n";
     }
   }
   return out.str();
@@ -228,13 +257,17 @@ std::string CompareMarkdown(const CompareRun& run) {
   }
   out << "\n## Per method\n\nErrors are median / 90th percentile / max (count) over ROIs with a slope and at "
       << "least " << kMinPointsForSlopeStats << " points. The tilt error is the angle between the fitted and "
-      << "the true plane; the slope bias the mean of slope - truth.\n\n";
+      << "the true plane; the slope bias the mean of slope - truth. The tilt error's parts are against the "
+      << "method's own truth, the plane of the truth points at the pixels its plane stands on, weighted as "
+      << "it weighs them: the definition part (own truth against the site's) and the estimation part (the "
+      << "method against its own truth), over the ROIs with an own truth.\n\n";
   out << MarkdownRow({"method", "ROIs with a slope", "slope error vs truth (deg)",
-                      "tilt error vs truth (deg)", "slope bias (deg)",
+                      "tilt error vs truth (deg)", "slope bias (deg)", "tilt: definition part (deg)",
+                      "tilt: estimation part (deg)",
                       "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
                       "points within 0.1 / 0.3 / 1 m", "rotation / baseline-direction error (deg)",
                       "time (s)", "time / flight"});
-  out << MarkdownRow(std::vector<std::string>(11, "---"));
+  out << MarkdownRow(std::vector<std::string>(13, "---"));
   for (const MethodSummary& s : run.summaries) {
     const std::string accuracy =
         s.accuracy.available ? util::FixedCell(100 * s.accuracy.within_0_1_m, 0) + " / " +
@@ -248,6 +281,7 @@ std::string CompareMarkdown(const CompareRun& run) {
     out << MarkdownRow({s.method + (s.ok ? "" : " (failed)"), std::to_string(s.rois_with_fit),
                         StatsText(s.slope_vs_truth_deg, 2), StatsText(s.tilt_vs_truth_deg, 2),
                         s.slope_vs_truth_deg.count > 0 ? util::SignedCell(s.slope_bias_deg, 2) : "-",
+                        StatsText(s.tilt_definition_deg, 2), StatsText(s.tilt_estimation_deg, 2),
                         StatsText(s.roughness_vs_truth_m, 3),
                         StatsText(s.slope_vs_colmap_nav_deg, 2), accuracy, pose,
                         util::FixedCell(s.wall_s, 3), util::FixedCell(s.time_ratio_to_flight, 1)});

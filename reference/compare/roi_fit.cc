@@ -112,10 +112,13 @@ std::vector<MethodRoi> RoisOfReconstruction(const PairReconstruction& recon,
                      : nav_local_from_cam2.translation;
   for (size_t i = 0; i < flight.rois.size(); ++i) {
     std::vector<Eigen::Vector3d> points;
+    std::vector<Eigen::Vector2d> pixels1;
     for (const ReconstructedPoint& p : recon.points) {
-      if (methods::InBox(p.pixel1, flight.rois[i].box1_px)) points.push_back(p.point_in_local_m);
+      if (!methods::InBox(p.pixel1, flight.rois[i].box1_px)) continue;
+      points.push_back(p.point_in_local_m);
+      pixels1.push_back(p.pixel1);
     }
-    methods::FillFromPoints(points, centre1, centre2, dataset, min_points, &rois[i]);
+    methods::FillFromPoints(points, pixels1, centre1, centre2, dataset, min_points, &rois[i]);
   }
   return rois;
 }

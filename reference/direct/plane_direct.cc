@@ -41,6 +41,7 @@ double RobustSigma(const std::vector<double>& residuals) {
 
 // The ROI's pixels of image 1 with a bearing: what stays fixed in the fit.
 struct RoiPixels {
+  std::vector<Eigen::Vector2d> pixels;  // image 1, parallel to bearings
   std::vector<Eigen::Vector3d> bearings;
   std::vector<double> values1;
   std::vector<Eigen::RowVector2d> gradients1;    // image 1's gradient at the pixel, DN per pixel
@@ -66,6 +67,7 @@ RoiPixels PixelsOf(const DirectPlaneImages& images, const calib::CameraModel& ca
   const size_t n = pixels.size() - 4;
   for (size_t k = 0; k < n; ++k) {
     if (!valid[k]) continue;
+    out.pixels.push_back(pixels[k]);
     out.bearings.push_back(bearings[k]);
     const int row = static_cast<int>(pixels[k].y());
     const int col = static_cast<int>(pixels[k].x());
@@ -195,6 +197,7 @@ Eigen::Matrix3d PointOnPlaneJacobian(const Eigen::Vector3d& x, const Eigen::Vect
 struct Linearisation {
   std::vector<double> residuals;
   std::vector<Vector5d> jacobians;
+  std::vector<size_t> pixels;  // each residual's pixel of RoiPixels
 };
 
 Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraModel& camera, const RoiPixels& roi,
@@ -228,6 +231,7 @@ Linearisation Linearise(const DirectPlaneImages& images, const calib::CameraMode
     row(4) = -1.0;
     out.residuals.push_back(sample.value - gain * roi.values1[k] - offset);
     out.jacobians.push_back(row);
+    out.pixels.push_back(k);
   }
   return out;
 }
@@ -482,7 +486,8 @@ void FinishAtSolution(const Problem& problem, const State& state, const Eigen::V
     return;
   }
   result->robust_sigma_dn = RobustSigma(lin.residuals);
-  const NormalEquations eq = Accumulate(lin, 1.345 * std::max(result->robust_sigma_dn, 1e-3));
+  const double huber = 1.345 * std::max(result->robust_sigma_dn, 1e-3);
+  const NormalEquations eq = Accumulate(lin, huber);
   const double dof = std::max(1.0, static_cast<double>(lin.residuals.size()) - 5.0);
   // The residual variance, never below the quantisation's (1/12 DN^2): an
   // image is not known better than that, so perfect agreement of untextured
@@ -527,6 +532,16 @@ void FinishAtSolution(const Problem& problem, const State& state, const Eigen::V
   for (const Eigen::Vector3d& b : problem.roi.bearings) {
     const double pb = result->plane_in_cam1.dot(b);
     if (pb > 0.0) result->points_in_cam1.push_back(b / pb);
+  }
+  // A pixel's row of the plane's Jacobian is a multiple of its bearing (the
+  // plane moves its point only along its ray), so its squared norm, times
+  // its Huber weight, is what the pixel tells of its own depth.
+  result->support_px.reserve(lin.pixels.size());
+  result->support_weights.reserve(lin.pixels.size());
+  for (size_t k = 0; k < lin.pixels.size(); ++k) {
+    result->support_px.push_back(problem.roi.pixels[lin.pixels[k]]);
+    result->support_weights.push_back(HuberWeight(lin.residuals[k], huber) *
+                                      lin.jacobians[k].head<3>().squaredNorm());
   }
   result->status = DirectPlaneStatus::kOk;
 }

@@ -111,6 +111,12 @@ struct DirectPlaneResult {
   // The ROI's pixel rays on the fitted plane, in camera 1 (metres): the
   // points a point-based comparison sees.
   std::vector<Eigen::Vector3d> points_in_cam1;
+  // The pixels of the solution's residuals (image 1) and their weight in the
+  // fit: the Huber weight times the squared norm of the pixel's row of the
+  // plane's Jacobian (what the pixel tells of its depth along its ray). Set
+  // for an "ok" fit.
+  std::vector<Eigen::Vector2d> support_px;
+  std::vector<double> support_weights;
   int iterations = 0;
   bool converged = false;            // reached convergence_px before max_iterations
 };

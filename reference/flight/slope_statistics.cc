@@ -68,6 +68,10 @@ SlopeSample SampleOfCompareRecord(const std::string& method, const nlohmann::jso
   }
   s.tilt_error_deg = slope_records::NumberOrNaN(entry, "tilt_error_deg");
   s.sigma_deg = slope_records::NumberOrNaN(entry, "slope_sigma_deg");
+  s.definition_tilt_deg = slope_records::NumberOrNaN(entry, "tilt_definition_deg");
+  s.estimation_tilt_deg = slope_records::NumberOrNaN(entry, "tilt_estimation_deg");
+  s.definition_error_deg = slope_records::NumberOrNaN(entry, "slope_definition_error_deg");
+  s.estimation_error_deg = slope_records::NumberOrNaN(entry, "slope_estimation_error_deg");
   return s;
 }
 
@@ -100,10 +104,25 @@ void SlopeErrorPool::Add(const SlopeSample& sample) {
   if (std::isfinite(sample.tilt_error_deg)) tilt_errors_.push_back(sample.tilt_error_deg);
   if (std::isfinite(sample.roughness_error_m)) roughness_errors_.push_back(sample.roughness_error_m);
   if (WithinTwoSigma(error, sample.sigma_deg)) ++within_two_sigma_;
+  if (std::isfinite(sample.definition_tilt_deg) && std::isfinite(sample.estimation_tilt_deg) &&
+      std::isfinite(sample.definition_error_deg) && std::isfinite(sample.estimation_error_deg)) {
+    definition_tilts_.push_back(sample.definition_tilt_deg);
+    estimation_tilts_.push_back(sample.estimation_tilt_deg);
+    definition_signed_sum_ += sample.definition_error_deg;
+    estimation_signed_sum_ += sample.estimation_error_deg;
+  }
 }
 
 double SlopeErrorPool::Bias() const {
   return slope_errors_.empty() ? 0.0 : signed_sum_ / static_cast<double>(slope_errors_.size());
+}
+
+double SlopeErrorPool::DefinitionBias() const {
+  return definition_tilts_.empty() ? 0.0 : definition_signed_sum_ / static_cast<double>(definition_tilts_.size());
+}
+
+double SlopeErrorPool::EstimationBias() const {
+  return estimation_tilts_.empty() ? 0.0 : estimation_signed_sum_ / static_cast<double>(estimation_tilts_.size());
 }
 
 double SlopeErrorPool::WithinTwoSigmaShare() const {

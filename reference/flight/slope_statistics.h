@@ -9,8 +9,9 @@
 //   - the ROI has a truth, so that the error is finite, and
 //   - the fit has at least kMinPointsForSlopeStats points.
 // Over those ROIs: |slope error| (median, p90, max), the tilt error, the
-// signed bias, the roughness error where both sides have one, and the share
-// with |error| <= 2 predicted sigmas (WithinTwoSigma).
+// signed bias, the roughness error where both sides have one, the share
+// with |error| <= 2 predicted sigmas (WithinTwoSigma), and, where the method's
+// own support has a truth, the tilt error's definition and estimation parts.
 #pragma once
 
 #include <limits>
@@ -58,6 +59,14 @@ struct SlopeSample {
   double tilt_error_deg = std::numeric_limits<double>::quiet_NaN();       // angle to the true plane
   double roughness_error_m = std::numeric_limits<double>::quiet_NaN();    // |roughness - truth's|
   double sigma_deg = std::numeric_limits<double>::quiet_NaN();            // predicted slope sigma
+  // The error taken apart against the truth of the method's own support (its
+  // own truth): the definition part, own truth against the site's truth, and
+  // the estimation part, the method against its own truth. NaN without an
+  // own truth.
+  double definition_tilt_deg = std::numeric_limits<double>::quiet_NaN();
+  double estimation_tilt_deg = std::numeric_limits<double>::quiet_NaN();
+  double definition_error_deg = std::numeric_limits<double>::quiet_NaN();  // own truth's slope - truth, signed
+  double estimation_error_deg = std::numeric_limits<double>::quiet_NaN();  // slope - own truth's, signed
   // The rule of the file comment: has_slope, a finite error and enough points.
   bool Counts() const;
 };
@@ -88,6 +97,13 @@ class SlopeErrorPool {
   ErrorStats Slope() const { return ComputeErrorStats(slope_errors_); }
   ErrorStats Tilt() const { return ComputeErrorStats(tilt_errors_); }
   ErrorStats Roughness() const { return ComputeErrorStats(roughness_errors_); }
+  // The tilt error's parts, over the samples that count and have both
+  // (SlopeSample::definition_tilt_deg, estimation_tilt_deg), and the mean of
+  // each part's signed slope error (0 when none has them).
+  ErrorStats DefinitionTilt() const { return ComputeErrorStats(definition_tilts_); }
+  ErrorStats EstimationTilt() const { return ComputeErrorStats(estimation_tilts_); }
+  double DefinitionBias() const;
+  double EstimationBias() const;
   // Mean of the signed errors; 0 when none counts.
   double Bias() const;
   // Share within two predicted sigmas, of those that count; 0 when none counts.
@@ -97,7 +113,9 @@ class SlopeErrorPool {
   int rois_ = 0;
   int rois_with_slope_ = 0;
   std::vector<double> slope_errors_, tilt_errors_, roughness_errors_;
+  std::vector<double> definition_tilts_, estimation_tilts_;
   double signed_sum_ = 0.0;
+  double definition_signed_sum_ = 0.0, estimation_signed_sum_ = 0.0;
   int within_two_sigma_ = 0;
 };
 

@@ -410,12 +410,14 @@ void CheckCompareRecord(const Json& compare, const fs::path& path) {
                 {"rois_with_fit", Kind::kInteger}, {"slope_bias_vs_truth_deg", Kind::kNumber},
                 {"rotation_error_deg", Kind::kNumber}, {"translation_direction_error_deg", Kind::kNumber},
                 {"slope_error_vs_truth_deg", Kind::kObject}, {"tilt_error_vs_truth_deg", Kind::kObject},
+                {"tilt_definition_part_deg", Kind::kObject}, {"tilt_estimation_part_deg", Kind::kObject},
                 {"roughness_error_vs_truth_m", Kind::kObject},
                 {"slope_difference_vs_colmap_nav_deg", Kind::kObject}});
     CheckKinds(Member(m, "point_accuracy"), path, where + ", key \"point_accuracy\"",
                {{"within_0_1_m", Kind::kNumber}, {"within_0_3_m", Kind::kNumber}, {"within_1_m", Kind::kNumber},
                 {"num_points", Kind::kInteger}});
-    for (const char* stats : {"slope_error_vs_truth_deg", "tilt_error_vs_truth_deg", "roughness_error_vs_truth_m",
+    for (const char* stats : {"slope_error_vs_truth_deg", "tilt_error_vs_truth_deg", "tilt_definition_part_deg",
+                              "tilt_estimation_part_deg", "roughness_error_vs_truth_m",
                               "slope_difference_vs_colmap_nav_deg"}) {
       CheckErrorStats(Member(m, stats), path, where + ", key \"" + stats + "\"");
     }
@@ -598,7 +600,8 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
   Table& summary = page->summary;
   summary.id = "method-table";
   summary.header = {"method", "status", "ROIs with a slope", "slope error vs truth (deg)",
-                    "tilt error vs truth (deg)", "slope bias (deg)", "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
+                    "tilt error vs truth (deg)", "slope bias (deg)", "tilt: definition part (deg)",
+                    "tilt: estimation part (deg)", "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
                     "points within 0.1 / 0.3 / 1 m (%)", "rotation / baseline-dir. error (deg)",
                     "time (s)"};
   for (const Json& m : methods) {
@@ -626,6 +629,8 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
              ? util::SignedCell(Member(m, "slope_bias_vs_truth_deg").get<double>(), 2)
              : "-",
          "", ""},
+        {StatsText(Member(m, "tilt_definition_part_deg"), 2), "", ""},
+        {StatsText(Member(m, "tilt_estimation_part_deg"), 2), "", ""},
         {StatsText(Member(m, "roughness_error_vs_truth_m"), 3), "", ""},
         {StatsText(Member(m, "slope_difference_vs_colmap_nav_deg"), 2), "", ""},
         {accuracy_text, "", ""},
@@ -638,7 +643,10 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
       "Errors are median / 90th percentile / max (count) over ROIs with a slope and at least " +
       std::to_string(IntOr(Member(compare, "min_points_for_stats"), kMinPointsForSlopeStats)) +
       " points; the tilt error is the angle between the fitted and the true plane, the slope bias the "
-      "mean of slope - truth.");
+      "mean of slope - truth. The tilt error's parts are against the method's own truth, the plane of the "
+      "truth points at the pixels its plane stands on, weighted as it weighs them: the definition part (own "
+      "truth against the site's truth: where the method looks) and the estimation part (the method against "
+      "its own truth: how well it measures).");
 
   // The landing decisions per method, read from the record by the one rule.
   const Json& limit = Member(compare, "max_slope_deg");

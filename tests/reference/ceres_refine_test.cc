@@ -522,6 +522,64 @@ TEST(CeresRefine, NoisyNavPoseIsImproved) {
   EXPECT_NEAR(root(length_after), root(length_before), 0.05 * root(length_before));
 }
 
+// The images leave the scale to the nav baseline: with the baseline 1 % long
+// the refined points are 1 % too far, whatever the images say. The range
+// finder's range along the optical axis, to level ground through the points
+// nearest its beam, brings them back to the range; its note names the
+// points and the range it ends at. Bad range-finder inputs are statuses.
+TEST(CeresRefine, TheRangeFinderFixesTheScale) {
+  SceneSpec spec;
+  spec.pixel_sigma_px = 0.25;
+  Scene scene = MakeScene(spec, CurrentTestSeed());
+  // The nav pose: the true one with the baseline 1 % long; the initial
+  // points triangulated with it are 1 % too far.
+  const Rigid3d& truth = scene.true_cam2_from_cam1;
+  scene.input.nav_cam2_from_cam1 = Rigid3d(truth.rotation, 1.01 * truth.translation);
+  for (Eigen::Vector3d& p : scene.input.points_in_cam1_m) p *= 1.01;
+  const size_t n = scene.input.points_in_cam1_m.size();
+  const CeresRefineResult without = RefineTwoView(scene.input, Options(0.25));
+  ASSERT_EQ(without.status, CeresRefineStatus::kOk) << without.failure;
+  EXPECT_EQ(without.lrf_points, 0);
+  EXPECT_TRUE(without.lrf_note.empty());
+
+  // The scene's ground: the plane through (0, 0, kRangeM), tilted 30 deg
+  // about x; the beam along the optical axis meets it at kRangeM.
+  CeresRefineInput::Lrf lrf;
+  lrf.beam_in_cam1 = Eigen::Vector3d::UnitZ();
+  lrf.range_m = kRangeM;
+  lrf.range_sigma_m = 0.1;
+  lrf.support_radius_m = 20.0;
+  lrf.ground_normal_in_cam1 = Eigen::Vector3d(0.0, -std::sin(30.0 * kDegToRad), -std::cos(30.0 * kDegToRad));
+  scene.input.lrf = lrf;
+  const CeresRefineResult with = RefineTwoView(scene.input, Options(0.25));
+  ASSERT_EQ(with.status, CeresRefineStatus::kOk) << with.failure;
+  EXPECT_EQ(with.lrf_points, 20);
+  EXPECT_NE(with.lrf_note.find("range constraint on 20 points"), std::string::npos) << with.lrf_note;
+  const double error_without = MedianPointErrorM(without.points_in_cam1_m, scene.true_points_in_cam1, n);
+  const double error_with = MedianPointErrorM(with.points_in_cam1_m, scene.true_points_in_cam1, n);
+  std::printf("[ceres] baseline 1 %% long: median point error %.3f m without the range finder, %.3f m with (%s)\n",
+              error_without, error_with, with.lrf_note.c_str());
+  // 1 % of 565 m is 5.7 m; the patch's relief (0.5 m and a 2 m bump) moves
+  // the ground the 20 points stand for by about a metre along the beam.
+  EXPECT_GT(error_without, 4.0);
+  EXPECT_LT(error_with, 0.3 * error_without);
+  const Eigen::Vector3d c_truth = -(truth.rotation.conjugate() * truth.translation);
+  const Eigen::Vector3d c_with = -(with.cam2_from_cam1.rotation.conjugate() * with.cam2_from_cam1.translation);
+  EXPECT_LT(std::abs(c_with.norm() / c_truth.norm() - 1.0), 0.003) << c_with.norm() << " vs " << c_truth.norm();
+
+  // No point near the beam: no constraint, and the note says why.
+  scene.input.lrf->support_radius_m = 1e-3;
+  const CeresRefineResult none = RefineTwoView(scene.input, Options(0.25));
+  EXPECT_EQ(none.lrf_points, 0);
+  EXPECT_NE(none.lrf_note.find("no range constraint"), std::string::npos) << none.lrf_note;
+  // A bad range finder is invalid input, named.
+  scene.input.lrf->support_radius_m = 20.0;
+  scene.input.lrf->range_m = -1.0;
+  const CeresRefineResult bad = RefineTwoView(scene.input, Options(0.25));
+  EXPECT_EQ(bad.status, CeresRefineStatus::kInvalidInput);
+  EXPECT_NE(bad.failure.find("lrf: range_m = -1"), std::string::npos) << bad.failure;
+}
+
 // (4) Gross mismatches (10 % of the matches, 15-40 px off in image 2) are
 // down-weighted: with a robust loss the pose and the good points stay close
 // to the result without them, much closer than with plain least squares.

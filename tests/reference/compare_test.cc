@@ -1,7 +1,6 @@
 #include "reference/compare/compare.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -408,6 +407,47 @@ TEST_F(CompareOnSyntheticScene, EveryMethodRunsAndColmapNavSlopesAreWithinTheirG
   EXPECT_GT(tilts, 10);
   EXPECT_GT(json["methods"][0]["tilt_error_vs_truth_deg"]["count"].get<int>(), 10);
   EXPECT_TRUE(json["methods"][0]["slope_bias_vs_truth_deg"].is_number());
+
+  // The error taken apart: every method but external names its support, so
+  // every ROI with a plane and a truth has an own truth, and the tilt error,
+  // an angle between two planes, is at most the sum of the angles through the
+  // third (the own truth).
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    SCOPED_TRACE(run.methods[m]);
+    int parts = 0;
+    for (size_t i = 0; i < run.flight.result.rois.size(); ++i) {
+      const nlohmann::json& r = json["rois"][i]["methods"][run.methods[m]];
+      const MethodRoi& roi = run.rois[m][i];
+      if (!roi.has_fit || !run.flight.truths[i].available) {
+        EXPECT_TRUE(r["tilt_definition_deg"].is_null());
+        EXPECT_FALSE(r["own_truth"]["why"].get<std::string>().empty());
+        continue;
+      }
+      ASSERT_TRUE(roi.own_truth.available) << "ROI " << r << ": " << roi.own_truth.why;
+      EXPECT_GE(roi.own_truth.num_points, 3);
+      EXPECT_LE(roi.own_truth.num_points, static_cast<int>(roi.support_px.size()));
+      const double tilt = r["tilt_error_deg"].get<double>();
+      const double definition = r["tilt_definition_deg"].get<double>();
+      const double estimation = r["tilt_estimation_deg"].get<double>();
+      EXPECT_LE(tilt, definition + estimation + 1e-9) << "ROI " << json["rois"][i]["id"];
+      EXPECT_NEAR(r["slope_definition_error_deg"].get<double>() + r["slope_estimation_error_deg"].get<double>(),
+                  r["slope_error_deg"].get<double>(), 1e-9);
+      ++parts;
+    }
+    if (run.summaries[m].rois_with_fit > 0) {  // the free solvers find this pair planar
+      EXPECT_GT(parts, 0);
+    }
+    EXPECT_EQ(json["methods"][m]["tilt_definition_part_deg"]["count"],
+              json["methods"][m]["tilt_estimation_part_deg"]["count"]);
+    EXPECT_LE(json["methods"][m]["tilt_definition_part_deg"]["count"].get<int>(),
+              json["methods"][m]["tilt_error_vs_truth_deg"]["count"].get<int>());
+  }
+  // plane-nav's support is its grown box, weighted by what each pixel tells of its depth.
+  for (const MethodRoi& roi : run.rois[plane_nav]) {
+    if (!roi.HasSlope()) continue;
+    EXPECT_EQ(roi.support_weights.size(), roi.support_px.size());
+    EXPECT_GT(*std::max_element(roi.support_weights.begin(), roi.support_weights.end()), 0.0);
+  }
 }
 
 // COLMAP missing: both COLMAP columns fail with the reason, every other
@@ -689,9 +729,7 @@ TEST_F(CompareOnSyntheticScene, AFailingHangingOrGarbledExternalProgramFailsOnly
     options.external.program = program.string();
     options.external.timeout_s = c.timeout_s;
     options.external.work_dir = (dir / c.name).string();
-    const auto start = std::chrono::steady_clock::now();
     const CompareRun run = RunCompare(dataset, 0, 6, options, (dir / "colmap").string());
-    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), 25.0);
     ASSERT_EQ(run.summaries.size(), 2u);
     EXPECT_TRUE(run.summaries[0].ok);
     EXPECT_FALSE(run.summaries[1].ok);
@@ -784,6 +822,97 @@ TEST_F(CompareOnSyntheticScene, BadFlagsAreUsageErrors) {
 // flight-refined, which refits the flight method's points, passes on its
 // reason; colmap-nav, which COLMAP aborts on such a pair in its bundle
 // adjustment, fails with the nav baseline in its reason.
+// A 3 deg site inside 10 deg surroundings (a 20 m pad set into a slope, both
+// tilting east, across the line of sight; craters and rocks off, the relief
+// kept for texture), the site the box inside the image of the pad's central
+// 16 m, with exact navigation. The bound is the noise's: three of the
+// method's own predicted sigmas, or of the flight method's for the site (its
+// matching noise through this geometry, 100 points) for a method that
+// predicts none and has at least as many points. Every method estimates its
+// own truth within it. Every method whose support is the box gives the
+// site's slope within it, and its definition part is small. plane-nav's
+// support is the box grown by half the warp window: it reads the 10 deg
+// surroundings, and its definition part says by how much (1.96 deg of its
+// 2.02 deg error, seed 1).
+TEST(CompareOnAPad, EveryReferenceGivesTheSiteNotItsSurroundings) {
+  datasets::synth::SynthOptions options = testing_support::ExactNavLateralPreset();
+  options.collection_s = 2.4;
+  options.frames_to_render = [](const datasets::Dataset&) { return std::vector<int>{0, 6}; };
+  datasets::synth::TerrainOptions terrain = testing_support::TerrainOf(options);
+  terrain.crater_k = 0.0;
+  terrain.rock_k = 0.0;
+  terrain.regional_slope_deg = 10.0;
+  terrain.regional_slope_downhill_azimuth_deg = 90.0;
+  datasets::synth::TerrainOptions::Pad pad;
+  pad.side_m = 20.0;
+  pad.slope_deg = 3.0;
+  pad.downhill_azimuth_deg = 90.0;
+  terrain.extra_pads = {pad};
+  const datasets::Dataset dataset = datasets::synth::GenerateSynthDataset(options, terrain, CurrentTestSeed());
+
+  // The site: the box inside the image of the pad's central 16 m square.
+  std::vector<Eigen::Vector3d> corners;
+  for (const double x : {-8.0, 8.0}) {
+    for (const double y : {-8.0, 8.0}) corners.emplace_back(x, y, std::tan(3.0 * 3.14159265358979323846 / 180.0) * -x);
+  }
+  const Rigid3d cam_from_local = dataset.TrueCamFromLocal(0);
+  std::vector<Eigen::Vector3d> in_cam;
+  for (const Eigen::Vector3d& c : corners) in_cam.push_back(cam_from_local * c);
+  std::vector<Eigen::Vector2d> pixels;
+  std::vector<unsigned char> valid;
+  dataset.camera.Project(in_cam, &pixels, &valid);
+  double left = -1e9, right = 1e9, top = -1e9, bottom = 1e9;
+  for (size_t k = 0; k < pixels.size(); ++k) {
+    ASSERT_TRUE(valid[k]);
+    (corners[k].x() < 0 ? left : right) =
+        corners[k].x() < 0 ? std::max(left, pixels[k].x()) : std::min(right, pixels[k].x());
+    (corners[k].y() > 0 ? top : bottom) =
+        corners[k].y() > 0 ? std::max(top, pixels[k].y()) : std::min(bottom, pixels[k].y());
+  }
+  const cv::Rect site(static_cast<int>(std::ceil(left)), static_cast<int>(std::ceil(top)),
+                      static_cast<int>(std::floor(right) - std::ceil(left)),
+                      static_cast<int>(std::floor(bottom) - std::ceil(top)));
+  ASSERT_GT(site.width, 10);
+  ASSERT_GT(site.height, 10);
+
+  CompareOptions compare;
+  compare.methods = {kMethodFlight, kMethodFlightRefined, "opengv-two-point", kMethodDenseNav, kMethodPlaneNav};
+  compare.given_rois_px = {site};
+  compare.hda.Set("compute_budget_s", 1000.0, "test");
+  const fs::path out = FreshTestDir();
+  const CompareRun run = RunCompare(dataset, 0, 6, compare, (out / "colmap").string());
+  ASSERT_EQ(run.flight.result.rois.size(), 1u);
+  const RoiTruthValue& truth = run.flight.truths[0];
+  ASSERT_TRUE(truth.available) << truth.why;
+  // The pad's 3 deg, tilted by the relief's few tenths over 16 m.
+  EXPECT_NEAR(truth.slope_deg, 3.0, 0.6);
+  const MethodRoi& flight = run.rois[0][0];
+  ASSERT_TRUE(flight.HasSlope() && flight.has_sigma) << flight.reason;
+  for (size_t m = 0; m < run.methods.size(); ++m) {
+    SCOPED_TRACE(run.methods[m]);
+    const MethodRoi& roi = run.rois[m][0];
+    ASSERT_TRUE(roi.HasSlope()) << roi.reason;
+    ASSERT_TRUE(roi.own_truth.available) << roi.own_truth.why;
+    const SlopeSample sample = SampleOfMethodRoi(roi, &truth);
+    const double bound = 3.0 * (roi.has_sigma ? roi.slope_sigma_deg : flight.slope_sigma_deg);
+    std::printf("[ compare  ] 3 deg pad in 10 deg: %-16s slope %5.2f (truth %.2f, own truth %.2f), bound %.2f; "
+                "tilt %.2f: definition %.2f, estimation %.2f; %d points\n",
+                run.methods[m].c_str(), roi.slope_deg, truth.slope_deg, roi.own_truth.slope_deg, bound,
+                sample.tilt_error_deg, sample.definition_tilt_deg, sample.estimation_tilt_deg, roi.num_points);
+    if (!roi.has_sigma) {
+      EXPECT_GE(roi.num_points, flight.num_points);
+    }
+    EXPECT_LE(std::abs(sample.estimation_error_deg), bound);
+    if (run.methods[m] == kMethodPlaneNav) {
+      EXPECT_GT(sample.definition_tilt_deg, 1.0);
+      EXPECT_GT(sample.definition_error_deg, 1.0);  // toward the steeper surroundings
+    } else {
+      EXPECT_LE(std::abs(sample.error_deg), bound);
+      EXPECT_LT(sample.definition_tilt_deg, 0.3);
+    }
+  }
+}
+
 TEST(CompareWithoutBaseline, EveryMethodSaysPerRoiThatTheGeometryGivesNoDepth) {
   const fs::path out = FreshTestDir();
   const fs::path source = fs::path(HDABENCH_SOURCE_DIR) / "tests" / "data" / "stereolunar-nadir";

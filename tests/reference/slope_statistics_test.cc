@@ -73,6 +73,56 @@ TEST(SlopeSample, CountsWithASlopeATruthAndEnoughPoints) {
   EXPECT_FALSE(s.Counts());
 }
 
+// The tilt error's parts count where the error counts and both parts are
+// there; each part's bias is the mean of its signed slope differences. A
+// compare record gives the same sample as the ROI in memory.
+TEST(SlopeErrorPool, TheErrorsPartsOverTheSamplesThatCountAndHaveThem) {
+  SlopeErrorPool pool;
+  SlopeSample s;
+  s.has_slope = true;
+  s.num_points = kMinPointsForSlopeStats;
+  s.error_deg = 0.5;
+  s.tilt_error_deg = 0.6;
+  s.definition_tilt_deg = 0.2;
+  s.estimation_tilt_deg = 0.5;
+  s.definition_error_deg = 0.1;
+  s.estimation_error_deg = 0.4;
+  pool.Add(s);
+  s.definition_tilt_deg = 0.4;
+  s.estimation_tilt_deg = 0.3;
+  s.definition_error_deg = -0.3;
+  s.estimation_error_deg = 0.8;
+  pool.Add(s);
+  s.definition_tilt_deg = kNaN;  // no own truth: its error counts, its parts do not
+  pool.Add(s);
+  s.definition_tilt_deg = 9.0;
+  s.num_points = kMinPointsForSlopeStats - 1;  // does not count at all
+  pool.Add(s);
+  EXPECT_EQ(pool.count(), 3);
+  EXPECT_EQ(pool.DefinitionTilt().count, 2);
+  EXPECT_EQ(pool.EstimationTilt().count, 2);
+  EXPECT_DOUBLE_EQ(pool.DefinitionTilt().median, 0.3);
+  EXPECT_DOUBLE_EQ(pool.EstimationTilt().max, 0.5);
+  EXPECT_DOUBLE_EQ(pool.DefinitionBias(), -0.1);
+  EXPECT_DOUBLE_EQ(pool.EstimationBias(), 0.6);
+  EXPECT_EQ(SlopeErrorPool().DefinitionBias(), 0.0);
+
+  const nlohmann::json entry = {{"status", "ok"},
+                                {"num_points", 30},
+                                {"slope_deg", 5.0},
+                                {"slope_error_deg", 0.5},
+                                {"tilt_error_deg", 0.6},
+                                {"tilt_definition_deg", 0.2},
+                                {"tilt_estimation_deg", 0.5},
+                                {"slope_definition_error_deg", 0.1},
+                                {"slope_estimation_error_deg", 0.4}};
+  const SlopeSample read = SampleOfCompareRecord("dense-nav", entry, {{"slope_deg", 4.5}});
+  EXPECT_EQ(read.definition_tilt_deg, 0.2);
+  EXPECT_EQ(read.estimation_tilt_deg, 0.5);
+  EXPECT_EQ(read.definition_error_deg, 0.1);
+  EXPECT_EQ(read.estimation_error_deg, 0.4);
+}
+
 // The truth of ROI i: a slope tilted toward +y.
 RoiTruthValue Truth(double slope_deg) {
   RoiTruthValue truth;

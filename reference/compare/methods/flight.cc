@@ -18,6 +18,7 @@ std::vector<MethodRoi> FlightRois(const FlightRun& flight, const PairContext& ct
     roi.reason = r.reason;
     roi.num_points = static_cast<int>(r.points_in_local_m.size());
     roi.points_in_local_m = r.points_in_local_m;
+    for (const cv::Point2d& pixel : r.points1_px) roi.support_px.emplace_back(pixel.x, pixel.y);
     roi.has_fit = r.has_fit;
     roi.slope_deg = r.slope_deg;
     roi.normal_in_local = r.normal_in_local;

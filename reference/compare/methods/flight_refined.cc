@@ -42,6 +42,21 @@ PairReconstruction FlightRefined(const FlightRun& flight, const CompareOptions& 
   refine.nav_position_sigma_m = flight.options.prediction.nav_position_sigma_m;
   refine.nav_attitude_sigma_deg = flight.options.prediction.nav_attitude_sigma_deg;
   refine.pixel_sigma_px = flight.options.match_error_px;
+  // The range finder fixes the scale the images leave to the nav baseline:
+  // its range, to level ground through the 20 flight points nearest its beam
+  // within one, two or four sites of it, the smallest that holds three (the
+  // ground the flight points sample around the spot; level, as the bench
+  // takes the LRF's ground everywhere else).
+  if (flight.range_source == RangeSource::kLrf) {
+    CeresRefineInput::Lrf lrf;
+    lrf.origin_in_cam1_m = ctx.input().lrf_origin_in_cam1_m;
+    lrf.beam_in_cam1 = ctx.input().lrf_beam_in_cam1;
+    lrf.range_m = ctx.input().lrf_range_m;
+    lrf.range_sigma_m = options.lrf_range_sigma_m;
+    lrf.support_radius_m = 4.0 * flight.options.quadtree.site_size_m;
+    lrf.ground_normal_in_cam1 = methods::UpInCam1(ctx);
+    input.lrf = lrf;
+  }
   const CeresRefineResult refined = RefineTwoView(input, refine);
   recon.wall_s = SecondsSince(start);
   // Any status but invalid input or too few points leaves a usable state
@@ -58,6 +73,7 @@ PairReconstruction FlightRefined(const FlightRun& flight, const CompareOptions& 
   }
   recon.ok = true;
   *note = std::string("ceres: ") + ToString(refined.status) + ", " +
+          (refined.lrf_note.empty() ? std::string() : refined.lrf_note + ", ") +
           std::to_string(refined.iterations) + " iterations, cost " +
           std::to_string(refined.initial_cost.total) + " -> " +
           std::to_string(refined.final_cost.total) +

@@ -36,11 +36,13 @@ bool InBox(const Eigen::Vector2d& pixel, const cv::Rect& box) {
 }
 
 // Fills a method's ROI from its points in the ROI.
-void FillFromPoints(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre1,
+void FillFromPoints(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector2d>& pixels1,
+                    const Eigen::Vector3d& centre1,
                     const Eigen::Vector3d& centre2, const datasets::Dataset& dataset,
                     int min_points, MethodRoi* roi) {
   roi->num_points = static_cast<int>(points.size());
   roi->points_in_local_m = points;
+  roi->support_px = pixels1;
   const RoiFit fit = FitRoiPoints(points, centre1, centre2, dataset.gravity_in_local_mps2, min_points);
   roi->status = fit.status;
   if (fit.status == MethodRoiStatus::kOk) {

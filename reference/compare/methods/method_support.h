@@ -21,8 +21,10 @@ double SecondsSince(std::chrono::steady_clock::time_point start);
 bool InBox(const Eigen::Vector2d& pixel, const cv::Rect& box);
 
 // Fills a method's ROI from its points in the ROI (FitRoiPoints with the two
-// camera centres), its point accuracy against the truth DEM where there is one.
-void FillFromPoints(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& centre1,
+// camera centres), its point accuracy against the truth DEM where there is one,
+// and its support: the points' image-1 pixels (pixels1, parallel), alike.
+void FillFromPoints(const std::vector<Eigen::Vector3d>& points, const std::vector<Eigen::Vector2d>& pixels1,
+                    const Eigen::Vector3d& centre1,
                     const Eigen::Vector3d& centre2, const datasets::Dataset& dataset,
                     int min_points, MethodRoi* roi);
 

@@ -56,12 +56,15 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const PairMatches& pair_m
                            : "; " + pair.message);
   // The pair's triangulated inliers, by ROI.
   std::vector<std::vector<Eigen::Vector3d>> points(matches.size());
+  std::vector<std::vector<Eigen::Vector2d>> pixels(matches.size());
   if (trusted && pair.ok) {
     for (const TriangulatedMatch& m : pair.points) {
       const size_t index = static_cast<size_t>(m.match_index);
       if (index >= first.back()) continue;  // an overlap tile's: the pose only
       const size_t roi = static_cast<size_t>(std::upper_bound(first.begin(), first.end(), index) - first.begin()) - 1;
       points[roi].push_back(ctx.local_from_cam1() * m.point_in_cam1_m);
+      const cv::Point2d& pixel1 = matches[roi].pixels1[index - first[roi]];
+      pixels[roi].emplace_back(pixel1.x, pixel1.y);
     }
   }
   const Eigen::Vector3d centre1 = ctx.local_from_cam1().translation;
@@ -87,7 +90,7 @@ std::vector<MethodRoi> OpenGvRois(OpenGvSolver solver, const PairMatches& pair_m
       roi.reason = pair.message;
       continue;
     }
-    FillFromPoints(points[i], centre1, centre2, ctx.dataset(), options.min_points, &roi);
+    FillFromPoints(points[i], pixels[i], centre1, centre2, ctx.dataset(), options.min_points, &roi);
     roi.reason += " (of " + std::to_string(matches[i].bearings1.size()) + " matches; the pair's pose)";
   }
   return rois;

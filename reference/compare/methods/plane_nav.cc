@@ -57,6 +57,8 @@ std::vector<MethodRoi> PlaneNavRois(const FlightRun& flight, const CompareOption
         roi.roughness_rms_m = std::numeric_limits<double>::quiet_NaN();
         roi.roughness_max_m = std::numeric_limits<double>::quiet_NaN();
         for (const Eigen::Vector3d& p : fit.points_in_cam1) roi.points_in_local_m.push_back(ctx.local_from_cam1() * p);
+        roi.support_px = fit.support_px;
+        roi.support_weights = fit.support_weights;
         if (ctx.dataset().truth.dem.has_value()) {
           roi.accuracy = ComputePointAccuracy(roi.points_in_local_m, *ctx.dataset().truth.dem);
         }

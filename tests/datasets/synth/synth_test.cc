@@ -313,5 +313,64 @@ TEST(ComputeRoiTruth, TiltedPlaneGivesItsSlopeAndBadRoisAreRefused) {
   EXPECT_THROW(ComputeRoiTruth(dataset, 42, PixelRoi{0, 0, 8, 8}), InputError);
 }
 
+// A raster of two planes, split at column `split`: left rising `left_deg`
+// toward the north, right `right_deg`.
+void PutTwoPlanes(cv::Mat* raster, int split, double left_deg, double right_deg) {
+  for (int r = 0; r < raster->rows; ++r) {
+    for (int c = 0; c < raster->cols; ++c) {
+      const double slope = c < split ? left_deg : right_deg;
+      const double x = c * 0.5;
+      const double y = -r * 0.5;
+      raster->at<cv::Vec3f>(r, c) =
+          cv::Vec3f(static_cast<float>(x), static_cast<float>(y),
+                    static_cast<float>(y * std::tan(slope * 3.14159265358979323846 / 180.0)));
+    }
+  }
+}
+
+TEST(ComputeSupportTruth, IsThePlaneOfTheSupportWeightedAsGiven) {
+  ExampleDatasetOptions example;
+  example.image_size_px = 32;
+  Dataset dataset = MakeExampleDataset(example);
+  cv::Mat& raster = dataset.truth.points[0].points_in_local_m;
+  PutTwoPlanes(&raster, 16, 3.0, 10.0);
+  // Every pixel of a box alike: the box's truth.
+  std::vector<Eigen::Vector2d> box;
+  for (int r = 4; r < 28; ++r) {
+    for (int c = 4; c < 28; ++c) box.emplace_back(c, r);
+  }
+  const RoiTruth site = ComputeRoiTruth(dataset, 0, PixelRoi{4, 4, 24, 24});
+  const SupportTruth all = ComputeSupportTruth(dataset, 0, box, {});
+  EXPECT_EQ(all.num_points, site.num_points);
+  EXPECT_NEAR(all.slope_deg, site.slope_deg, 1e-9);
+  EXPECT_LT((all.normal_in_local - site.normal_in_local).norm(), 1e-9);
+  // Pixels of the left half only, at sub-pixel positions: its 3 deg.
+  std::vector<Eigen::Vector2d> left;
+  for (int r = 4; r < 28; ++r) {
+    for (int c = 4; c < 14; ++c) left.emplace_back(c + 0.25, r + 0.5);
+  }
+  EXPECT_NEAR(ComputeSupportTruth(dataset, 0, left, {}).slope_deg, 3.0, 1e-3);
+  // The whole box, the right half weighted a thousand times the left: near its 10 deg.
+  std::vector<double> weights;
+  for (const Eigen::Vector2d& p : box) weights.push_back(p.x() >= 16 ? 1000.0 : 1.0);
+  const SupportTruth leaning = ComputeSupportTruth(dataset, 0, box, weights);
+  EXPECT_GT(leaning.slope_deg, 9.9);
+  EXPECT_LT(leaning.slope_deg, 10.0 + 1e-6);
+  // A weight of zero leaves its pixel out; a position beside a pixel without truth is left out.
+  std::vector<double> left_only;
+  for (const Eigen::Vector2d& p : box) left_only.push_back(p.x() < 16 ? 1.0 : 0.0);
+  EXPECT_NEAR(ComputeSupportTruth(dataset, 0, box, left_only).slope_deg, 3.0, 1e-3);
+  raster.at<cv::Vec3f>(10, 10) = cv::Vec3f(NAN, NAN, NAN);
+  EXPECT_EQ(ComputeSupportTruth(dataset, 0, {{9.5, 9.5}, {10.0, 10.0}, {4, 4}, {5, 4}, {4, 6}}, {}).num_points, 3);
+  // Bad supports are refused with the reason.
+  EXPECT_THROW(ComputeSupportTruth(dataset, 0, box, {1.0, 2.0}), InputError);
+  EXPECT_THROW(ComputeSupportTruth(dataset, 0, {{4, 4}, {5, 4}, {6, 4}}, {}), InputError);  // collinear
+  EXPECT_THROW(ComputeSupportTruth(dataset, 0, {{4, 4}, {40, 4}, {4, 6}}, {}), InputError);  // one is off the raster
+  std::vector<double> negative(box.size(), 1.0);
+  negative[5] = -1.0;
+  EXPECT_THROW(ComputeSupportTruth(dataset, 0, box, negative), InputError);
+  EXPECT_THROW(ComputeSupportTruth(dataset, 42, box, {}), InputError);
+}
+
 }  // namespace
 }  // namespace hdabench::datasets::synth

@@ -218,6 +218,38 @@ TEST(GenerateScene, RocksRestOnTheTerrainUnderTheirCentre) {
 }
 
 // ---------------------------------------------------------------------------
+// Pads
+
+TEST(GenerateScene, APadHasItsOwnSlopeInsideTheRegionalPlane) {
+  // A 20 m pad at (5, -5) sloping 3 deg down to the east, in a plane sloping
+  // 10 deg down to the east; the pad's plane meets the regional one at its
+  // centre.
+  TerrainOptions options = FlatOptions(40.0, 0.25);
+  options.regional_slope_deg = 10.0;
+  options.regional_slope_downhill_azimuth_deg = 90.0;
+  TerrainOptions::Pad pad;
+  pad.center_in_local_m = Eigen::Vector2d(5.0, -5.0);
+  pad.side_m = 20.0;
+  pad.slope_deg = 3.0;
+  pad.downhill_azimuth_deg = 90.0;
+  options.extra_pads.push_back(pad);
+  const Scene scene = GenerateScene(options, CurrentTestSeed());
+  const double tan10 = std::tan(10.0 * kPi / 180.0), tan3 = std::tan(3.0 * kPi / 180.0);
+  EXPECT_NEAR(HeightAtOrDie(scene.dem, 5.0, -5.0), -tan10 * 5.0, 1e-5);
+  EXPECT_NEAR(HeightAtOrDie(scene.dem, 12.0, -5.0), -tan10 * 5.0 - tan3 * 7.0, 1e-5);  // inside
+  EXPECT_NEAR(HeightAtOrDie(scene.dem, 0.0, 2.0), -tan10 * 5.0 + tan3 * 5.0, 1e-5);
+  EXPECT_NEAR(HeightAtOrDie(scene.dem, 20.0, -5.0), -tan10 * 20.0, 1e-5);  // outside
+  EXPECT_NEAR(HeightAtOrDie(scene.dem, 5.0, 10.0), -tan10 * 5.0, 1e-5);
+  // Bad pads are named.
+  options.extra_pads[0].side_m = 0.0;
+  options.extra_pads[0].slope_deg = 95.0;
+  const std::vector<std::string> errors = options.Validate();
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_NE(errors[0].find("extra_pads[0].side_m"), std::string::npos) << errors[0];
+  EXPECT_NE(errors[1].find("extra_pads[0].slope_deg"), std::string::npos) << errors[1];
+}
+
+// ---------------------------------------------------------------------------
 // Craters
 
 TEST(GenerateScene, SingleCraterOnFlatTerrainHasBowlRimAndEjecta) {

@@ -9,6 +9,7 @@
 #include "datasets/synth/optics.h"
 #include "datasets/synth/raycast.h"
 #include "datasets/synth/scene.h"
+#include "datasets/synth/truth.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/statistics.h"
@@ -18,14 +19,6 @@ namespace hdabench::datasets::synth {
 namespace {
 
 using util::kPi;
-
-const cv::Mat& TruthPointsOf(const Dataset& dataset, int frame) {
-  for (const TruthPoints& points : dataset.truth.points) {
-    if (points.frame == frame && !points.points_in_local_m.empty()) return points.points_in_local_m;
-  }
-  throw InputError("dataset '" + dataset.name + "' has no truth points for frame " + std::to_string(frame) +
-                   " in memory (truth.points_in_local; load with its truth)");
-}
 
 void RequirePair(const Dataset& dataset, int frame1, int frame2, bool images) {
   const int frames = static_cast<int>(dataset.frames.size());

@@ -552,7 +552,7 @@ void FillSurfaceBlock(const Grid& grid, const SurfaceModel& surface, int row_beg
     double* row = block->data() + static_cast<size_t>(r - row_begin) * grid.width;
     for (int c = 0; c < grid.width; ++c) {
       const double x = grid.origin_x_m + c * grid.spacing_m;
-      double z = surface.pads.empty() ? surface.gradient_x * x + surface.gradient_y * y : surface.PlaneAt(x, y);
+      double z = surface.PlaneAt(x, y);
       if (surface.relief_on) {
         z += surface.relief_scale * FractalNoise(surface.relief_seed, x, y, surface.finest_m,
                                                  surface.largest_wavelength_m, surface.hurst);

@@ -27,18 +27,6 @@ Eigen::Vector3d UpInLocal(const Dataset& dataset) {
   return -dataset.gravity_in_local_mps2.normalized();
 }
 
-// The frame's truth raster; throws InputError when the dataset has none.
-const cv::Mat& TruthRaster(const Dataset& dataset, int frame) {
-  const TruthPoints* truth = nullptr;
-  for (const TruthPoints& t : dataset.truth.points) {
-    if (t.frame == frame) truth = &t;
-  }
-  if (truth == nullptr || truth->points_in_local_m.empty()) {
-    throw InputError("frame " + std::to_string(frame) + " has no truth points in the dataset");
-  }
-  return truth->points_in_local_m;
-}
-
 struct TruthPlane {
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit, up
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
@@ -110,8 +98,16 @@ bool TruthPointAt(const cv::Mat& raster, const Eigen::Vector2d& pixel, Eigen::Ve
 
 }  // namespace
 
+const cv::Mat& TruthPointsOf(const Dataset& dataset, int frame) {
+  for (const TruthPoints& points : dataset.truth.points) {
+    if (points.frame == frame && !points.points_in_local_m.empty()) return points.points_in_local_m;
+  }
+  throw InputError("dataset '" + dataset.name + "' has no truth points for frame " + std::to_string(frame) +
+                   " in memory (truth.points_in_local; load with its truth)");
+}
+
 RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi) {
-  const cv::Mat& raster = TruthRaster(dataset, frame);
+  const cv::Mat& raster = TruthPointsOf(dataset, frame);
   // Compared without a sum that could overflow (x, width near INT_MAX).
   if (roi.width <= 0 || roi.height <= 0 || roi.x < 0 || roi.y < 0 || roi.x > raster.cols - roi.width ||
       roi.y > raster.rows - roi.height) {
@@ -172,7 +168,7 @@ RoiTruth ComputeRoiTruth(const Dataset& dataset, int frame, const PixelRoi& roi)
 
 SupportTruth ComputeSupportTruth(const Dataset& dataset, int frame, const std::vector<Eigen::Vector2d>& pixels,
                                  const std::vector<double>& weights) {
-  const cv::Mat& raster = TruthRaster(dataset, frame);
+  const cv::Mat& raster = TruthPointsOf(dataset, frame);
   if (!weights.empty() && weights.size() != pixels.size()) {
     throw InputError("the support has " + std::to_string(pixels.size()) + " pixels but " +
                      std::to_string(weights.size()) + " weights");

@@ -40,6 +40,10 @@ struct RoiTruth {
   Eigen::Vector3d centroid_in_local_m = Eigen::Vector3d::Zero();
 };
 
+// Frame `frame`'s truth points (TruthPoints::points_in_local_m) in memory.
+// Throws InputError naming the dataset and frame when it has none.
+const cv::Mat& TruthPointsOf(const Dataset& dataset, int frame);
+
 // Truth of `roi` in frame `frame`. The dataset must hold the frame's truth
 // points in memory (LoadOptions::keep_truth). Throws InputError when the frame
 // has no truth points, the ROI leaves the image or is empty, or fewer than 3

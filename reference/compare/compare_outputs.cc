@@ -261,13 +261,13 @@ std::string CompareMarkdown(const CompareRun& run) {
       << "method's own truth, the plane of the truth points at the pixels its plane stands on, weighted as "
       << "it weighs them: the definition part (own truth against the site's) and the estimation part (the "
       << "method against its own truth), over the ROIs with an own truth.\n\n";
-  out << MarkdownRow({"method", "ROIs with a slope", "slope error vs truth (deg)",
-                      "tilt error vs truth (deg)", "slope bias (deg)", "tilt: definition part (deg)",
-                      "tilt: estimation part (deg)",
-                      "roughness error vs truth (m)", "slope diff. vs colmap-nav (deg)",
-                      "points within 0.1 / 0.3 / 1 m", "rotation / baseline-direction error (deg)",
-                      "time (s)", "time / flight"});
-  out << MarkdownRow(std::vector<std::string>(13, "---"));
+  const std::vector<std::string> method_header = {
+      "method", "ROIs with a slope", "slope error vs truth (deg)", "tilt error vs truth (deg)", "slope bias (deg)",
+      "tilt: definition part (deg)", "tilt: estimation part (deg)", "roughness error vs truth (m)",
+      "slope diff. vs colmap-nav (deg)", "points within 0.1 / 0.3 / 1 m", "rotation / baseline-direction error (deg)",
+      "time (s)", "time / flight"};
+  out << MarkdownRow(method_header);
+  out << MarkdownRow(std::vector<std::string>(method_header.size(), "---"));
   for (const MethodSummary& s : run.summaries) {
     const std::string accuracy =
         s.accuracy.available ? util::FixedCell(100 * s.accuracy.within_0_1_m, 0) + " / " +

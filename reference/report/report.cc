@@ -561,12 +561,9 @@ std::string TimingLine(const fs::path& timings_path, std::vector<std::string>* n
 
 // ---------------------------------------------------------------- compare folders
 
-// `compare`: the folder's compare.json (ReadFolderResult).
-void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
-  const Json& methods = Member(compare, "methods");  // arrays (CheckCompareRecord)
-  const Json& rois = Member(compare, "rois");
-  const Json& frames = Member(compare, "frames");
-
+// The seconds per method of the folder's compare_timings.json; a note on
+// `page` when it is missing.
+std::map<std::string, double> ReadCompareTimings(const fs::path& dir, Page* page) {
   std::map<std::string, double> seconds;
   const fs::path timings_path = dir / "compare_timings.json";
   if (fs::is_regular_file(timings_path)) {
@@ -585,7 +582,14 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
   } else {
     page->notes.push_back("compare_timings.json is missing: no time per method.");
   }
+  return seconds;
+}
 
+// The page's heading and facts: dataset, frames, geometry, counts.
+void FillCompareFacts(const Json& compare, Page* page) {
+  const Json& frames = Member(compare, "frames");
+  const Json& methods = Member(compare, "methods");
+  const Json& rois = Member(compare, "rois");
   page->dataset_name = Text(Member(compare, "dataset"));
   page->heading = "Comparison on " + page->dataset_name;
   page->facts.push_back("dataset: " + Text(Member(compare, "dataset")));
@@ -595,7 +599,12 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
   page->facts.push_back("ROIs: " + std::to_string(rois.size()) + "; methods: " +
                         std::to_string(methods.size()) +
                         (Member(compare, "truth") == true ? "; with truth" : "; no truth"));
+}
 
+// The per-method table, with each method's time; the methods' names in order.
+std::vector<std::string> FillCompareMethodTable(const Json& compare, const std::map<std::string, double>& seconds,
+                                                Page* page) {
+  const Json& methods = Member(compare, "methods");
   std::vector<std::string> names;
   Table& summary = page->summary;
   summary.id = "method-table";
@@ -647,8 +656,12 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
       "truth points at the pixels its plane stands on, weighted as it weighs them: the definition part (own "
       "truth against the site's truth: where the method looks) and the estimation part (the method against "
       "its own truth: how well it measures).");
+  return names;
+}
 
-  // The landing decisions per method, read from the record by the one rule.
+// The landing decisions per method, read from the record by the one rule.
+void FillCompareDecisions(const Json& compare, const std::vector<std::string>& names, Page* page) {
+  const Json& rois = Member(compare, "rois");
   const Json& limit = Member(compare, "max_slope_deg");
   const double max_slope_deg = IsNumber(limit) ? limit.get<double>() : std::numeric_limits<double>::quiet_NaN();
   std::map<std::string, std::vector<DecisionSample>> decided;
@@ -692,7 +705,11 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
         " deg (it has no hazard estimate). False-safe: truly unsafe among the sites declared safe; "
         "missed-safe: declared unsafe among the truly safe ones with a verdict.");
   }
+}
 
+// The per-ROI table: each method's slope, or its status, with the reason.
+void FillCompareRoiTable(const Json& compare, const std::vector<std::string>& names, Page* page) {
+  const Json& rois = Member(compare, "rois");
   Table& table = page->rois;
   table.id = "roi-table";
   table.header = {"ROI", "truth slope (deg)"};
@@ -717,6 +734,16 @@ void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
     }
     table.rows.push_back(std::move(row));
   }
+}
+
+// `compare`: the folder's compare.json (ReadFolderResult; its arrays checked
+// by CheckCompareRecord).
+void FillComparePage(const fs::path& dir, const Json& compare, Page* page) {
+  const std::map<std::string, double> seconds = ReadCompareTimings(dir, page);
+  FillCompareFacts(compare, page);
+  const std::vector<std::string> names = FillCompareMethodTable(compare, seconds, page);
+  FillCompareDecisions(compare, names, page);
+  FillCompareRoiTable(compare, names, page);
 }
 
 // ---------------------------------------------------------------- figures

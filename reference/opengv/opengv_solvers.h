@@ -1,6 +1,6 @@
 // OpenGV relative pose for one ROI (or any set of matches of one image pair):
 // RANSAC with one of OpenGV's central relative-pose solvers on unit bearing
-// vectors, nonlinear refinement on the inliers, the translation scaled to the
+// vectors, Sampson refinement on the inliers, the translation scaled to the
 // navigation baseline (OpenGV's solvers give it with unit norm), and
 // triangulation of the inliers in camera 1. Before trusting a free solve, the
 // caller can ask which configuration the matches are in
@@ -63,16 +63,17 @@ struct OpenGvOptions {
   // Fewer matches than max(min_matches, the solver's RANSAC sample size) give
   // "too few points" without running anything.
   int min_matches = 12;  // >= 8
-  // Refinement on the RANSAC inliers: relative_pose::optimize_nonlinear
-  // (rotation and translation direction) for the free solvers; for the 2-point
-  // solver the rotation stays the nav rotation and the translation direction is
-  // re-solved by least squares over all inliers. The refined pose is kept when
-  // it keeps at least the RANSAC model's inlier count. Note: OpenGV's
-  // optimize_nonlinear (Levenberg-Marquardt on numerical derivatives of
-  // 1 - cos residuals) stops short of the optimum: on a well-conditioned
-  // 180-match pair with 0.3 px noise it ends a few hundredths of a degree (up
-  // to about 0.2) from it, depending on where RANSAC left it, so results
-  // depend on the seed at that level (they are still the same for one seed).
+  // Refinement on the RANSAC inliers. For the free solvers: Levenberg-Marquardt
+  // on the Sampson distances of the inliers (rotation and translation
+  // direction; two_view_models.h), which reaches the geometric optimum from
+  // any RANSAC model in its basin, so that every 5-point solver ends on the
+  // same pose. OpenGV's optimize_nonlinear (1 - cos residuals on numerical
+  // derivatives) was the refinement before: it stopped a few hundredths of a
+  // degree (up to 0.2) short of the optimum on a well-conditioned pair, and
+  // 0.64 deg of translation direction short on the NOVA-C pair. For the
+  // 2-point solver the rotation stays the nav rotation and the translation
+  // direction is re-solved by least squares over all inliers. The refined
+  // pose is kept when it keeps at least the RANSAC model's inlier count.
   bool refine_nonlinear = true;
   // Triangulation (OpenGV's triangulate2, guarded): a match whose two rays meet
   // at less than min_ray_angle_deg is degenerate (parallel rays: no point, or
@@ -94,25 +95,22 @@ struct OpenGvOptions {
   double low_parallax_deg = 1.0;  // > 0, degrees
   // Planar, either of:
   //  - shape: the points triangulated with the nav pose (less the gross
-  //    outliers of the homography fit below) lie within a small
-  //    fraction of their extent of a plane: the smallest eigenvalue of their
-  //    scatter divided by the middle one is below planar_eigenvalue_ratio
-  //    (0.01: a thickness, in standard deviation, under a tenth of the
-  //    in-plane spread). With noise-free matches this is the definition; but
-  //    triangulation noise along the lines of sight thickens a flat patch seen
-  //    from far away (at 565 m, 3 degrees of parallax and 0.1 px at 1500 px,
-  //    about 1 m in depth on a 10 m patch), so the shape alone misses it. Hence:
-  //  - relief not visible: a plane-induced homography (fitted to the bearings,
-  //    no pose needed) explains the matches to a median transfer error below
-  //    planar_residual_px in image 2. The relief of the scene is then under the
-  //    matching noise, which is when a free 5-point or 8-point solve cannot
-  //    tell it from a plane (8-point is degenerate on a plane; 5-point has two
-  //    solutions and, on a narrow field, a rotation / translation ambiguity).
-  //    For scale: a 0.5 m rock on a flat patch at 565 m, 31 m baseline and
-  //    1500 px focal length moves 0.07 px off the homography; matching noise of
-  //    0.3 px gives a median transfer error of about 0.5 px.
+  //    outliers of the homography fit) lie within a small fraction of their
+  //    extent of a plane: the smallest eigenvalue of their scatter divided by
+  //    the middle one is below planar_eigenvalue_ratio (0.01: a thickness, in
+  //    standard deviation, under a tenth of the in-plane spread). With
+  //    noise-free matches this is the definition; but triangulation noise
+  //    along the lines of sight thickens a flat patch seen from far away, so
+  //    the shape alone misses it. Hence:
+  //  - relief not seen above the matching noise: the plane-induced homography
+  //    explains the matches as well as the general model does, counting what
+  //    each costs, by Torr's GRIC with the noise measured on the general
+  //    model's residuals (two_view_models.h). No threshold in pixels: the
+  //    noise decides. That is when a free 5-point or 8-point solve cannot tell
+  //    the scene from a plane (8-point is degenerate on a plane; 5-point has
+  //    two solutions and, on a narrow field, a rotation / translation
+  //    ambiguity).
   double planar_eigenvalue_ratio = 0.01;  // in (0, 1)
-  double planar_residual_px = 1.0;        // > 0, pixels
 
   // Every violated constraint, one message each ("field = value: expected ...").
   std::vector<std::string> Validate() const;
@@ -139,13 +137,19 @@ struct ConfigurationReport {
   double median_parallax_deg = 0.0;      // median angle between the two rays (nav pose)
   double eigenvalue_ratio = 0.0;         // smallest / middle eigenvalue of the points' scatter
   double homography_residual_px = 0.0;   // median transfer error of the fitted homography, image 2
+  // The model selection (two_view_models.h), when the nav baseline is not
+  // zero and the homography could be fitted; otherwise all zero / false.
+  double noise_px = 0.0;                 // matching noise measured on the general model
+  double gric_general = 0.0;
+  double gric_homography = 0.0;
+  bool homography_selected = false;      // the homography's GRIC is the lower
   double nav_baseline_m = 0.0;
 };
 
 // Classifies the configuration of the matches (bearings1[i] <-> bearings2[i])
 // with the nav pose: too few points, then low parallax, then planar, else well
 // conditioned (the first that applies; see OpenGvOptions for the thresholds).
-// focal_px converts angles to pixels for planar_residual_px. Throws
+// focal_px converts angles to pixels. Throws
 // InputError for invalid options, bearings of different counts, a bearing that
 // is not finite and of unit norm (within 1e-6), or focal_px <= 0.
 ConfigurationReport ClassifyConfiguration(const std::vector<Eigen::Vector3d>& bearings1,

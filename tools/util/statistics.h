@@ -9,4 +9,8 @@ namespace hdabench::util {
 // (position p * (n - 1)); 0 when empty.
 double Quantile(const std::vector<double>& sorted, double p);
 
+// The upper median (the element at n / 2 in sorted order, so for an even
+// count the larger of the two middle ones), without sorting; 0 when empty.
+double UpperMedian(std::vector<double> values);
+
 }  // namespace hdabench::util

@@ -103,13 +103,19 @@ std::string ReadText(const std::string& path) {
 }  // namespace
 
 const char* ToString(StudyGeometry geometry) {
-  return geometry == StudyGeometry::kLateral ? "lateral" : "boresight";
+  switch (geometry) {
+    case StudyGeometry::kLateral: return "lateral";
+    case StudyGeometry::kBoresight: return "boresight";
+    case StudyGeometry::kForward: return "forward";
+  }
+  return "unknown";
 }
 
 StudyGeometry ParseStudyGeometry(const std::string& name) {
-  if (name == "lateral") return StudyGeometry::kLateral;
-  if (name == "boresight") return StudyGeometry::kBoresight;
-  throw InputError("unknown geometry '" + name + "': expected lateral or boresight");
+  for (const StudyGeometry g : {StudyGeometry::kLateral, StudyGeometry::kForward, StudyGeometry::kBoresight}) {
+    if (name == ToString(g)) return g;
+  }
+  throw InputError("unknown geometry '" + name + "': expected lateral, forward or boresight");
 }
 
 std::vector<std::string> StudyOptions::Validate() const {
@@ -202,7 +208,13 @@ TrialResult RunTrial(const StudyOptions& options, const calib::CameraModel& came
   local_r_cam.col(1) = y_cam;
   local_r_cam.col(2) = z_cam;
   const Rigid3d local_from_cam1(Eigen::Quaterniond(local_r_cam), c1);
-  const Eigen::Vector3d direction = setting.geometry == StudyGeometry::kLateral ? x_cam : z_cam;
+  // Lateral: east, across the line of sight. Forward: north, level, toward the
+  // site (at 45 deg off nadir half of it along the line of sight). Boresight:
+  // along the optical axis.
+  const Eigen::Vector3d north(0.0, 1.0, 0.0);
+  const Eigen::Vector3d direction = setting.geometry == StudyGeometry::kLateral   ? x_cam
+                                    : setting.geometry == StudyGeometry::kForward ? north
+                                                                                  : z_cam;
   const Rigid3d local_from_cam2(local_from_cam1.rotation, c1 + setting.baseline_m * direction);
   const Rigid3d cam1_from_local = local_from_cam1.Inverse();
   const Rigid3d cam2_from_local = local_from_cam2.Inverse();

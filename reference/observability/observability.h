@@ -1,14 +1,16 @@
 // The observability study of the NOVA-C paper ("Trajectory design"): a Monte
 // Carlo of the slope error against the baseline between the two images, for
-// motion across the line of sight at constant altitude (lateral) and along
-// the optical axis (boresight), at several pixel noises and numbers of points
+// motion across the line of sight at constant altitude (lateral), toward the
+// site at constant altitude (forward, the paper's approach: the camera pitched
+// to keep the site in view) and along the optical axis (boresight), at several
+// pixel noises and numbers of points
 // (docs/observability.md).
 //
 // One trial: a site (a plane of drawn slope and azimuth through the ILS, plus
 // Gaussian small-scale relief) with feature points drawn uniformly over it;
 // camera 1 at `altitude_m` above and `downrange_m` short of the ILS, looking
-// at it, camera 2 moved by the baseline (east for lateral, along the optical
-// axis for boresight), same attitude; the points projected through the
+// at it, camera 2 moved by the baseline (east for lateral, north toward the
+// site for forward, along the optical axis for boresight), same attitude; the points projected through the
 // camera model into both images with Gaussian pixel noise; the navigation's
 // relative pose and camera 1's attitude perturbed by the nav noise, the LRF
 // range by its noise; then the flight method's own steps after matching
@@ -36,8 +38,9 @@
 
 namespace hdabench::reference {
 
-enum class StudyGeometry { kLateral, kBoresight };
-const char* ToString(StudyGeometry geometry);  // "lateral", "boresight"
+// The values are part of each trial's seed: a new geometry goes at the end.
+enum class StudyGeometry { kLateral, kBoresight, kForward };
+const char* ToString(StudyGeometry geometry);  // "lateral", "boresight", "forward"
 // The inverse; throws InputError listing the names.
 StudyGeometry ParseStudyGeometry(const std::string& name);
 
@@ -46,7 +49,8 @@ StudyGeometry ParseStudyGeometry(const std::string& name);
 inline constexpr int kMaxStudyTrials = 10000000;
 
 struct StudyOptions {
-  std::vector<StudyGeometry> geometries = {StudyGeometry::kLateral, StudyGeometry::kBoresight};
+  std::vector<StudyGeometry> geometries = {StudyGeometry::kLateral, StudyGeometry::kForward,
+                                           StudyGeometry::kBoresight};
   std::vector<double> baselines_m;          // distance between the two camera centres, metres
   std::vector<double> pixel_noises_px = {0.05, 0.1, 0.25, 0.5};  // per axis, per image, 1 sigma
   std::vector<int> points = {50};           // feature points drawn on each site

@@ -27,7 +27,7 @@ namespace hdabench::tools {
 namespace {
 
 struct ObservabilityArgs {
-  std::string geometries = "lateral,boresight";
+  std::string geometries = "lateral,forward,boresight";
   std::string baselines = "2:60:2";
   std::string pixel_noises = "0.05,0.1,0.25,0.5";
   std::string points = "50";
@@ -213,9 +213,11 @@ std::vector<Command> AddObservabilityCommands(CLI::App& app) {
   reference::StudyOptions& s = args->study;
   CLI::App* study = app.add_subcommand(
       "observability",
-      "The paper's observability study: slope error against baseline for lateral and boresight motion,\n"
-      "by Monte Carlo through the flight method's own triangulation and plane fit (docs/observability.md)");
-  study->add_option("--geometry", args->geometries, "Motions to study: lateral, boresight (comma-separated)")
+      "The paper's observability study: slope error against baseline for lateral, forward and boresight\n"
+      "motion, by Monte Carlo through the flight method's own triangulation and plane fit (docs/observability.md)");
+  study->add_option("--geometry", args->geometries,
+                    "Motions to study: lateral (east, across the line of sight), forward (level,\n"
+                    "toward the site), boresight (along the optical axis); comma-separated")
       ->capture_default_str();
   study->add_option("--baseline", args->baselines, "Baselines, metres: START:STOP:STEP or a list")->capture_default_str();
   study->add_option("--pixel-noise", args->pixel_noises, "Pixel noise per axis and image, 1 sigma, px (list)")

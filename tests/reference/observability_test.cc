@@ -135,7 +135,7 @@ TEST(Observability, LateralMotionObservesTheSlopeAndBoresightMotionDoesNot) {
 }
 
 // The paper's approach: level flight toward the site, seen 45 deg off nadir.
-// Half of each metre flown is along the line of sight, so the baseline
+// Each metre flown is 0.71 m along the line of sight, so the baseline
 // across it is B cos 45 deg: forward motion observes the slope like lateral
 // motion of 0.71 times its baseline. At 0.1 px, forward at 42 m is within
 // 25 % of lateral at 30 m (docs/observability.md: p95 3.16 against 3.35 at

@@ -191,31 +191,53 @@ std::vector<StudySetting> StudySettings(const StudyOptions& options) {
   return settings;
 }
 
+namespace {
+
+// The two cameras of a trial in the local frame (x east, y north, z up, the
+// ILS at the origin). Camera 1 looks at the ILS from the south, body x east
+// (the image's x). Camera 2 has its attitude and is moved by the baseline:
+// lateral east, across the line of sight; forward north, level, toward the
+// site (at 45 deg off nadir 0.71 of it across the line of sight and 0.71
+// along it); boresight along the optical axis.
+struct TrialCameras {
+  Rigid3d local_from_cam1;
+  Rigid3d local_from_cam2;
+  Eigen::Vector3d axis1 = Eigen::Vector3d::UnitZ();  // camera 1's optical axis, local frame
+};
+
+TrialCameras PlaceCameras(const StudyOptions& options, const StudySetting& setting) {
+  const double off_nadir = std::atan2(options.downrange_m, options.altitude_m);
+  const Eigen::Vector3d c1(0.0, -options.downrange_m, options.altitude_m);
+  const Eigen::Vector3d z_cam(0.0, std::sin(off_nadir), -std::cos(off_nadir));
+  const Eigen::Vector3d x_cam(1.0, 0.0, 0.0);
+  Eigen::Matrix3d local_r_cam;
+  local_r_cam.col(0) = x_cam;
+  local_r_cam.col(1) = z_cam.cross(x_cam);
+  local_r_cam.col(2) = z_cam;
+  const Eigen::Vector3d north(0.0, 1.0, 0.0);
+  const Eigen::Vector3d direction = setting.geometry == StudyGeometry::kLateral   ? x_cam
+                                    : setting.geometry == StudyGeometry::kForward ? north
+                                                                                  : z_cam;
+  TrialCameras cameras;
+  cameras.local_from_cam1 = Rigid3d(Eigen::Quaterniond(local_r_cam), c1);
+  cameras.local_from_cam2 = Rigid3d(cameras.local_from_cam1.rotation, c1 + setting.baseline_m * direction);
+  cameras.axis1 = z_cam;
+  return cameras;
+}
+
+}  // namespace
+
 TrialResult RunTrial(const StudyOptions& options, const calib::CameraModel& camera, const StudySetting& setting,
                      int trial) {
   std::mt19937_64 rng(TrialSeed(options.seed, setting, trial));
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> normal(0.0, 1.0);
 
-  // Camera 1 looks at the ILS (the origin) from the south, body x north.
-  const double off_nadir = std::atan2(options.downrange_m, options.altitude_m);
-  const Eigen::Vector3d c1(0.0, -options.downrange_m, options.altitude_m);
-  const Eigen::Vector3d z_cam(0.0, std::sin(off_nadir), -std::cos(off_nadir));
-  const Eigen::Vector3d x_cam(1.0, 0.0, 0.0);
-  const Eigen::Vector3d y_cam = z_cam.cross(x_cam);
-  Eigen::Matrix3d local_r_cam;
-  local_r_cam.col(0) = x_cam;
-  local_r_cam.col(1) = y_cam;
-  local_r_cam.col(2) = z_cam;
-  const Rigid3d local_from_cam1(Eigen::Quaterniond(local_r_cam), c1);
-  // Lateral: east, across the line of sight. Forward: north, level, toward the
-  // site (at 45 deg off nadir half of it along the line of sight). Boresight:
-  // along the optical axis.
-  const Eigen::Vector3d north(0.0, 1.0, 0.0);
-  const Eigen::Vector3d direction = setting.geometry == StudyGeometry::kLateral   ? x_cam
-                                    : setting.geometry == StudyGeometry::kForward ? north
-                                                                                  : z_cam;
-  const Rigid3d local_from_cam2(local_from_cam1.rotation, c1 + setting.baseline_m * direction);
+  const TrialCameras cameras = PlaceCameras(options, setting);
+  const Rigid3d& local_from_cam1 = cameras.local_from_cam1;
+  const Rigid3d& local_from_cam2 = cameras.local_from_cam2;
+  const Eigen::Vector3d& c1 = local_from_cam1.translation;
+  const Eigen::Vector3d& z_cam = cameras.axis1;
   const Rigid3d cam1_from_local = local_from_cam1.Inverse();
   const Rigid3d cam2_from_local = local_from_cam2.Inverse();
 

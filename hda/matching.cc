@@ -50,6 +50,10 @@ constexpr double kWarpEpsilonPx = 1e-2;
 // Step in normalised image coordinates for the local focal length (central
 // differences: the error is O(step^2)).
 constexpr double kFocalStep = 1e-4;
+// A pre-warped search box may be at most this many times the area of the box
+// it resamples (a motion that compresses image 2 by more than 4 in each
+// direction is not a change of view the pre-warp can undo).
+constexpr double kMaxPrewarpGrowth = 16.0;
 
 void ThrowIfInvalid(const std::vector<std::string>& errors) {
   hdabench::ThrowIfInvalid("MatchRoiPair: invalid MatchingOptions: ", errors);
@@ -643,22 +647,87 @@ bool WarpRefine(const cv::Mat& image1, const cv::Mat& image2, const cv::Matx22d&
   return false;
 }
 
+// Image 2's search box resampled through the inverse of the expected motion
+// (MatchingOptions::prewarp_min_stretch): pixel q of `image` shows image 2 at
+// to_image2 * (q, 1), so that near the ROI it looks as image 1 does. `box` is
+// the resampled search box, with room around it for ORB's patch and the
+// Lucas-Kanade window.
+struct PrewarpedBox {
+  cv::Mat image;
+  cv::Rect box;
+  cv::Matx23d to_image2;
+  cv::Matx23d from_image2;
+
+  static cv::Point2d Map(const cv::Matx23d& m, double x, double y) {
+    return {m(0, 0) * x + m(0, 1) * y + m(0, 2), m(1, 0) * x + m(1, 1) * y + m(1, 2)};
+  }
+  cv::Point2d ToImage2(double x, double y) const { return Map(to_image2, x, y); }
+  cv::Point2d FromImage2(const cv::Point2d& p) const { return Map(from_image2, p.x, p.y); }
+};
+
+// The resampled box, or nothing when the motion cannot be inverted or would
+// blow the box up past kMaxPrewarpGrowth times its area.
+std::optional<PrewarpedBox> PrewarpBox(const cv::Mat& image2, const cv::Rect& box2, const cv::Matx22d& motion,
+                                       const MatchingOptions& options) {
+  const double det = cv::determinant(motion);
+  if (!(std::isfinite(det) && det > 0.0)) return std::nullopt;
+  const cv::Matx22d inverse = motion.inv();
+  // The box's pixel-edge corners about its centre, through the inverse motion.
+  const cv::Vec2d centre(box2.x + 0.5 * (box2.width - 1), box2.y + 0.5 * (box2.height - 1));
+  cv::Vec2d low(HUGE_VAL, HUGE_VAL), high(-HUGE_VAL, -HUGE_VAL);
+  for (const double x : {box2.x - 0.5, box2.x + box2.width - 0.5}) {
+    for (const double y : {box2.y - 0.5, box2.y + box2.height - 0.5}) {
+      const cv::Vec2d q = inverse * (cv::Vec2d(x, y) - centre);
+      low = cv::Vec2d(std::min(low[0], q[0]), std::min(low[1], q[1]));
+      high = cv::Vec2d(std::max(high[0], q[0]), std::max(high[1], q[1]));
+    }
+  }
+  const double width = std::ceil(high[0] - low[0]), height = std::ceil(high[1] - low[1]);
+  if (!(width * height <= kMaxPrewarpGrowth * box2.area()) || width < 1 || height < 1) return std::nullopt;
+  const int pad =
+      std::max(options.orb_patch_size_px + kOrbExtraPadPx, (options.refine_window_px + 1) << kRefineMaxLevel) + 1;
+  PrewarpedBox warped;
+  warped.box = cv::Rect(pad, pad, static_cast<int>(width), static_cast<int>(height));
+  // q - (pad - 0.5, pad - 0.5) + low = inverse (p - centre): the box's first
+  // pixel edge at pad - 0.5.
+  const cv::Vec2d shift = centre + motion * (low - cv::Vec2d(pad - 0.5, pad - 0.5));
+  warped.to_image2 = cv::Matx23d(motion(0, 0), motion(0, 1), shift[0], motion(1, 0), motion(1, 1), shift[1]);
+  const cv::Vec2d back = -(inverse * shift);
+  warped.from_image2 =
+      cv::Matx23d(inverse(0, 0), inverse(0, 1), back[0], inverse(1, 0), inverse(1, 1), back[1]);
+  cv::warpAffine(image2, warped.image, cv::Mat(warped.to_image2),
+                 cv::Size(warped.box.width + 2 * pad, warped.box.height + 2 * pad),
+                 cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT_101);
+  return warped;
+}
+
 // Pyramidal Lucas-Kanade from the image-1 keypoints to image 2, starting at the
 // ORB matches. Removes the matches it rejects from points1/points2 and
 // refines the others; returns the number rejected.
+// With `warped`, Lucas-Kanade tracks into the pre-warped box (where image 2
+// looks as image 1 does) and its result is mapped back to image 2 before the
+// nav-aided refinement.
 int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1,
                   const cv::Rect& box2, const cv::Matx22d& motion_jacobian,
-                  const MatchingOptions& options,
+                  const MatchingOptions& options, const PrewarpedBox* warped,
                   std::vector<cv::Point2d>* points1, std::vector<cv::Point2d>* points2) {
   if (points1->empty()) return 0;
+  const cv::Mat& tracked = warped ? warped->image : image2;
   // LK works on equal-sized images: windows around both padded boxes, with
   // room for the LK window at the coarsest level. No copies: views.
   const int pad = (options.refine_window_px + 1) << kRefineMaxLevel;
   const cv::Rect crop1 = Padded(box1, pad, image1.size());
-  const cv::Rect crop2 = Padded(box2, pad, image2.size());
+  const cv::Rect crop2 = Padded(warped ? warped->box : box2, pad, tracked.size());
   const cv::Size size(std::max(crop1.width, crop2.width), std::max(crop1.height, crop2.height));
+  if (size.width > image1.cols || size.height > image1.rows || size.width > tracked.cols ||
+      size.height > tracked.rows) {
+    const int rejected = static_cast<int>(points1->size());
+    points1->clear();
+    points2->clear();
+    return rejected;  // a pre-warped box larger than image 1: no common window for LK
+  }
   const cv::Rect window1 = Enlarged(crop1, size, image1.size());
-  const cv::Rect window2 = Enlarged(crop2, size, image2.size());
+  const cv::Rect window2 = Enlarged(crop2, size, tracked.size());
 
   std::vector<cv::Point2f> previous, next;
   previous.reserve(points1->size());
@@ -666,13 +735,13 @@ int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& 
   for (size_t i = 0; i < points1->size(); ++i) {
     previous.emplace_back(static_cast<float>((*points1)[i].x - window1.x),
                           static_cast<float>((*points1)[i].y - window1.y));
-    next.emplace_back(static_cast<float>((*points2)[i].x - window2.x),
-                      static_cast<float>((*points2)[i].y - window2.y));
+    const cv::Point2d start = warped ? warped->FromImage2((*points2)[i]) : (*points2)[i];
+    next.emplace_back(static_cast<float>(start.x - window2.x), static_cast<float>(start.y - window2.y));
   }
   const std::vector<cv::Point2f> initial = next;
   std::vector<unsigned char> status;
   std::vector<float> error;
-  cv::calcOpticalFlowPyrLK(image1(window1), image2(window2), previous, next, status, error,
+  cv::calcOpticalFlowPyrLK(image1(window1), tracked(window2), previous, next, status, error,
                            cv::Size(options.refine_window_px, options.refine_window_px),
                            kRefineMaxLevel,
                            cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS,
@@ -694,6 +763,7 @@ int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& 
     }
     cv::Point2d point1 = (*points1)[i];
     cv::Point2d refined(x + window2.x, y + window2.y);
+    if (warped) refined = warped->ToImage2(refined.x, refined.y);
     if (options.warp_refine) {
       // The window is centred on the nearest whole pixel of image 1; its
       // starting point in image 2 moves with it through the expected motion.
@@ -781,6 +851,8 @@ std::vector<std::string> MatchingOptions::Validate() const {
   RequireOption(warp_refine_window_px >= 5 && warp_refine_window_px <= kMaxWindowPx &&
                     warp_refine_window_px % 2 == 1,
                 "warp_refine_window_px", warp_refine_window_px, "odd, in [5, 255]", &errors);
+  RequireOption(prewarp_min_stretch == 0 || (prewarp_min_stretch >= 1 && std::isfinite(prewarp_min_stretch)),
+                "prewarp_min_stretch", prewarp_min_stretch, ">= 1 (0: never)", &errors);
   RequireOption(ransac_threshold_px > 0, "ransac_threshold_px", ransac_threshold_px, "> 0",
                 &errors);
   RequireOption(ransac_confidence > 0 && ransac_confidence < 1, "ransac_confidence",
@@ -788,6 +860,20 @@ std::vector<std::string> MatchingOptions::Validate() const {
   RequireOption(ransac_max_iterations >= 1, "ransac_max_iterations", ransac_max_iterations, ">= 1",
                 &errors);
   return errors;
+}
+
+double MotionStretch(const cv::Matx22d& jacobian) {
+  for (int k = 0; k < 4; ++k) {
+    if (!std::isfinite(jacobian.val[k])) return HUGE_VAL;
+  }
+  // The singular values of a 2 x 2 matrix: s1^2 + s2^2 = |J|_F^2, s1 s2 = |det J|.
+  const double frobenius2 = jacobian.dot(jacobian);
+  const double det = std::abs(cv::determinant(jacobian));
+  const double gap = std::sqrt(std::max(0.0, frobenius2 * frobenius2 - 4.0 * det * det));
+  const double larger = std::sqrt(0.5 * (frobenius2 + gap));
+  if (!(det > 0.0) || !(larger > 0.0)) return HUGE_VAL;
+  const double smaller = det / larger;
+  return std::max(larger, 1.0 / smaller);
 }
 
 const char* ToString(MatchingStatus status) {
@@ -833,7 +919,23 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
   if (box1.empty() || box2.empty()) return result;
 
   const OrbFeatures features1 = DetectInBox(image1, box1, options);
-  const OrbFeatures features2 = DetectInBox(image2, box2, options);
+  std::optional<PrewarpedBox> warped;
+  if (options.prewarp_min_stretch > 0.0 && MotionStretch(motion_jacobian) >= options.prewarp_min_stretch) {
+    warped = PrewarpBox(image2, box2, motion_jacobian, options);
+  }
+  OrbFeatures features2;
+  if (warped) {
+    // Detected and described where image 2 looks as image 1 does; positions
+    // in image 2.
+    features2 = DetectInBox(warped->image, warped->box, options);
+    for (cv::KeyPoint& k : features2.keypoints) {
+      const cv::Point2d p = warped->ToImage2(k.pt.x, k.pt.y);
+      k.pt = cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y));
+    }
+    result.prewarped = true;
+  } else {
+    features2 = DetectInBox(image2, box2, options);
+  }
   result.keypoints1 = static_cast<int>(features1.keypoints.size());
   result.keypoints2 = static_cast<int>(features2.keypoints.size());
   std::optional<MatchGuide> guide;
@@ -859,7 +961,8 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
     points2.emplace_back(static_cast<double>(p2.x), static_cast<double>(p2.y));
   }
   if (options.subpixel_refine) {
-    result.refine_rejected = RefineMatches(image1, image2, box1, box2, motion_jacobian, options, &points1, &points2);
+    result.refine_rejected = RefineMatches(image1, image2, box1, box2, motion_jacobian, options,
+                                           warped ? &*warped : nullptr, &points1, &points2);
   }
   if (static_cast<int>(points1.size()) < kMinRansacPoints) return result;  // kTooFewMatches
 

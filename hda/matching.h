@@ -69,6 +69,18 @@ struct MatchingOptions {
   bool warp_refine = true;
   int warp_refine_window_px = 25;    // window side, pixels (odd, >= 5)
 
+  // Pre-warp, for a change of view that ORB does not survive: when the
+  // expected motion (MatchRoiPair's motion_jacobian) stretches or compresses
+  // image 2 against image 1 by at least this factor in some direction
+  // (MotionStretch), image 2's box is resampled through the inverse of that
+  // motion, so that it looks as image 1 does, before ORB detects and
+  // describes there; each keypoint is mapped back to image 2, and the
+  // Lucas-Kanade refinement runs on the resampled box too (the nav-aided
+  // refinement, at full resolution, on image 2 itself). ORB's orientation
+  // takes a rotation; its pyramid (3 levels of 1.2) a little scale; a
+  // stretch in one direction neither. 0: never.
+  double prewarp_min_stretch = 1.05;
+
   // RANSAC on the epipolar geometry: essential matrix (5-point) on the bearings
   // from the camera model, inlier threshold in pixels of image 2 (converted
   // with the camera's local focal length).
@@ -104,7 +116,14 @@ struct RoiMatches {
   int matches = 0;           // after the ratio test and the cross-check
   int refine_rejected = 0;   // dropped by the sub-pixel refinement
   int ransac_inliers = 0;    // == points1_px.size()
+  bool prewarped = false;    // image 2's box was resampled before ORB (MatchingOptions::prewarp_min_stretch)
 };
+
+// How far the local image motion `jacobian` (d image-2 pixel / d image-1
+// pixel) departs from a rotation: the largest factor by which it stretches or
+// compresses a direction, max(s1, 1 / s2) for its singular values s1 >= s2
+// (1 for a rotation; infinity for a singular or non-finite matrix).
+double MotionStretch(const cv::Matx22d& jacobian);
 
 // ORB keypoints and descriptors in `box` of a CV_8UC1 image (clipped to
 // the image), full-image coordinates: exactly what cv::ORB (options' levels,

@@ -955,6 +955,7 @@ void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, St
   timer->Lap(&result->times.matching_s);
   roi.matched = true;
   roi.matching_status = matches.status;
+  roi.prewarped = matches.prewarped;
   roi.counts.keypoints1 = matches.keypoints1;
   roi.counts.keypoints2 = matches.keypoints2;
   roi.counts.matches = matches.matches;

@@ -94,6 +94,7 @@ struct RoiResult {
   bool matched = false;                // matching ran (or the matches were given): matching_status holds
   bool depth_unobservable = false;     // refused before matching: the nav pose leaves its depth unobservable
   MatchingStatus matching_status = MatchingStatus::kTooFewMatches;
+  bool prewarped = false;              // image 2's box was resampled before ORB (MatchingOptions::prewarp_min_stretch)
 
   // The surviving matches (image 1 and image 2 pixels) and their points, in
   // the local frame, parallel arrays (the PLY clouds and the figures).

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <initializer_list>
 #include <map>
 #include <sstream>
 
@@ -58,6 +59,10 @@ Eigen::Vector3d BodyPositionAt(const SynthOptions& o, double t) {
   Eigen::Vector3d direction;
   if (o.motion == Motion::kLateral) {
     direction = Eigen::Vector3d(1.0, 0.0, 0.0);  // east, across the line of sight
+  } else if (o.motion == Motion::kForward) {
+    direction = Eigen::Vector3d(0.0, 1.0, 0.0);  // north, level, toward the ILS
+  } else if (o.motion == Motion::kVertical) {
+    direction = Eigen::Vector3d(0.0, 0.0, 1.0);  // up
   } else {
     const double a = DegToRad(o.off_nadir_deg);
     direction = Eigen::Vector3d(0.0, std::sin(a), -std::cos(a));  // along the optical axis
@@ -168,25 +173,41 @@ std::vector<std::string> SynthOptions::Validate() const {
 }
 
 std::vector<std::string> SynthPresetNames() {
-  return {"novac-lateral", "novac-boresight", "truck", "aircraft", "helicopter"};
+  return {"novac-lateral", "novac-forward", "novac-boresight", "truck", "aircraft", "helicopter"};
 }
 
 SynthOptions SynthPreset(const std::string& name) {
   SynthOptions o;
   o.preset = name;
   if (name == "novac-lateral") return o;
+  if (name == "novac-forward") {
+    // The approach as the paper's aircraft flew it ("constant altitude and
+    // straight line trajectories, ... analogous to the planned lunar
+    // trajectory"), at constant pitch: level flight toward the ILS. Same
+    // place, speed and window as novac-lateral; the pair 0-6 is 31.2 m
+    // apart, 22 m of it across the line of sight (31.2 cos 45 deg).
+    o.motion = Motion::kForward;
+    return o;
+  }
   if (name == "novac-boresight") {
     o.motion = Motion::kBoresight;
     return o;
   }
   if (name == "truck") {
-    // Navpod on a truck's lift: 2 m up, camera 45 degrees down out of the
-    // rear, slow lateral motion; terrain scaled so a site is as many pixels
-    // as from the lander (range 2.8 m instead of 566 m: factor 1/200).
-    o.altitude_m = 2.0;
-    o.standoff_m = 2.0;
-    o.speed_mps = 0.065;  // 0.15 m in 2.3 s: the NOVA-C baseline-to-range ratio (0.053)
-    o.terrain_scale = 1.0 / 200.0;
+    // The truck campaign (paper, Truck Campaign): the Navpod on a pickup's
+    // motorized lift, "camera and laser ranger point out the rear at a 45
+    // degree angle", the quadtree image taken "from a height of about 4
+    // meters". The lift's vertical motion is the baseline. Assumptions: 4 m
+    // up at mid-window, the lift rising at 0.125 m/s, so that frames 0 and 6
+    // (2.4 s) are 0.30 m apart, NOVA-C's baseline-to-range ratio at the 5.66 m
+    // range. The terrain is scaled by the range's ratio to the lander's
+    // (5.66 m against 566 m: 1/100), so a site is as many pixels as from the
+    // lander.
+    o.motion = Motion::kVertical;
+    o.altitude_m = 4.0;
+    o.standoff_m = 4.0;
+    o.speed_mps = 0.125;
+    o.terrain_scale = 1.0 / 100.0;
     o.terrain = "mare";
     o.lrf_noise_m = 0.002;
     o.nav_velocity_bias_mps = 0.0003;
@@ -194,7 +215,14 @@ SynthOptions SynthPreset(const std::string& name) {
     return o;
   }
   if (name == "aircraft") {
-    // About 1800 m above ground at about 80 m/s, camera 45 degrees off nadir.
+    // The aircraft campaign (paper, Aircraft Testing Campaign): "a ground
+    // speed of about 80 m/s", "most commonly around 1800 meters", the camera
+    // and the range finder "45 degrees off of nadir towards the nose", on
+    // "constant altitude and straight line trajectories": level flight
+    // toward the site. The paper scaled "the time step between images";
+    // the pair is the one whose baseline-to-range ratio is NOVA-C's (frames
+    // 0 and 8: 1.6 s, 128 m at 2546 m of range).
+    o.motion = Motion::kForward;
     o.altitude_m = 1800.0;
     o.standoff_m = 1800.0;
     o.speed_mps = 80.0;
@@ -258,7 +286,23 @@ double ParseDoubleValue(const std::string& key, const std::string& text) {
 }
 
 // The overrides whose values are names or flags, as the unknown-key message lists them.
-constexpr const char* kNamedOverrides = "motion terrain terrain.rock_law render.anti_aliasing render.shot_noise";
+constexpr const char* kNamedOverrides =
+    "motion attitude terrain terrain.rock_law render.anti_aliasing render.shot_noise";
+
+// The value of `--set key=value` among `choices` (name, value), or an
+// InputError listing the names.
+template <typename T>
+T Chosen(const std::string& key, const std::string& value,
+         std::initializer_list<std::pair<const char*, T>> choices) {
+  std::string names;
+  size_t k = 0;
+  for (const auto& [name, chosen] : choices) {
+    if (value == name) return chosen;
+    names += std::string(k == 0 ? "" : k + 1 == choices.size() ? " or " : ", ") + name;
+    ++k;
+  }
+  throw InputError("--set " + key + "=" + value + ": expected " + names);
+}
 
 // Applies one of kNamedOverrides; false for any other key.
 bool ApplyNamedOverride(const std::string& key, const std::string& value, SynthOptions* o, TerrainOptions* t) {
@@ -268,30 +312,26 @@ bool ApplyNamedOverride(const std::string& key, const std::string& value, SynthO
     return true;
   }
   if (key == "render.anti_aliasing") {
-    if (value == "camera") {
-      r.anti_aliasing = RenderOptions::AntiAliasing::kCamera;
-    } else if (value == "quincunx") {
-      r.anti_aliasing = RenderOptions::AntiAliasing::kQuincunx;
-    } else if (value == "grid") {
-      r.anti_aliasing = RenderOptions::AntiAliasing::kGrid;
-    } else {
-      throw InputError("--set render.anti_aliasing=" + value + ": expected camera, quincunx or grid");
-    }
+    using AntiAliasing = RenderOptions::AntiAliasing;
+    r.anti_aliasing = Chosen<AntiAliasing>(
+        key, value,
+        {{"camera", AntiAliasing::kCamera}, {"quincunx", AntiAliasing::kQuincunx}, {"grid", AntiAliasing::kGrid}});
     return true;
   }
   if (key == "render.shot_noise") {
-    if (value != "0" && value != "1") throw InputError("--set render.shot_noise=" + value + ": expected 0 or 1");
-    r.shot_noise = value == "1";
+    r.shot_noise = Chosen<bool>(key, value, {{"0", false}, {"1", true}});
+    return true;
+  }
+  if (key == "attitude") {
+    o->attitude = Chosen<Attitude>(key, value, {{"fixed", Attitude::kFixed}, {"track", Attitude::kTrack}});
     return true;
   }
   if (key == "motion") {
-    if (value == "lateral") {
-      o->motion = Motion::kLateral;
-    } else if (value == "boresight") {
-      o->motion = Motion::kBoresight;
-    } else {
-      throw InputError("--set motion=" + value + ": expected lateral or boresight");
-    }
+    o->motion = Chosen<Motion>(key, value,
+                               {{"lateral", Motion::kLateral},
+                                {"forward", Motion::kForward},
+                                {"boresight", Motion::kBoresight},
+                                {"vertical", Motion::kVertical}});
     return true;
   }
   if (key == "terrain") {
@@ -431,9 +471,17 @@ Dataset EmptyDataset(const calib::CameraModel& camera, const SynthOptions& optio
   return dataset;
 }
 
-// True body pose at time t (seconds from the first frame).
+// True body pose at time t (seconds from the first frame). With
+// Attitude::kTrack the fixed attitude is turned by the smallest rotation that
+// takes its optical axis onto the line from the body to the ILS (the origin).
 Rigid3d TrueLocalFromBody(const SynthOptions& options, double t) {
-  return Rigid3d(LocalFromBodyRotation(), BodyPositionAt(options, t));
+  const Eigen::Vector3d position = BodyPositionAt(options, t);
+  const Eigen::Quaterniond fixed = LocalFromBodyRotation();
+  if (options.attitude == Attitude::kFixed) return Rigid3d(fixed, position);
+  const Eigen::Vector3d axis_in_body =
+      CamFromBody(DegToRad(options.off_nadir_deg)).rotation.inverse() * Eigen::Vector3d::UnitZ();
+  const Eigen::Quaterniond turn = Eigen::Quaterniond::FromTwoVectors(fixed * axis_in_body, -position);
+  return Rigid3d((turn * fixed).normalized(), position);
 }
 
 // Frame times and the true camera poses at them.

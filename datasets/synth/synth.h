@@ -24,6 +24,14 @@ inline constexpr char kSyntheticSceneDescription[] = "hdabench synthetic scene:"
 enum class Motion {
   kLateral,    // constant altitude and attitude, moving sideways (across the line of sight)
   kBoresight,  // along the optical axis toward the ILS (glide slope): poorly observable
+  kForward,    // constant altitude and attitude, level flight toward the ILS (north): the paper's approach
+  kVertical,   // straight up at constant attitude: the truck campaign's motorized lift
+};
+
+enum class Attitude {
+  kFixed,  // constant attitude: the camera keeps its pitch (every preset)
+  kTrack,  // the body turns so that the optical axis points at the ILS at every instant (a camera
+           // that keeps the site in the middle of its view, as the third-party oblique pairs do)
 };
 
 struct SynthOptions {
@@ -40,6 +48,7 @@ struct SynthOptions {
   // starts south of the ILS, flies with body x pointing north, and the camera
   // looks off_nadir_deg from nadir toward the north (toward the ILS).
   Motion motion = Motion::kLateral;
+  Attitude attitude = Attitude::kFixed;
   double altitude_m = 400.0;             // camera height above the ILS at the start, metres
   double standoff_m = 400.0;             // horizontal distance south of the ILS at the start, metres
   double off_nadir_deg = 45.0;           // optical axis from nadir toward body x, degrees
@@ -81,7 +90,8 @@ struct SynthOptions {
 // with mild barrel distortion (about 1.5 px at the corners of a 1024 imager).
 calib::CameraModel DefaultSynthCamera(int image_size_px, double horizontal_fov_deg);
 
-// The named presets: novac-lateral (default), novac-boresight, truck, aircraft, helicopter.
+// The named presets: novac-lateral (default), novac-forward, novac-boresight, truck, aircraft,
+// helicopter.
 // Throws InputError for an unknown name, listing the valid ones.
 SynthOptions SynthPreset(const std::string& name);
 std::vector<std::string> SynthPresetNames();

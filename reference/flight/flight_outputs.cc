@@ -142,6 +142,7 @@ Json RoiJson(const FlightRun& run, size_t i) {
   j["stddev_dn"] = block == quadtree_rois.end() ? Json(nullptr) : Number(block->stddev_dn);
   j["counts"] = CountsJson(roi.counts);
   j["matching_status"] = roi.matched ? Json(hda::ToString(roi.matching_status)) : Json(nullptr);
+  j["prewarped"] = roi.matched ? Json(roi.prewarped) : Json(nullptr);
   j["fit"] = FitJson(roi);
   j["score"] = IsRanked(roi) ? Number(roi.score) : Json(nullptr);
   j["rank"] = roi.rank > 0 ? Json(roi.rank) : Json(nullptr);

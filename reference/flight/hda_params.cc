@@ -62,6 +62,7 @@ void ForEachField(Options& o, Visit&& visit) {
   visit("matching.max_refine_shift_px", o.matching.max_refine_shift_px);
   visit("matching.warp_refine", o.matching.warp_refine);
   visit("matching.warp_refine_window_px", o.matching.warp_refine_window_px);
+  visit("matching.prewarp_min_stretch", o.matching.prewarp_min_stretch);
   visit("matching.ransac_threshold_px", o.matching.ransac_threshold_px);
   visit("matching.ransac_confidence", o.matching.ransac_confidence);
   visit("matching.ransac_max_iterations", o.matching.ransac_max_iterations);

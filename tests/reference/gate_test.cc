@@ -238,7 +238,7 @@ TEST(ReadGateThresholds, OneBoundPerThresholdAndKnownNames) {
 // every threshold is for a method its suite compares.
 TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
   const fs::path gate = fs::path(HDABENCH_SOURCE_DIR) / "gate";
-  for (const std::string name : {"", "-ci", "-lateral", "-decision", "-scale", "-external"}) {
+  for (const std::string name : {"", "-ci", "-lateral", "-forward", "-oblique", "-decision", "-scale", "-external"}) {
     SCOPED_TRACE("gate/suite" + name + ".json");
     const GateSuite suite = ReadGateSuite((gate / ("suite" + name + ".json")).string());
     const GateThresholds thresholds = ReadGateThresholds((gate / ("thresholds" + name + ".json")).string());

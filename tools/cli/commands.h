@@ -30,7 +30,7 @@ int RunDatasetCreate(const DatasetCreateOptions& options, std::ostream& out, std
 
 struct SynthCommandOptions {
   std::string out_dir;                  // folder to create; must not exist, or be empty
-  std::string preset = "novac-lateral"; // novac-lateral, novac-boresight, truck, aircraft, helicopter
+  std::string preset = "novac-lateral"; // novac-lateral, novac-forward, novac-boresight, truck, aircraft, helicopter
   std::string terrain;                  // mare, cratered, rocky, flank, boulders; empty: the preset's
   std::uint64_t seed = 1;               // same seed, same bytes
   int threads = 0;                      // 0: every core this process may use; the output does not depend on it

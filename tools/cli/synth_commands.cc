@@ -250,7 +250,7 @@ Command AddSynthCommand(CLI::App& app) {
   synth_app->add_option("--out", options->out_dir, "Folder to create (must not exist, or be empty)")
       ->required();
   synth_app->add_option("--preset", options->preset,
-                        "novac-lateral, novac-boresight, truck, aircraft or helicopter")
+                        "novac-lateral, novac-forward, novac-boresight, truck, aircraft or helicopter")
       ->capture_default_str();
   synth_app->add_option("--terrain", options->terrain,
                         "mare, cratered, rocky, flank or boulders (default: the preset's)");

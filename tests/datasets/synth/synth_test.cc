@@ -75,6 +75,77 @@ TEST(GenerateSynthDataset, LateralPresetHasAPairAbout30MetresApart) {
   EXPECT_NEAR(options.speed_mps * 6.0 / options.frame_rate_hz, 31.2, 1e-9);
 }
 
+// The presets fly as the paper's campaigns flew (docs/synthetic-scenes.md):
+// the approach and the aircraft level toward the site, the truck's lift
+// straight up, each at constant attitude with the camera 45 deg off nadir
+// toward the north; the pair is the one at NOVA-C's baseline-to-range ratio.
+TEST(GenerateSynthDataset, PresetsFlyAsTheCampaignsFlew) {
+  struct Flight {
+    const char* preset;
+    int second_frame;            // the pair (0, second_frame)
+    Eigen::Vector3d motion_m;    // camera centre of the second frame minus the first's, local ENU
+  };
+  const Flight flights[] = {
+      {"novac-lateral", 6, {31.2, 0.0, 0.0}},   // east, 2.4 s at 13 m/s
+      {"novac-forward", 6, {0.0, 31.2, 0.0}},   // north, level
+      {"aircraft", 8, {0.0, 128.0, 0.0}},       // north, level, 1.6 s at 80 m/s
+      {"truck", 6, {0.0, 0.0, 0.30}},           // up, 2.4 s at 0.125 m/s
+  };
+  for (const Flight& flight : flights) {
+    SCOPED_TRACE(flight.preset);
+    SynthOptions options = SmallPreset(flight.preset);
+    options.frame_rate_hz = SynthPreset(flight.preset).frame_rate_hz;  // the preset's frames
+    SynthSummary summary;
+    const Dataset dataset = GenerateSynthDataset(options, TerrainFor(options), CurrentTestSeed(), {}, &summary);
+    EXPECT_EQ(summary.pair_frames, std::make_pair(0, flight.second_frame));
+    const Rigid3d first = dataset.TrueCamFromLocal(0).Inverse();
+    const Rigid3d second = dataset.TrueCamFromLocal(flight.second_frame).Inverse();
+    const Eigen::Vector3d motion = second.translation - first.translation;
+    EXPECT_LT((motion - flight.motion_m).norm(), 1e-6 * flight.motion_m.norm()) << motion.transpose();
+    // The attitude does not change: the camera keeps its pitch.
+    EXPECT_LT(first.rotation.angularDistance(second.rotation), 1e-9);
+    // The optical axis points 45 deg below the horizon toward the north.
+    const Eigen::Vector3d axis = first.rotation * Eigen::Vector3d::UnitZ();
+    EXPECT_NEAR(axis.y(), std::sqrt(0.5), 1e-9);
+    EXPECT_NEAR(axis.z(), -std::sqrt(0.5), 1e-9);
+    // The pair's baseline over the slant range is NOVA-C's 30 m at 566 m,
+    // within half a frame's step.
+    const double range_m = std::hypot(options.altitude_m, options.standoff_m);
+    const double step_m = options.speed_mps / options.frame_rate_hz;
+    EXPECT_NEAR(motion.norm(), 30.0 / 566.0 * range_m, 0.5 * step_m);
+  }
+}
+
+// attitude=track: every frame's optical axis passes through the ILS, so the
+// axes of two frames differ by the angle their baseline subtends there; with
+// the default attitude they are parallel.
+TEST(GenerateSynthDataset, TrackingAttitudeKeepsTheIlsOnTheOpticalAxis) {
+  SynthOptions options = SmallPreset("novac-lateral");
+  options.speed_mps = 100.0;  // 500 m across the window: the axes 60-odd degrees apart
+  TerrainOptions terrain = TerrainFor(options);
+  TerrainOptions unused;
+  ApplyOverride("attitude", "track", &options, &unused);
+  ASSERT_EQ(options.attitude, Attitude::kTrack);
+  options.horizontal_fov_deg = 10.0;
+  const Dataset dataset = GenerateSynthDataset(options, terrain, CurrentTestSeed());
+  const int last = static_cast<int>(dataset.frames.size()) - 1;
+  std::vector<Eigen::Vector3d> axes;
+  for (const int frame : {0, last}) {
+    const Rigid3d local_from_cam = dataset.TrueCamFromLocal(frame).Inverse();
+    const Eigen::Vector3d axis = local_from_cam.rotation * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d to_ils = -local_from_cam.translation.normalized();
+    EXPECT_LT(axis.cross(to_ils).norm(), 1e-9) << "frame " << frame;
+    EXPECT_GT(axis.dot(to_ils), 0.0);
+    axes.push_back(axis);
+  }
+  const Eigen::Vector3d c0 = dataset.TrueCamFromLocal(0).Inverse().translation;
+  const Eigen::Vector3d c1 = dataset.TrueCamFromLocal(last).Inverse().translation;
+  const double subtended = std::acos(c0.normalized().dot(c1.normalized()));
+  EXPECT_NEAR(std::acos(std::min(1.0, axes[0].dot(axes[1]))), subtended, 1e-9);
+  EXPECT_GT(subtended, 0.5);
+  EXPECT_THROW(ApplyOverride("attitude", "tumbling", &options, &unused), InputError);
+}
+
 TEST(GenerateSynthDataset, MeasuredNavigationEqualsTruthWithoutErrorsAndDriftsWithThem) {
   SynthOptions options = SmallPreset("novac-lateral");
   options.nav_velocity_bias_mps = 0.0;

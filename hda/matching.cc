@@ -870,8 +870,8 @@ double MotionStretch(const cv::Matx22d& jacobian) {
   const double frobenius2 = jacobian.dot(jacobian);
   const double det = std::abs(cv::determinant(jacobian));
   const double gap = std::sqrt(std::max(0.0, frobenius2 * frobenius2 - 4.0 * det * det));
-  const double larger = std::sqrt(0.5 * (frobenius2 + gap));
-  if (!(det > 0.0) || !(larger > 0.0)) return HUGE_VAL;
+  if (!(det > 0.0)) return HUGE_VAL;
+  const double larger = std::sqrt(0.5 * (frobenius2 + gap));  // > 0: larger^2 >= det
   const double smaller = det / larger;
   return std::max(larger, 1.0 / smaller);
 }

@@ -156,7 +156,8 @@ using ExpectedPositions = std::function<void(const std::vector<cv::Point2d>& pix
 // clipped; an empty one gives kTooFewMatches with zero counts).
 // motion_jacobian: d(image-2 pixel) / d(image-1 pixel) expected around the ROI
 // (RunHda gives the level ground's under the nav pose); the nav-aided
-// refinement maps its windows with it. The identity means a pure translation.
+// refinement maps its windows with it, and the pre-warp resamples image 2's
+// box through its inverse. The identity means a pure translation.
 // expected: where each image-1 keypoint should be in image 2, for nav-guided
 // matching (options.guide_radius_px > 0); without it every keypoint of the
 // box is a candidate whatever the radius.

@@ -917,15 +917,16 @@ void AddFaultMatchNoise(const HdaOptions& options, int roi_id, RoiMatches* match
   matches->bearings2.clear();  // the moved points' are unprojected anew
 }
 
-// Matches the ROI pair. The expected motion only serves the nav-aided
-// refinement; the fault injection's noise on image 2's points is seeded by the
-// ROI id so that a run repeats.
+// Matches the ROI pair. The expected motion serves the nav-aided refinement
+// and the pre-warp; the fault injection's noise on image 2's points is seeded
+// by the ROI id so that a run repeats.
 RoiMatches MatchRoi(const Context& ctx, const RoiResult& roi, const Eigen::Vector2d& centre) {
   const HdaOptions& options = *ctx.options;
-  const bool warp = options.matching.subpixel_refine && options.matching.warp_refine;
+  const bool uses_motion = (options.matching.subpixel_refine && options.matching.warp_refine) ||
+                           options.matching.prewarp_min_stretch > 0.0;
   RoiMatches matches =
       MatchRoiPair(ctx.image1, ctx.image2, roi.box1_px, roi.box2_px, *ctx.camera, options.matching,
-                   warp ? GroundMotionJacobian(ctx, centre) : cv::Matx22d::eye(),
+                   uses_motion ? GroundMotionJacobian(ctx, centre) : cv::Matx22d::eye(),
                    [&ctx](const std::vector<cv::Point2d>& pixels1, std::vector<cv::Point2d>* pixels2,
                           std::vector<unsigned char>* valid) { ExpectOnGround(ctx, pixels1, pixels2, valid); });
   AddFaultMatchNoise(options, roi.id, &matches);

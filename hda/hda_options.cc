@@ -34,15 +34,12 @@ std::vector<std::string> HdaOptions::Validate() const {
                 "in (0, 1)", &errors);
   RequireOption(max_slope_sigma_deg > 0, "max_slope_sigma_deg", max_slope_sigma_deg, "> 0", &errors);
   RequireOption(max_roughness_rms_m > 0, "max_roughness_rms_m", max_roughness_rms_m, "> 0", &errors);
-  RequireOption(compute_budget_s > 0, "compute_budget_s", compute_budget_s, "> 0", &errors);
+  RequireOption(compute_budget_s > 0 && std::isfinite(compute_budget_s), "compute_budget_s", compute_budget_s,
+                "> 0 and finite (seconds of the flight computer)", &errors);
   RequireOption(fault_match_noise_px >= 0, "fault_match_noise_px", fault_match_noise_px, ">= 0",
                 &errors);
-  RequireOption(processor_scale > 0, "processor_scale", processor_scale, "> 0", &errors);
-  // The wall-time budget they make is a number the results can hold.
-  if (compute_budget_s > 0 && processor_scale > 0) {
-    RequireOption(std::isfinite(compute_budget_s * processor_scale), "compute_budget_s * processor_scale",
-                  compute_budget_s * processor_scale, "finite (the wall-time budget, seconds)", &errors);
-  }
+  RequireOption(flight_instructions_per_s > 0 && std::isfinite(flight_instructions_per_s),
+                "flight_instructions_per_s", flight_instructions_per_s, "> 0 and finite", &errors);
   return errors;
 }
 

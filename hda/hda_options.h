@@ -78,12 +78,15 @@ struct HdaOptions {
   double min_probability_safe = 0.9;    // in (0, 1)
 
   // Time budget (paper: about 5 s of imaging and 10 s of computation on a
-  // 1 GHz single-board computer). The wall-time budget on this machine is
-  // compute_budget_s * processor_scale; the default scale 0.1 states that one
-  // core of this machine does the work of the flight board about ten times as
-  // fast (docs/flight-method.md, "Time budget").
-  double compute_budget_s = 10.0;     // seconds of computation on the flight computer
-  double processor_scale = 0.1;       // this machine's time for one second of the flight board's work
+  // 1 GHz single-board computer), counted in work, not read from a clock: the
+  // method counts what it does (hda/work_model.h), the count's instructions
+  // run at flight_instructions_per_s on the flight computer, and an ROI is
+  // kicked out when that predicted time would pass the budget. The same
+  // inputs evaluate the same ROIs on any machine under any load
+  // (docs/flight-method.md, "Time budget").
+  double compute_budget_s = 10.0;             // seconds of computation on the flight computer
+  double flight_instructions_per_s = 1.0e9;   // the flight computer's rate, in this machine's (x86-64)
+                                              // instructions: 1 GHz at one per cycle
 
   // Fault injection, for testing the bench's merge gate only (0 in flight):
   // Gaussian noise of this standard deviation, per axis, pixels, added to

@@ -108,6 +108,13 @@ class OrbInBox {
     CircleRows();
   }
 
+  // Pixels of every level of the pyramid (the work unit of ORB's levels).
+  std::int64_t PyramidPixels() const {
+    std::int64_t pixels = 0;
+    for (int level = 0; level < levels_; ++level) pixels += static_cast<std::int64_t>(Level(level).total());
+    return pixels;
+  }
+
   std::vector<cv::KeyPoint> Detect() const {
     std::vector<cv::KeyPoint> all;
     std::vector<size_t> counts(static_cast<size_t>(levels_));
@@ -423,6 +430,7 @@ OrbFeatures DetectInBox(const cv::Mat& image, const cv::Rect& box, const Matchin
   if (levels == 0) return features;
 
   const OrbInBox orb(image(crop), box - crop.tl(), levels, options, options.orb_features_per_roi);
+  features.pyramid_pixels = orb.PyramidPixels();
   features.keypoints = orb.Detect();
   if (features.keypoints.empty()) return features;
   features.descriptors = orb.Describe(&features.keypoints);
@@ -527,6 +535,15 @@ std::vector<cv::DMatch> MatchDescriptors(const cv::Mat& descriptors1, const cv::
   return kept;
 }
 
+// RANSAC's work: the hypotheses OpenCV's adaptive count draws for this
+// outcome, each tested on every point.
+void CountRansacWork(int points, int inliers, const MatchingOptions& options, WorkCounts* work) {
+  const std::int64_t hypotheses =
+      RansacHypotheses(points, inliers, options.ransac_confidence, options.ransac_max_iterations);
+  (*work)[WorkUnit::kRansacHypotheses] = hypotheses;
+  (*work)[WorkUnit::kRansacTests] = hypotheses * points;
+}
+
 // A window of `size` inside an image of `image_size` that contains `crop`
 // (itself inside the image and no larger than `size`).
 cv::Rect Enlarged(const cv::Rect& crop, const cv::Size& size, const cv::Size& image_size) {
@@ -559,7 +576,8 @@ struct WarpWindow {
 // when a window leaves its image, the window has no texture, or the
 // iteration does not converge.
 bool WarpRefine(const cv::Mat& image1, const cv::Mat& image2, const cv::Matx22d& jacobian,
-                int window_px, const cv::Point& p1, WarpWindow* window, cv::Point2d* p2) {
+                int window_px, const cv::Point& p1, WarpWindow* window, cv::Point2d* p2,
+                std::int64_t* pixels_read) {
   const int half = window_px / 2;
   if (p1.x - half < 1 || p1.y - half < 1 || p1.x + half + 1 >= image1.cols ||
       p1.y + half + 1 >= image1.rows) {
@@ -567,6 +585,7 @@ bool WarpRefine(const cv::Mat& image1, const cv::Mat& image2, const cv::Matx22d&
   }
   const cv::Matx22d to_image2 = jacobian.inv().t();
   const size_t count = static_cast<size_t>(window_px) * static_cast<size_t>(window_px);
+  *pixels_read += static_cast<std::int64_t>(count);
   window->templ.resize(count);
   window->jx.resize(count);
   window->jy.resize(count);
@@ -611,6 +630,7 @@ bool WarpRefine(const cv::Mat& image1, const cv::Mat& image2, const cv::Matx22d&
         if (!(x >= 0.0 && y >= 0.0 && x < image2.cols - 1.001 && y < image2.rows - 1.001)) return false;
       }
     }
+    *pixels_read += static_cast<std::int64_t>(count);
     double rx = 0.0, ry = 0.0, r1 = 0.0;
     k = 0;
     const double step_x = jacobian(0, 0), step_y = jacobian(1, 0);
@@ -710,7 +730,7 @@ std::optional<PrewarpedBox> PrewarpBox(const cv::Mat& image2, const cv::Rect& bo
 int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& box1,
                   const cv::Rect& box2, const cv::Matx22d& motion_jacobian,
                   const MatchingOptions& options, const PrewarpedBox* warped,
-                  std::vector<cv::Point2d>* points1, std::vector<cv::Point2d>* points2) {
+                  std::vector<cv::Point2d>* points1, std::vector<cv::Point2d>* points2, WorkCounts* work) {
   if (points1->empty()) return 0;
   const cv::Mat& tracked = warped ? warped->image : image2;
   // LK works on equal-sized images: windows around both padded boxes, with
@@ -739,6 +759,7 @@ int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& 
     next.emplace_back(static_cast<float>(start.x - window2.x), static_cast<float>(start.y - window2.y));
   }
   const std::vector<cv::Point2f> initial = next;
+  (*work)[WorkUnit::kTrackedPoints] += static_cast<std::int64_t>(previous.size());
   std::vector<unsigned char> status;
   std::vector<float> error;
   cv::calcOpticalFlowPyrLK(image1(window1), tracked(window2), previous, next, status, error,
@@ -772,7 +793,7 @@ int RefineMatches(const cv::Mat& image1, const cv::Mat& image2, const cv::Rect& 
       refined += cv::Point2d(moved[0], moved[1]);
       const cv::Point2d start = refined;
       if (!WarpRefine(image1, image2, motion_jacobian, options.warp_refine_window_px, whole, &warp_window,
-                      &refined) ||
+                      &refined, &(*work)[WorkUnit::kRefinePixels]) ||
           !(std::hypot(refined.x - start.x, refined.y - start.y) <= options.max_refine_shift_px)) {
         ++rejected;
         continue;
@@ -938,6 +959,11 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
   }
   result.keypoints1 = static_cast<int>(features1.keypoints.size());
   result.keypoints2 = static_cast<int>(features2.keypoints.size());
+  WorkCounts& work = result.work;
+  work[WorkUnit::kOrbPixels] = features1.pyramid_pixels + features2.pyramid_pixels;
+  work[WorkUnit::kOrbKeypoints] = result.keypoints1 + result.keypoints2;
+  work[WorkUnit::kDescriptorPairs] = static_cast<std::int64_t>(result.keypoints1) * result.keypoints2;
+  if (warped) work[WorkUnit::kPrewarpPixels] = static_cast<std::int64_t>(warped->image.total());
   std::optional<MatchGuide> guide;
   if (options.guide_radius_px > 0.0 && expected) {
     guide.emplace();
@@ -962,7 +988,7 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
   }
   if (options.subpixel_refine) {
     result.refine_rejected = RefineMatches(image1, image2, box1, box2, motion_jacobian, options,
-                                           warped ? &*warped : nullptr, &points1, &points2);
+                                           warped ? &*warped : nullptr, &points1, &points2, &work);
   }
   if (static_cast<int>(points1.size()) < kMinRansacPoints) return result;  // kTooFewMatches
 
@@ -972,6 +998,8 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
   std::vector<Eigen::Vector3d> bearings1, bearings2;
   const std::vector<cv::Point2d> normalised1 = Normalised(camera, points1, &valid1, &bearings1);
   const std::vector<cv::Point2d> normalised2 = Normalised(camera, points2, &valid2, &bearings2);
+  work[WorkUnit::kUnprojectedPixels] = 2 * static_cast<std::int64_t>(points1.size());
+  if (UnprojectsIteratively(camera.LensModelName())) work[WorkUnit::kIteratedPixels] = work[WorkUnit::kUnprojectedPixels];
   std::vector<size_t> used;
   std::vector<cv::Point2d> ransac1, ransac2;
   cv::Point2d centroid2(0, 0);
@@ -996,6 +1024,7 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
   // solver stacked (3k x 3) and marks all points inliers.
   if (essential.empty() || essential.cols != 3 || essential.rows % 3 != 0 ||
       inlier_mask.total() != used.size()) {
+    CountRansacWork(static_cast<int>(used.size()), 0, options, &work);  // no model: every draw was made
     return result;
   }
   result.status = MatchingStatus::kOk;
@@ -1007,6 +1036,7 @@ RoiMatches MatchRoiPair(const cv::Mat& image1, const cv::Mat& image2, const cv::
     result.bearings2.push_back(bearings2[used[k]]);
   }
   result.ransac_inliers = static_cast<int>(result.points1_px.size());
+  CountRansacWork(static_cast<int>(used.size()), result.ransac_inliers, options, &work);
   return result;
 }
 

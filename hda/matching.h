@@ -21,6 +21,7 @@
 #include <opencv2/core/types.hpp>
 
 #include "calib/camera_model.h"
+#include "hda/work_model.h"
 
 namespace hdabench::hda {
 
@@ -117,6 +118,9 @@ struct RoiMatches {
   int refine_rejected = 0;   // dropped by the sub-pixel refinement
   int ransac_inliers = 0;    // == points1_px.size()
   bool prewarped = false;    // image 2's box was resampled before ORB (MatchingOptions::prewarp_min_stretch)
+  // The matching stage's work (hda/work_model.h): ORB, descriptor pairs,
+  // pre-warp, refinements, unprojection and RANSAC.
+  WorkCounts work;
 };
 
 // How far the local image motion `jacobian` (d image-2 pixel / d image-1
@@ -135,6 +139,7 @@ double MotionStretch(const cv::Matx22d& jacobian);
 struct OrbFeatures {
   std::vector<cv::KeyPoint> keypoints;
   cv::Mat descriptors;  // CV_8UC1, a row of 32 bytes per keypoint
+  std::int64_t pyramid_pixels = 0;  // pixels of the pyramid built (every level of the padded box)
 };
 OrbFeatures DetectOrbInBox(const cv::Mat& image, const cv::Rect& box, const MatchingOptions& options);
 

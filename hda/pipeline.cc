@@ -750,7 +750,8 @@ std::string HdaResult::Summary() const {
   std::ostringstream s;
   s << "hda: " << rois.size() << " ROIs";
   for (int i = 0; i < kNumStatuses; ++i) s << ", " << counts[i] << " " << ToString(static_cast<RoiStatus>(i));
-  s << "; budget " << util::FixedText(budget_s, 2) << " s" << (budget_exhausted ? " (exhausted)" : "");
+  s << "; flight computer " << util::FixedText(FlightSeconds(), 2) << " s of a " << util::FixedText(budget_s, 2)
+    << " s budget" << (budget_exhausted ? " (exhausted)" : "");
   if (!note.empty()) s << "; " << note;
   return s.str();
 }
@@ -941,6 +942,8 @@ void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, St
   RoiResult& roi = result->rois[i];
   const PredictedRoi predicted = PredictPlacedRoi(ctx, placement, *result, i);
   timer->Lap(&result->times.prediction_s);
+  roi.work[WorkUnit::kPredictedRois] = 1;
+  if (UnprojectsIteratively(ctx.camera->LensModelName())) roi.work[WorkUnit::kIteratedPredictions] = 1;
   roi.prediction_margin_px = predicted.margin_px;
   if (predicted.status != PredictionStatus::kOk) {
     roi.status = RoiStatus::kNotInImage2;
@@ -962,38 +965,44 @@ void EvaluateRoi(const Context& ctx, const RoiPlacement& placement, size_t i, St
   roi.counts.matches = matches.matches;
   roi.counts.refine_rejected = matches.refine_rejected;
   roi.counts.ransac_inliers = matches.ransac_inliers;
+  roi.work += matches.work;
   std::vector<Eigen::Vector3d> bearings1, bearings2, points_in_cam1;
   std::vector<double> parallaxes_deg;
   RejectAndTriangulate(ctx, matches, placement.range_m[i], &roi, &bearings1, &bearings2,
                        &points_in_cam1, &parallaxes_deg);
   timer->Lap(&result->times.rejection_s);
+  roi.work[WorkUnit::kRejectionPoints] = matches.ransac_inliers;
   FitAndClassify(ctx, bearings1, bearings2, points_in_cam1, parallaxes_deg, &roi);
   timer->Lap(&result->times.plane_s);
+  roi.work[WorkUnit::kPlanePoints] = static_cast<std::int64_t>(points_in_cam1.size());
 }
 
 // Evaluates the ROIs in placement order until the budget runs out. Kick-out:
 // stop when the next ROI, at the mean cost so far, would not fit in what is
-// left of the budget; the rest are marked not evaluated.
+// left of the budget; the rest are marked not evaluated. Costs are the
+// flight computer's seconds predicted from the counted work, never a clock's.
 void EvaluateRois(const Context& ctx, const RoiPlacement& placement, const Clock& clock,
-                  double start, const RoiProgress& progress, StageTimer* timer, HdaResult* result) {
+                  const RoiProgress& progress, StageTimer* timer, HdaResult* result) {
   double roi_seconds_total = 0.0;
   int rois_done = 0;
   for (size_t rank = 0; rank < placement.order.size(); ++rank) {
     const size_t i = placement.order[rank];
     RoiResult& roi = result->rois[i];
     roi.order = static_cast<int>(rank) + 1;
-    const double roi_start = clock();
     const double mean_cost = rois_done > 0 ? roi_seconds_total / rois_done : 0.0;
-    if (result->budget_exhausted || roi_start - start + mean_cost > result->budget_s) {
+    if (result->budget_exhausted || result->FlightSeconds() + mean_cost > result->budget_s) {
       result->budget_exhausted = true;
       roi.status = RoiStatus::kNotEvaluated;
-      roi.reason = "time budget of " + util::FixedText(result->budget_s, 3) + " s used up before this ROI";
+      roi.reason = "time budget of " + util::FixedText(result->budget_s, 3) +
+                   " s of the flight computer used up before this ROI";
       continue;
     }
+    const double roi_start = clock();
     timer->Restart(roi_start);
     EvaluateRoi(ctx, placement, i, timer, result);
     roi.wall_s = clock() - roi_start;
-    roi_seconds_total += roi.wall_s;
+    result->work += roi.work;
+    roi_seconds_total += result->FlightSeconds(roi.work);
     ++rois_done;
     if (progress) progress(rois_done, static_cast<int>(placement.order.size()));
   }
@@ -1093,7 +1102,8 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
   StageTimer timer(clock, start);
   CheckInput(input, camera, options);
   HdaResult result;
-  result.budget_s = options.compute_budget_s * options.processor_scale;
+  result.budget_s = options.compute_budget_s;
+  result.flight_instructions_per_s = options.flight_instructions_per_s;
   if (input.image1.empty() || input.image2.empty()) {
     result.note = std::string(input.image1.empty() ? "image 1" : "image 2") +
                   " is empty: no ROI can be found or matched";
@@ -1106,6 +1116,9 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
   ctx.options = &options;
   ctx.image1 = ToEightBit(input.image1, "RunHda: image 1");
   ctx.image2 = ToEightBit(input.image2, "RunHda: image 2");
+  for (const cv::Mat* image : {&input.image1, &input.image2}) {
+    if (image->type() != CV_8UC1) result.work[WorkUnit::kConvertedPixels] += static_cast<std::int64_t>(image->total());
+  }
   ctx.match_window_px = MatchWindowPx(options.matching);
   timer.Lap(&result.times.convert_s);
   const Eigen::Vector3d spot_in_cam1 = SetUpGeometry(input, &ctx);
@@ -1118,12 +1131,20 @@ HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const 
     result.quadtree = GivenRois(ctx.image1, input.given_rois_px);
   }
   timer.Lap(&result.times.quadtree_s);
+  // The quadtree's statistics read every pixel of image 1 (given ROIs: only theirs).
+  std::int64_t quadtree_pixels = static_cast<std::int64_t>(ctx.image1.total());
+  if (!input.given_rois_px.empty()) {
+    quadtree_pixels = 0;
+    for (const Roi& roi : result.quadtree.rois) quadtree_pixels += roi.box_px.area();
+  }
+  result.work[WorkUnit::kQuadtreePixels] = quadtree_pixels;
+  result.work[WorkUnit::kQuadtreeBlocks] = result.quadtree.blocks_visited;
   if (result.quadtree.rois.empty()) {
     result.note = "the quadtree kept no block: " + result.quadtree.Summary();
   }
 
   const RoiPlacement placement = PlaceRois(ctx, input.ils_in_local_m, spot_in_cam1, &result);
-  EvaluateRois(ctx, placement, clock, start, progress, &timer, &result);
+  EvaluateRois(ctx, placement, clock, progress, &timer, &result);
   RankSafeSites(options, &result);
   timer.Lap(&result.times.ranking_s);
   result.times.total_s = clock() - start;

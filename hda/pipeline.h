@@ -25,6 +25,7 @@
 #include "hda/matching.h"
 #include "hda/quadtree.h"
 #include "hda/roi_prediction.h"
+#include "hda/work_model.h"
 
 namespace hdabench::hda {
 
@@ -124,10 +125,11 @@ struct RoiResult {
   double score = 0.0;                  // ranking score (RankingScore), evaluated sites only
   int rank = 0;                        // 1 = best safe site; 0 for the others
   double wall_s = 0.0;                // wall time spent on this ROI (not part of the results' bytes)
+  WorkCounts work;                     // what the method did on this ROI (prediction to plane)
 };
 
 // Wall times of the stages, seconds. Not deterministic: kept apart from the
-// results.
+// results (the budget reads HdaResult::work instead).
 struct StageTimes {
   double convert_s = 0.0;     // 16-bit to 8-bit conversion
   double quadtree_s = 0.0;
@@ -143,8 +145,21 @@ struct HdaResult {
   QuadtreeResult quadtree;        // ROIs of image 1 (ids), rejected blocks, counts
   std::vector<RoiResult> rois;    // one per quadtree ROI, sorted by id
   std::vector<int> ranking;       // ids of the evaluated (safe) ROIs, best first
-  double budget_s = 0.0;          // the wall-time budget on this machine: compute_budget_s * processor_scale
+  double budget_s = 0.0;          // the budget, seconds of the flight computer (compute_budget_s)
   bool budget_exhausted = false;  // some ROIs were kicked out as not evaluated
+  // What the method did, counted (hda/work_model.h), and the rate that makes
+  // it the flight computer's seconds. Deterministic, unlike `times`.
+  WorkCounts work;
+  double flight_instructions_per_s = 0.0;
+  // The predicted seconds of the flight computer: all, one stage's, one
+  // ROI's (0 before a run has set the rate).
+  double FlightSeconds() const { return FlightSeconds(work); }
+  double FlightSeconds(Stage stage) const {
+    return flight_instructions_per_s > 0.0 ? work.Instructions(stage) / flight_instructions_per_s : 0.0;
+  }
+  double FlightSeconds(const WorkCounts& counts) const {
+    return flight_instructions_per_s > 0.0 ? counts.Instructions() / flight_instructions_per_s : 0.0;
+  }
   StageTimes times;
   // Why there are no ROIs, when there are none ("image 1 is empty", "the
   // quadtree kept no block: ..."); empty otherwise.
@@ -153,7 +168,8 @@ struct HdaResult {
   std::string Summary() const;
 };
 
-// Monotonic seconds, for the budget; tests pass their own.
+// Monotonic seconds, for the stages' wall times (StageTimes, RoiResult::wall_s);
+// the budget never reads it. Tests pass their own.
 using Clock = std::function<double()>;
 double SteadySeconds();
 
@@ -166,9 +182,8 @@ using RoiProgress = std::function<void(int evaluated, int rois)>;
 // naming the input. An empty image (no pixels) or one with no usable block
 // (all black, all shadow, all too variable) gives zero ROIs and says why in
 // HdaResult::note. The ROI
-// results (not the times) are deterministic: the same input gives the same
-// bytes, unless the budget runs out (then which ROIs were evaluated depends on
-// the machine's speed; the order in which they are tried does not).
+// results (not the wall times) are deterministic: the same input gives the
+// same bytes, the budget included, which counts work, not time.
 HdaResult RunHda(const HdaInput& input, const calib::CameraModel& camera, const HdaOptions& options,
                  const Clock& clock = SteadySeconds, const RoiProgress& progress = {});
 

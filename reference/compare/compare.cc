@@ -391,6 +391,7 @@ void SummariseCompareRun(CompareRun* run) {
   const double flight_seconds = run->flight.result.times.total_s;
   for (size_t m = 0; m < run->methods.size(); ++m) {
     Summarise(*run, m, colmap_nav_index, flight_seconds, &run->summaries[m]);
+    if (run->methods[m] == kMethodFlight) run->summaries[m].flight_computer_s = run->flight.result.FlightSeconds();
   }
 }
 

@@ -265,6 +265,9 @@ struct MethodSummary {
   double translation_direction_error_deg = 0.0;
   double wall_s = 0.0;         // wall time of the method for the run
   double time_ratio_to_flight = 0.0;
+  // The flight method only: its time on the flight computer, predicted from
+  // its counted work (hda::HdaResult::FlightSeconds); -1 for the others.
+  double flight_computer_s = -1.0;
   DecisionPool decision;       // its landing decisions against the lander's truth
 };
 

@@ -188,10 +188,12 @@ std::string CompareTimingsJson(const CompareRun& run) {
     const MethodSummary& s = run.summaries[m];
     Json per_roi = Json::array();
     for (size_t i = 0; i < run.rois[m].size(); ++i) per_roi.push_back(Number(run.rois[m][i].wall_s));
-    methods.push_back({{"name", s.method},
-                       {"seconds", Number(s.wall_s)},
-                       {"ratio_to_flight", Number(s.time_ratio_to_flight)},
-                       {"roi_seconds", per_roi}});
+    Json method = {{"name", s.method},
+                   {"seconds", Number(s.wall_s)},
+                   {"ratio_to_flight", Number(s.time_ratio_to_flight)},
+                   {"roi_seconds", per_roi}};
+    if (s.flight_computer_s >= 0.0) method["flight_computer_s"] = Number(s.flight_computer_s);
+    methods.push_back(method);
   }
   j["methods"] = methods;
   return j.dump(1) + "\n";

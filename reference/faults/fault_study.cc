@@ -160,7 +160,7 @@ FaultStudy RunFaultStudy(const datasets::Dataset& dataset, int frame1, int frame
   ThrowIfInvalid("RunFaultStudy: invalid requirements: ", requirements.Validate());
   HdaSettings study_settings = settings;
   if (study_settings.given.count("compute_budget_s") == 0) {
-    study_settings.options.compute_budget_s = 1e9;  // unlimited: the same ROIs whatever the machine's load
+    study_settings.options.compute_budget_s = 1e9;  // unlimited: every ROI is studied
   }
   FaultStudy study;
   study.dataset_name = dataset.name;

@@ -6,9 +6,9 @@
 // the clean run's, and the smallest magnitude at which each metric misses its
 // requirement.
 //
-// Deterministic: the flight method runs with an unlimited time budget unless
-// one is given (which ROIs a wall-time budget reaches depends on the
-// machine's load), and the only random numbers (kLrfNoise) come from the seed.
+// Deterministic: the flight method's budget counts work, not time, and runs
+// unlimited unless one is given (every ROI is studied); the only random
+// numbers (kLrfNoise) come from the seed.
 #pragma once
 
 #include <cstdint>

@@ -124,6 +124,25 @@ Json TruthJson(const FlightRun& run, size_t i) {
   return {{"available", false}, {"why", why}};
 }
 
+// The flight computer's predicted time (hda/work_model.h): per stage, in
+// all, and the counted work it comes from.
+Json FlightComputerJson(const hda::HdaResult& result) {
+  Json stages = Json::object();
+  for (int s = 0; s < hda::kNumStages; ++s) {
+    const auto stage = static_cast<hda::Stage>(s);
+    stages[std::string(hda::ToString(stage)) + "_s"] = Number(result.FlightSeconds(stage));
+  }
+  Json work = Json::object();
+  for (int u = 0; u < hda::kNumWorkUnits; ++u) {
+    const auto unit = static_cast<hda::WorkUnit>(u);
+    work[hda::ToString(unit)] = result.work[unit];
+  }
+  return {{"instructions_per_s", Number(result.flight_instructions_per_s)},
+          {"total_s", Number(result.FlightSeconds())},
+          {"stages", stages},
+          {"work", work}};
+}
+
 Json RoiJson(const FlightRun& run, size_t i) {
   const hda::RoiResult& roi = run.result.rois[i];
   Json j;
@@ -143,6 +162,7 @@ Json RoiJson(const FlightRun& run, size_t i) {
   j["counts"] = CountsJson(roi.counts);
   j["matching_status"] = roi.matched ? Json(hda::ToString(roi.matching_status)) : Json(nullptr);
   j["prewarped"] = roi.matched ? Json(roi.prewarped) : Json(nullptr);
+  j["flight_computer_s"] = Number(run.result.FlightSeconds(roi.work));
   j["fit"] = FitJson(roi);
   j["score"] = IsRanked(roi) ? Number(roi.score) : Json(nullptr);
   j["rank"] = roi.rank > 0 ? Json(roi.rank) : Json(nullptr);
@@ -397,6 +417,7 @@ std::string FlightResultJson(const FlightRun& run) {
   if (run.given_rois) j["quadtree"]["given_rois"] = true;  // the ROIs were given, the quadtree not run
   j["budget_s"] = Number(result.budget_s);
   j["budget_exhausted"] = result.budget_exhausted;
+  j["flight_computer"] = FlightComputerJson(result);
   Json status_counts = Json::object();
   for (size_t s = 0; s < kNumStatuses; ++s) {
     const auto status = static_cast<hda::RoiStatus>(s);
@@ -428,6 +449,7 @@ std::string FlightTimingsJson(const FlightRun& run) {
   j["format_version"] = kFlightResultFormatVersion;
   j["budget_s"] = Number(run.result.budget_s);
   j["budget_exhausted"] = run.result.budget_exhausted;
+  j["flight_computer_s"] = Number(run.result.FlightSeconds());
   j["stages"] = {{"convert_s", Number(t.convert_s)},       {"quadtree_s", Number(t.quadtree_s)},
                  {"prediction_s", Number(t.prediction_s)}, {"matching_s", Number(t.matching_s)},
                  {"rejection_s", Number(t.rejection_s)},   {"plane_s", Number(t.plane_s)},
@@ -565,6 +587,16 @@ std::string FlightReport(const FlightRun& run) {
       << util::FixedCell(run.baseline_m, 2) << " m, "
       << (run.range_source == RangeSource::kLrf ? "LRF range " : "range from the navigation (no LRF range) ")
       << util::FixedCell(run.lrf_range_m, 1) << " m\n";
+  if (run.result.flight_instructions_per_s > 0.0) {  // a result of RunHda, which counted its work
+    out << "flight computer, predicted from the counted work at "
+        << util::ShortestText(run.result.flight_instructions_per_s) << " instructions/s:";
+    for (int s = 0; s < hda::kNumStages; ++s) {
+      const auto stage = static_cast<hda::Stage>(s);
+      out << (s == 0 ? " " : ", ") << hda::ToString(stage) << " "
+          << util::FixedCell(run.result.FlightSeconds(stage), 3) << " s";
+    }
+    out << "\n";
+  }
   if (run.result.rois.empty()) return out.str();
   const bool truth = run.AnyTruth();
   std::vector<std::vector<std::string>> rows;

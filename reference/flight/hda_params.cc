@@ -78,7 +78,7 @@ void ForEachField(Options& o, Visit&& visit) {
   visit("decide_on_probability", o.decide_on_probability);
   visit("min_probability_safe", o.min_probability_safe);
   visit("compute_budget_s", o.compute_budget_s);
-  visit("processor_scale", o.processor_scale);
+  visit("flight_instructions_per_s", o.flight_instructions_per_s);
   visit("fault_match_noise_px", o.fault_match_noise_px);
 }
 
@@ -306,7 +306,8 @@ double OrbKeypointDensity(const cv::Mat& image, const hda::MatchingOptions& matc
 }
 
 const std::vector<std::string>& GeometryScaledKeys() {
-  static const std::vector<std::string> keys = {"quadtree.site_size_m", "max_relief_m",
+  static const std::vector<std::string> keys = {"quadtree.site_size_m", "max_hazard_height_m",
+                                                "max_roughness_rms_m",    "max_relief_m",
                                                 "prediction.range_sigma_m",
                                                 "prediction.nav_position_sigma_m"};
   return keys;
@@ -404,6 +405,24 @@ hda::HdaOptions ResolveHdaOptions(const HdaSettings& settings, const calib::Came
     }
     o.quadtree.site_size_m = site;
     out.push_back({"quadtree.site_size_m", site, why});
+    // A site scaled with the geometry stands for a lander scaled as much: its
+    // hazard limits scale with it (a 41 m site at 2.5 km, a kilometre one at
+    // 30 km, where a relief of the lander's 0.15 m is far under the points'
+    // noise and any site would be "unsafe roughness").
+    const double site_scale = site / lander_m;
+    const std::string scaled = site_scale == 1.0 ? " (the site is the lander's)"
+                                                 : " scaled by the site's " + Format(site) +
+                                                       " m against the lander's " + Format(lander_m) + " m";
+    if (free("max_hazard_height_m")) {
+      o.max_hazard_height_m = defaults.max_hazard_height_m * site_scale;
+      out.push_back({"max_hazard_height_m", o.max_hazard_height_m,
+                     "the lander's " + Format(defaults.max_hazard_height_m) + " m" + scaled});
+    }
+    if (free("max_roughness_rms_m")) {
+      o.max_roughness_rms_m = defaults.max_roughness_rms_m * site_scale;
+      out.push_back({"max_roughness_rms_m", o.max_roughness_rms_m,
+                     "the lander's " + Format(defaults.max_roughness_rms_m) + " m" + scaled});
+    }
   }
   if (free("max_relief_m")) {
     o.max_relief_m = defaults.max_relief_m * range_scale;

@@ -36,11 +36,10 @@ using namespace gate_internal;  // NOLINT(google-build-using-namespace): the gat
 
 namespace {
 
-// The gate measures accuracy without time-budget kick-outs: which ROIs a
-// wall-time budget reaches depends on the machine's load (entries run in
-// parallel), so the flight method gets an ample budget here and its time is a
-// metric of its own (flight_seconds_per_pair). The kick-outs have their own
-// tests, with a fake clock.
+// The gate measures accuracy without time-budget kick-outs, over every ROI:
+// the flight method gets an ample budget here and its time (predicted from
+// its counted work) is a metric of its own (flight_seconds_per_pair). The
+// kick-outs have their own tests.
 constexpr double kGateComputeBudgetS = 1.0e6;
 
 // The seed of a fault's random numbers (lrf-noise), as `hdabench faults`'s default.
@@ -324,7 +323,6 @@ GateEntryOutcome RunEntry(const GateEntry& e, const GateSuite& suite, const Gate
     compare.methods = EntryMethods(e, suite);
     compare.hda = e.hda;
     compare.hda.Set("fault_match_noise_px", o.fault_match_noise_px, "gate");
-    compare.hda.Set("processor_scale", o.processor_scale, "gate");
     compare.hda.Set("compute_budget_s", kGateComputeBudgetS, "gate");
     compare.colmap.executable = o.colmap_executable;
     suite.colmap.ApplyTo(&compare.colmap);
@@ -368,7 +366,6 @@ std::vector<std::string> GateRunOptions::Validate() const {
   RequireOption(synth_threads >= 1, "synth_threads", synth_threads, ">= 1", &errors);
   RequireOption(fault_match_noise_px >= 0.0, "fault_match_noise_px", fault_match_noise_px, ">= 0",
                 &errors);
-  RequireOption(processor_scale > 0.0, "processor_scale", processor_scale, "> 0", &errors);
   if (colmap_executable.empty()) errors.push_back("colmap_executable is empty: expected a program");
   return errors;
 }

@@ -123,8 +123,9 @@ GateThresholds ReadGateThresholds(const std::string& path);
 //                               slope or unsafe roughness; others: ok) / all ROIs
 //   within_two_sigma_share      flight: share of the slope-error ROIs with
 //                               |error| <= 2 predicted sigmas
-//   flight_seconds_per_pair     flight: the largest flight time of an entry on
-//                               the flight computer (wall time / processor_scale)
+//   flight_seconds_per_pair     flight: the largest time of an entry on the
+//                               flight computer, predicted from the counted work
+//                               (compare_timings.json's flight_computer_s)
 //   failed_entries              entries where the method failed for the run
 //   slope_error_rois            how many ROIs the slope errors are over
 //   observability_p95_deg       flight: the largest p95 of |slope error| over
@@ -156,8 +157,7 @@ std::vector<std::string> GateMetricNames();
 
 // One entry's results on disk (its compare.json and compare_timings.json, or
 // an observability entry's settings.csv; its fault from gate_entry.json).
-std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
-                                           double processor_scale);
+std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs);
 
 // The verdict of one threshold.
 struct GateCheck {
@@ -197,7 +197,6 @@ struct GateRunOptions {
   int synth_threads = 1;              // threads of each synthetic scene (the output does not depend on it)
   double fault_match_noise_px = 0.0;  // passed to the flight method (tests of the gate only)
   std::string colmap_executable = "colmap";
-  double processor_scale = 0.1;       // hda::HdaOptions::processor_scale
   util::Shard shard;                  // the entries to run: entry i when shard.Holds(i)
   // The build the cached datasets and entries must come from: a dataset or
   // entry folder made by another is made again. Empty: the running program's

@@ -89,7 +89,7 @@ std::string EntryRecordField(const fs::path& dir, const char* field) {
 
 // A comparison entry (compare.json and compare_timings.json) into the pools
 // of its fault.
-void AddCompareEntry(const fs::path& dir, double processor_scale, MetricPools* pools) {
+void AddCompareEntry(const fs::path& dir, MetricPools* pools) {
   const std::string fault = EntryRecordField(dir, "fault");
   const std::string named_pool = EntryRecordField(dir, "pool");
   const std::string path = (dir / "compare.json").string();
@@ -114,11 +114,15 @@ void AddCompareEntry(const fs::path& dir, double processor_scale, MetricPools* p
   for (const auto& [method, samples] : decisions) {
     pools->by_key[{method, fault, named_pool}].decisions.AddRun(samples);
   }
+  // The flight computer's predicted time; a record written before it was
+  // counted gives no flight_seconds_per_pair.
   const Json t = ReadJsonFile((dir / "compare_timings.json").string());
   for (const Json& m : t.at("methods")) {
-    if (m.at("name") != kMethodFlight || m.at("seconds").is_null()) continue;
+    if (m.at("name") != kMethodFlight || !m.contains("flight_computer_s") || !m["flight_computer_s"].is_number()) {
+      continue;
+    }
     MetricPool& pool = pools->by_key[{kMethodFlight, fault, named_pool}];
-    pool.flight_seconds = std::max(pool.flight_seconds, m.at("seconds").get<double>() / processor_scale);
+    pool.flight_seconds = std::max(pool.flight_seconds, m["flight_computer_s"].get<double>());
   }
 }
 
@@ -174,8 +178,7 @@ void AddPoolMetrics(const PoolKey& key, const MetricPool& pool, const StudyWorst
 
 std::vector<std::string> GateMetricNames() { return MetricNames(); }
 
-std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs,
-                                           double processor_scale) {
+std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry_dirs) {
   MetricPools pools;
   StudyWorst study;
   for (const std::string& dir : entry_dirs) {
@@ -184,7 +187,7 @@ std::vector<GateMetric> ComputeGateMetrics(const std::vector<std::string>& entry
       // The study's metrics are the flight method's.
       if (study.present) pools.Listed({kMethodFlight, "", ""});
     } else {
-      AddCompareEntry(dir, processor_scale, &pools);
+      AddCompareEntry(dir, &pools);
     }
   }
   std::vector<GateMetric> metrics;

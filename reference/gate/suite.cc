@@ -223,10 +223,10 @@ void ReadEntryHda(const Json& ej, const std::string& where, GateEntry* e) {
       throw InputError(where + ": give the site size once: 'site_size_m' or 'hda'");
     }
     e->hda.SetAll(ej["hda"], where + ".hda");
-    for (const char* key : {"compute_budget_s", "processor_scale", "fault_match_noise_px"}) {
+    for (const char* key : {"compute_budget_s", "flight_instructions_per_s", "fault_match_noise_px"}) {
       if (e->hda.given.count(key) != 0) {
-        throw InputError(where + ".hda: '" + key + "' is the gate's own (gate --processor-scale, " +
-                         "--fault-match-noise-px; an unlimited budget), not an entry's");
+        throw InputError(where + ".hda: '" + key + "' is the gate's own (an unlimited budget, the " +
+                         "default flight computer, gate --fault-match-noise-px), not an entry's");
       }
     }
   }

@@ -473,7 +473,7 @@ void FillRunPage(const Json& result, Page* page) {
                         " m, LRF range " +
                         Fixed(Member(Member(result, "inputs"), "lrf_range_m"), 1) + " m");
   page->facts.push_back("ROIs: " + std::to_string(rois.size()) + "; time budget " +
-                        Fixed(Member(result, "budget_s"), 2) + " s" +
+                        Fixed(Member(result, "budget_s"), 2) + " s of the flight computer" +
                         (Member(result, "budget_exhausted") == true ? " (ran out)" : ""));
 
   // Statuses and their counts.
@@ -550,10 +550,19 @@ std::string TimingLine(const fs::path& timings_path, std::vector<std::string>* n
   }
   const Json& total = Member(Member(timings, "stages"), "total_s");
   const Json& budget = Member(timings, "budget_s");
-  std::string line = "Flight method time on this machine: " + Fixed(total, 3) + " s of a " +
-                     Fixed(budget, 2) + " s budget";
-  if (IsNumber(total) && IsNumber(budget) && budget.get<double>() > 0.0) {
-    line += " (" + util::FixedCell(100.0 * total.get<double>() / budget.get<double>(), 0) + " %)";
+  // The budget is the flight computer's; a file written before the work was
+  // counted has only this machine's time, which is not compared with it.
+  const Json& flight = Member(timings, "flight_computer_s");
+  std::string line;
+  if (IsNumber(flight)) {
+    line = "Flight method: " + Fixed(flight, 2) + " s on the flight computer (predicted from its counted work) of a " +
+           Fixed(budget, 2) + " s budget";
+    if (IsNumber(budget) && budget.get<double>() > 0.0) {
+      line += " (" + util::FixedCell(100.0 * flight.get<double>() / budget.get<double>(), 0) + " %)";
+    }
+    line += "; " + Fixed(total, 3) + " s on this machine";
+  } else {
+    line = "Flight method time on this machine: " + Fixed(total, 3) + " s";
   }
   if (Member(timings, "budget_exhausted") == true) line += "; the budget ran out";
   return line + ".";

@@ -1,6 +1,7 @@
 #include "hda/hda_options.h"
 
 #include <cmath>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -27,16 +28,18 @@ TEST(HdaOptionsValidate, ReportsEveryBadFieldWithItsValue) {
   EXPECT_EQ(errors[2], "min_points = 2: expected >= 3 (a plane needs 3 points)");
 }
 
-// The wall-time budget is compute_budget_s * processor_scale, written into
-// every result: it must be a number, not inf (null in JSON).
-TEST(HdaOptionsValidate, TheWallTimeBudgetIsFinite) {
+// The budget and the flight computer's rate are written into every result:
+// numbers, not inf (null in JSON).
+TEST(HdaOptionsValidate, TheBudgetAndTheFlightRateAreFinite) {
   HdaOptions options;
-  options.processor_scale = 1e308;
+  options.compute_budget_s = std::numeric_limits<double>::infinity();
+  options.flight_instructions_per_s = 0.0;
   const std::vector<std::string> errors = options.Validate();
-  ASSERT_EQ(errors.size(), 1u);
-  EXPECT_EQ(errors[0], "compute_budget_s * processor_scale = inf: expected finite (the wall-time budget, seconds)");
-  options.processor_scale = 1e6;
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_EQ(errors[0], "compute_budget_s = inf: expected > 0 and finite (seconds of the flight computer)");
+  EXPECT_EQ(errors[1], "flight_instructions_per_s = 0: expected > 0 and finite");
   options.compute_budget_s = 1e9;
+  options.flight_instructions_per_s = 1e12;
   EXPECT_TRUE(options.Validate().empty());
 }
 

@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/text.h"
 #include "tests/support/test_support.h"
 #include "tools/util/angles.h"
 
@@ -114,10 +115,9 @@ Scene MakeScene(double slope_deg, const Eigen::Vector3d& c2_in_cam1, std::uint64
 // Lateral motion: 10.6 m east at 200 m, the paper's baseline-to-range ratio.
 Eigen::Vector3d Lateral() { return Eigen::Vector3d(kHeightM * 30.0 / 566.0, 0.0, 0.0); }
 
-// The default options with an ample wall-time budget: the tests that are not
-// about the budget must not depend on the machine's load (a loaded or
-// sanitized build would kick ROIs out); the budget has its own tests, with a
-// fake clock.
+// The default options with an ample budget: the tests that are not about
+// the budget evaluate every ROI, however much work a scene asks for; the
+// budget has its own tests.
 HdaOptions AmpleBudgetOptions() {
   HdaOptions options;
   options.compute_budget_s = 1000.0;
@@ -392,15 +392,15 @@ TEST(RunHda, RoisAreProcessedNearestTheIlsFirst) {
 
 TEST(RunHda, ATinyBudgetKicksOutTheFarthestRoisAsNotEvaluated) {
   const Scene scene = MakeScene(3.0, Lateral(), CurrentTestSeed());
-  // A clock that advances 10 ms per reading: deterministic, so the kick-out
-  // point is exact. 0.5 s of budget on this scale.
-  double now = 0.0;
-  const Clock clock = [&now]() { return now += 0.01; };
   HdaOptions options;
-  options.compute_budget_s = 5.0;
-  options.processor_scale = 0.1;
-  const HdaResult result = RunHda(scene.input, Camera(), options, clock);
+  const HdaResult whole = RunHda(scene.input, Camera(), options);
+  ASSERT_FALSE(whole.budget_exhausted);
+  ASSERT_GT(whole.FlightSeconds(), 0.0);
+  // Half the flight computer's time the whole run needs.
+  options.compute_budget_s = 0.5 * whole.FlightSeconds();
+  const HdaResult result = RunHda(scene.input, Camera(), options);
   EXPECT_TRUE(result.budget_exhausted);
+  EXPECT_LE(result.FlightSeconds(), options.compute_budget_s);
   const int skipped = CountStatus(result, RoiStatus::kNotEvaluated);
   EXPECT_GT(skipped, 0);
   EXPECT_LT(skipped, static_cast<int>(result.rois.size()));
@@ -408,7 +408,8 @@ TEST(RunHda, ATinyBudgetKicksOutTheFarthestRoisAsNotEvaluated) {
   for (const RoiResult& roi : result.rois) {
     if (roi.status == RoiStatus::kNotEvaluated) {
       first_skipped = std::min(first_skipped, roi.order);
-      EXPECT_EQ(roi.reason, "time budget of 0.500 s used up before this ROI");
+      EXPECT_EQ(roi.reason, "time budget of " + util::FixedText(options.compute_budget_s, 3) +
+                                " s of the flight computer used up before this ROI");
       EXPECT_FALSE(roi.has_fit);
     } else {
       last_done = std::max(last_done, roi.order);
@@ -416,6 +417,93 @@ TEST(RunHda, ATinyBudgetKicksOutTheFarthestRoisAsNotEvaluated) {
   }
   EXPECT_LT(last_done, first_skipped);  // nearest to the ILS first, then kicked out
   EXPECT_NE(result.Summary().find("(exhausted)"), std::string::npos);
+}
+
+// The budget counts work, never time: a clock ten thousand times slower (a
+// loaded machine, valgrind) evaluates the same ROIs with the same results.
+TEST(RunHda, TheBudgetCountsWorkNotTime) {
+  const Scene scene = MakeScene(3.0, Lateral(), CurrentTestSeed());
+  HdaOptions options;
+  options.compute_budget_s = 0.5 * RunHda(scene.input, Camera(), options).FlightSeconds();
+  const HdaResult fast = RunHda(scene.input, Camera(), options);
+  double now = 0.0;
+  const Clock slow = [&now]() { return now += 100.0; };
+  const HdaResult slowed = RunHda(scene.input, Camera(), options, slow);
+  ASSERT_EQ(fast.rois.size(), slowed.rois.size());
+  for (size_t i = 0; i < fast.rois.size(); ++i) {
+    EXPECT_EQ(fast.rois[i].status, slowed.rois[i].status) << fast.rois[i].id;
+    EXPECT_EQ(fast.rois[i].slope_deg, slowed.rois[i].slope_deg) << fast.rois[i].id;
+    EXPECT_EQ(fast.rois[i].work.units, slowed.rois[i].work.units) << fast.rois[i].id;
+  }
+  EXPECT_EQ(fast.FlightSeconds(), slowed.FlightSeconds());
+  EXPECT_GT(slowed.times.total_s, 100.0);  // the slow clock was read
+}
+
+// The work of each stage is counted where the stage runs: every evaluated
+// ROI was predicted, matched and fitted, and the whole is the ROIs' sum plus
+// the image-wide stages.
+TEST(RunHda, TheWorkOfEveryStageIsCounted) {
+  const Scene scene = MakeScene(3.0, Lateral(), CurrentTestSeed());
+  const HdaResult result = RunHda(scene.input, Camera(), HdaOptions());
+  ASSERT_GT(CountStatus(result, RoiStatus::kEvaluated), 0);
+  WorkCounts sum;
+  for (const RoiResult& roi : result.rois) {
+    sum += roi.work;
+    if (roi.status != RoiStatus::kEvaluated) continue;
+    EXPECT_EQ(roi.work[WorkUnit::kPredictedRois], 1);
+    EXPECT_GT(roi.work[WorkUnit::kOrbPixels], roi.box1_px.area());
+    EXPECT_EQ(roi.work[WorkUnit::kOrbKeypoints], roi.counts.keypoints1 + roi.counts.keypoints2);
+    EXPECT_EQ(roi.work[WorkUnit::kDescriptorPairs],
+              static_cast<std::int64_t>(roi.counts.keypoints1) * roi.counts.keypoints2);
+    EXPECT_EQ(roi.work[WorkUnit::kTrackedPoints], roi.counts.matches);
+    EXPECT_GT(roi.work[WorkUnit::kRefinePixels], 0);
+    EXPECT_GE(roi.work[WorkUnit::kRansacHypotheses], 1);
+    EXPECT_EQ(roi.work[WorkUnit::kRejectionPoints], roi.counts.ransac_inliers);
+    EXPECT_EQ(roi.work[WorkUnit::kPlanePoints], roi.counts.depth_inliers);
+  }
+  EXPECT_EQ(result.work[WorkUnit::kQuadtreePixels], static_cast<std::int64_t>(scene.input.image1.total()));
+  EXPECT_EQ(result.work[WorkUnit::kQuadtreeBlocks], result.quadtree.blocks_visited);
+  for (int u = 0; u < kNumWorkUnits; ++u) {
+    const auto unit = static_cast<WorkUnit>(u);
+    if (StageOf(unit) == Stage::kConvert || StageOf(unit) == Stage::kQuadtree) continue;
+    EXPECT_EQ(result.work[unit], sum[unit]) << ToString(unit);
+  }
+  double stages = 0.0;
+  for (int s = 0; s < kNumStages; ++s) stages += result.FlightSeconds(static_cast<Stage>(s));
+  EXPECT_NEAR(stages, result.FlightSeconds(), 1e-12 * result.FlightSeconds());
+}
+
+// Each unit has its own name (result.json's key) and stage, in the enum's
+// order, and a price that is a number of instructions.
+TEST(WorkUnits, NamesStagesAndPricesInTheEnumsOrder) {
+  const std::vector<std::pair<std::string, Stage>> expected = {
+      {"converted_pixels", Stage::kConvert},     {"quadtree_pixels", Stage::kQuadtree},
+      {"quadtree_blocks", Stage::kQuadtree},     {"predicted_rois", Stage::kPrediction},
+      {"iterated_predictions", Stage::kPrediction}, {"orb_pixels", Stage::kMatching},
+      {"orb_keypoints", Stage::kMatching},       {"descriptor_pairs", Stage::kMatching},
+      {"prewarp_pixels", Stage::kMatching},      {"tracked_points", Stage::kMatching},
+      {"refine_pixels", Stage::kMatching},       {"unprojected_pixels", Stage::kMatching},
+      {"iterated_pixels", Stage::kMatching},     {"ransac_hypotheses", Stage::kMatching},
+      {"ransac_tests", Stage::kMatching},        {"rejection_points", Stage::kRejection},
+      {"plane_points", Stage::kPlane}};
+  ASSERT_EQ(expected.size(), static_cast<size_t>(kNumWorkUnits));
+  for (int u = 0; u < kNumWorkUnits; ++u) {
+    const auto unit = static_cast<WorkUnit>(u);
+    EXPECT_EQ(ToString(unit), expected[static_cast<size_t>(u)].first);
+    EXPECT_EQ(StageOf(unit), expected[static_cast<size_t>(u)].second) << ToString(unit);
+    EXPECT_TRUE(std::isfinite(WorkUnitInstructions(unit)) && WorkUnitInstructions(unit) >= 0.0) << ToString(unit);
+  }
+  EXPECT_TRUE(UnprojectsIteratively("LENSMODEL_OPENCV8"));
+  EXPECT_FALSE(UnprojectsIteratively("LENSMODEL_PINHOLE"));
+}
+
+// OpenCV's adaptive count: log(1 - confidence) / log(1 - w^5), at most the cap.
+TEST(RansacHypotheses, FollowTheInlierShare) {
+  EXPECT_EQ(RansacHypotheses(100, 100, 0.999, 1000), 1);
+  EXPECT_EQ(RansacHypotheses(100, 50, 0.999, 1000), 218);  // log(0.001) / log(31 / 32) = 217.6
+  EXPECT_EQ(RansacHypotheses(100, 0, 0.999, 1000), 1000);
+  EXPECT_EQ(RansacHypotheses(100, 20, 0.999, 1000), 1000);  // 21583 draws, over the cap
+  EXPECT_EQ(RansacHypotheses(4, 4, 0.999, 1000), 0);        // too few points for a draw
 }
 
 TEST(RunHda, BadInputsAreNamed) {

@@ -778,9 +778,6 @@ TEST_F(CompareOnSyntheticScene, EveryMethodGivesTheSameBytesTwice) {
   options.methods = ParseMethodList("all");
   options.colmap.threads = 1;
   options.colmap.timeout_s = 120.0;
-  // Which ROIs the flight's wall-time budget reaches depends on the machine's
-  // load (docs/flight-method.md): an ample budget takes that out.
-  options.hda.Set("compute_budget_s", 1000.0, "test");
   const CompareRun first = RunCompare(dataset, 0, 6, options, (dir / "colmap1").string());
   const CompareRun second = RunCompare(dataset, 0, 6, options, (dir / "colmap2").string());
   for (size_t m = 0; m < first.methods.size(); ++m) {

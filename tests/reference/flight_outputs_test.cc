@@ -183,7 +183,7 @@ TEST(FlightOutputs, ResultJsonHoldsEveryFieldWithNullsWhereNothingApplies) {
   EXPECT_EQ(j["options"]["quadtree"]["site_size_m"], 12.0);
   EXPECT_EQ(j["options"]["max_slope_deg"], run.options.max_slope_deg);
   EXPECT_EQ(j["options"]["matching"]["cross_check"], run.options.matching.cross_check);
-  EXPECT_EQ(j["options"]["processor_scale"], run.options.processor_scale);
+  EXPECT_EQ(j["options"]["flight_instructions_per_s"], run.options.flight_instructions_per_s);
   EXPECT_EQ(j["camera"]["lens_model"], "LENSMODEL_OPENCV8");
   EXPECT_EQ(j["camera"]["width_px"], 64);
   EXPECT_EQ(j["inputs"]["baseline_m"], 31.25);

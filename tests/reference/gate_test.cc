@@ -166,8 +166,8 @@ TEST(ReadGateSuite, MalformedSuitesAreNamedWithTheField) {
   EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "hda": {"min_points": 1}}])")
                 .find("entries[0]: unusable flight-method parameters: min_points = 1"),
             std::string::npos);
-  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "hda": {"processor_scale": 1}}])")
-                .find("entries[0].hda: 'processor_scale' is the gate's own"),
+  EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "hda": {"flight_instructions_per_s": 1}}])")
+                .find("entries[0].hda: 'flight_instructions_per_s' is the gate's own"),
             std::string::npos);
   EXPECT_NE(suite(R"("methods": ["flight"], "entries": [{"name": "a", "dataset": "x", "site_size_m": 3, )"
                   R"("hda": {"min_points": 12}}])")
@@ -296,11 +296,12 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
     WriteText(dir / name / "compare.json",
               nlohmann::json({{"methods", {{{"name", "flight"}, {"ok", true}}}}, {"rois", rois}}).dump());
     WriteText(dir / name / "compare_timings.json",
-              nlohmann::json({{"methods", {{{"name", "flight"}, {"seconds", seconds}}}}}).dump());
+              nlohmann::json({{"methods", {{{"name", "flight"}, {"seconds", 0.01}, {"flight_computer_s", seconds}}}}})
+                  .dump());
     return (dir / name).string();
   };
   const std::vector<GateMetric> metrics =
-      ComputeGateMetrics({entry("a", {1.0, -3.0}, 0.2), entry("b", {0.5, 2.5, -4.0}, 0.4)}, 0.1);
+      ComputeGateMetrics({entry("a", {1.0, -3.0}, 2.0), entry("b", {0.5, 2.5, -4.0}, 4.0)});
   const auto value = [&](const std::string& metric) {
     for (const GateMetric& m : metrics) {
       if (m.method == "flight" && m.metric == metric) return m.value;
@@ -317,17 +318,17 @@ TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
   EXPECT_DOUBLE_EQ(value("roughness_error_median_m"), 0.2);
   EXPECT_DOUBLE_EQ(value("rois_with_slope_share"), 5.0 / 9.0);
   EXPECT_DOUBLE_EQ(value("within_two_sigma_share"), 2.0 / 5.0);  // |error| <= 2 sigma = 2: 0.5 and 1
-  EXPECT_DOUBLE_EQ(value("flight_seconds_per_pair"), 4.0);     // 0.4 s / 0.1
+  EXPECT_DOUBLE_EQ(value("flight_seconds_per_pair"), 4.0);     // the larger predicted time, not the wall time
   EXPECT_DOUBLE_EQ(value("failed_entries"), 0.0);
   EXPECT_DOUBLE_EQ(value("slope_error_rois"), 5.0);
 
   // An entry whose record names a fault is pooled apart, per fault: the pool
   // without a fault is the same as before, and the fault's pool has its own.
-  const std::string faulted = entry("c", {7.0, -9.0}, 0.9);
+  const std::string faulted = entry("c", {7.0, -9.0}, 9.0);
   WriteText(fs::path(faulted) / "gate_entry.json",
             nlohmann::json({{"entry", {{"name", "c"}, {"fault", "lrf-scale=0.05"}}}}).dump());
   const std::vector<GateMetric> with_fault = ComputeGateMetrics(
-      {(dir / "a").string(), faulted, (dir / "b").string()}, 0.1);
+      {(dir / "a").string(), faulted, (dir / "b").string()});
   const auto pooled = [&](const std::string& fault, const std::string& metric) {
     for (const GateMetric& m : with_fault) {
       if (m.method == "flight" && m.metric == metric && m.fault == fault) return m.value;
@@ -610,13 +611,12 @@ TEST_F(GateCommand, KilledHalfwayItResumesWithoutRedoingAndGivesTheSameResults) 
        (dir / "whole").string()},
       dir);
   ASSERT_EQ(whole.exit_code, 0) << whole.err;
-  // The same metrics, but for the flight time (a wall time).
+  // The same metrics, the flight time too (counted work, not a clock).
   const std::vector<GateMetric> resumed = ReadGateMetrics((dir / "resumed" / "metrics.json").string());
   const std::vector<GateMetric> uninterrupted = ReadGateMetrics((dir / "whole" / "metrics.json").string());
   ASSERT_EQ(resumed.size(), uninterrupted.size());
   for (size_t i = 0; i < resumed.size(); ++i) {
     EXPECT_EQ(resumed[i].metric, uninterrupted[i].metric);
-    if (resumed[i].metric == "flight_seconds_per_pair") continue;
     EXPECT_EQ(resumed[i].value, uninterrupted[i].value) << resumed[i].metric;
   }
   for (const char* entry : {"sites-10m", "sites-14m"}) {
@@ -758,7 +758,6 @@ TEST_F(GateCommand, ShardsMergedGiveTheWholeSuitesTableAndVerdict) {
   ASSERT_EQ(a.size(), b.size());
   for (size_t i = 0; i < a.size(); ++i) {
     EXPECT_EQ(a[i].metric, b[i].metric);
-    if (a[i].metric == "flight_seconds_per_pair") continue;
     EXPECT_EQ(a[i].value, b[i].value) << a[i].metric;
   }
   for (const char* file : {"sites-10m/compare.json", "sites-14m/compare.json", "lateral/settings.csv",
@@ -848,7 +847,6 @@ TEST_F(GateCommand, AFaultEntryIsPooledApartAndItsThresholdsFailByName) {
   ASSERT_EQ(clean_pool.size(), alone.size());
   for (size_t i = 0; i < alone.size(); ++i) {
     EXPECT_EQ(clean_pool[i].metric, alone[i].metric);
-    if (alone[i].metric == "flight_seconds_per_pair") continue;  // a wall time
     EXPECT_EQ(clean_pool[i].value, alone[i].value) << alone[i].metric;
   }
   EXPECT_GE(Metric(dir / "clean.metrics.json", "rois_with_slope_share"), 0.3);

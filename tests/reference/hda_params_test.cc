@@ -152,6 +152,8 @@ TEST(ResolveHdaOptions, DesignPointKeepsTheNovaCValues) {
   EXPECT_NEAR(o.max_relief_m, d.max_relief_m, 1e-12);
   EXPECT_NEAR(o.prediction.range_sigma_m, d.prediction.range_sigma_m, 1e-12);
   EXPECT_NEAR(o.prediction.nav_position_sigma_m, d.prediction.nav_position_sigma_m, 1e-12);
+  EXPECT_EQ(o.max_hazard_height_m, d.max_hazard_height_m);
+  EXPECT_EQ(o.max_roughness_rms_m, d.max_roughness_rms_m);
   EXPECT_EQ(derived.size(), GeometryScaledKeys().size());
   for (const DerivedParam& p : derived) EXPECT_FALSE(p.rule.empty()) << p.key;
 }
@@ -165,6 +167,16 @@ TEST(ResolveHdaOptions, FarAwayTheSiteHoldsEnoughKeypoints) {
   // f = 600 px at 30 km: the 10 m site is 0.2 px.
   hda::HdaOptions o = ResolveHdaOptions(HdaSettings(), Pinhole(600.0, 512), Geometry(30000.0, 2000.0), nullptr);
   EXPECT_NEAR(o.quadtree.site_size_m, 31.0 * 30000.0 / 600.0, 1e-6);  // one 31 px patch
+  // The 1550 m site stands for a lander 155 times the size: its hazard limits
+  // scale as much (the lander's 0.15 m relief is far under the noise there).
+  EXPECT_NEAR(o.max_hazard_height_m, d.max_hazard_height_m * o.quadtree.site_size_m / 10.0, 1e-9);
+  EXPECT_NEAR(o.max_roughness_rms_m, d.max_roughness_rms_m * o.quadtree.site_size_m / 10.0, 1e-9);
+  EXPECT_EQ(o.max_slope_deg, d.max_slope_deg);  // an angle does not scale
+  // Given limits stay as given.
+  HdaSettings given;
+  given.Set("max_roughness_rms_m", Json(0.2), "test");
+  EXPECT_EQ(ResolveHdaOptions(given, Pinhole(600.0, 512), Geometry(30000.0, 2000.0), nullptr).max_roughness_rms_m,
+            0.2);
   EXPECT_NEAR(o.max_relief_m, d.max_relief_m * 30000.0 / kDesignRangeM, 1e-9);
   EXPECT_NEAR(o.prediction.range_sigma_m, d.prediction.range_sigma_m * 30000.0 / kDesignRangeM, 1e-12);
   EXPECT_NEAR(o.prediction.nav_position_sigma_m,

@@ -260,7 +260,7 @@ std::vector<GateMetric> GateMetricsOfWrittenRun(const CompareRun& run, fs::path*
   *dir = FreshTestDir();
   util::WriteFileAtomically(*dir / "compare.json", CompareResultJson(run));
   util::WriteFileAtomically(*dir / "compare_timings.json", CompareTimingsJson(run));
-  return ComputeGateMetrics({dir->string()}, 0.1);
+  return ComputeGateMetrics({dir->string()});
 }
 
 // A metric of the main pool; NaN when the gate has none.

@@ -30,10 +30,10 @@ using hdabench::testing_support::SmallSyntheticDataset;
 
 TEST(RunCommand, WritesEveryFileAndTheSameResultOnEveryRun) {
   const fs::path dir = FreshTestDir();
-  // An ample budget: which ROIs a wall-time budget reaches depends on the
-  // machine's load, and this test compares the bytes of three runs.
+  // The default budget: it counts work, so the three runs' bytes are the same
+  // whatever the machine's load.
   const CommandResult first =
-      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", (dir / "a").string(), "--budget-s", "10000"});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", (dir / "a").string()});
   ASSERT_EQ(first.exit_code, 0) << first.out << first.err;
   EXPECT_NE(first.err.find("hdabench run: loading"), std::string::npos) << first.err;
   EXPECT_EQ(first.out.rfind("hda: ", 0), 0u) << first.out;
@@ -102,16 +102,21 @@ TEST(RunCommand, LoadsNeitherOpenCvsImageCodecsNorMrgingham) {
 TEST(RunCommand, BudgetFlagsReachTheResult) {
   const fs::path dir = FreshTestDir();
   const CommandResult run = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--quiet",
-                                 "--no-figures", "--processor-scale", "0.5", "--budget-s", "4"});
+                                 "--no-figures", "--flight-rate", "5e8", "--budget-s", "4"});
   ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
   const nlohmann::json result = nlohmann::json::parse(ReadText(dir / "result.json"));
-  EXPECT_EQ(result["options"]["processor_scale"], 0.5);
+  EXPECT_EQ(result["options"]["flight_instructions_per_s"], 5e8);
   EXPECT_EQ(result["options"]["compute_budget_s"], 4.0);
-  EXPECT_EQ(result["budget_s"], 2.0);
+  EXPECT_EQ(result["budget_s"], 4.0);
+  EXPECT_EQ(result["flight_computer"]["instructions_per_s"], 5e8);
+  EXPECT_GT(result["flight_computer"]["total_s"].get<double>(), 0.0);
+  EXPECT_NE(run.out.find("flight computer, predicted from the counted work at 5e+08 instructions/s: convert "),
+            std::string::npos)
+      << run.out;
   const CommandResult negative =
-      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--processor-scale", "-1"});
+      RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out", dir.string(), "--flight-rate", "-1"});
   EXPECT_EQ(negative.exit_code, 2) << negative.out << negative.err;
-  EXPECT_NE(negative.err.find("processor_scale"), std::string::npos) << negative.err;
+  EXPECT_NE(negative.err.find("flight_instructions_per_s"), std::string::npos) << negative.err;
 }
 
 // --params, then the command's flags, then each --set; the lengths not given
@@ -533,7 +538,7 @@ TEST(RunCommand, PlanarTargetIngestedAndRunOnTheBoard) {
 TEST(RunCommand, HasHelp) {
   const CommandResult run = RunInOwnFolder({"run", "--help"});
   EXPECT_EQ(run.exit_code, 0);
-  for (const char* text : {"Usage", "--frames", "--out", "--processor-scale", "--budget-s",
+  for (const char* text : {"Usage", "--frames", "--out", "--flight-rate", "--budget-s",
                            "--no-figures", "--quiet"}) {
     EXPECT_NE(run.out.find(text), std::string::npos) << text << "\n" << run.out;
   }

@@ -61,7 +61,7 @@ struct RunFlightOptions {
   std::string dataset_dir;
   std::optional<std::pair<int, int>> frames;  // default: reference::DefaultFramePair
   std::string out_dir;                        // created if missing; files of the same names replaced
-  std::optional<double> processor_scale;      // HdaOptions::processor_scale; default: the options'
+  std::optional<double> flight_instructions_per_s;  // HdaOptions::flight_instructions_per_s; default: the options'
   std::optional<double> budget_s;             // HdaOptions::compute_budget_s; default: the options'
   std::optional<double> site_size_m;          // hda QuadtreeOptions::site_size_m; default: from the geometry
   std::string params_file;                    // --params: JSON of HdaOptions keys (empty: none)

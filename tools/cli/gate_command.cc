@@ -33,7 +33,6 @@ struct VerdictInputs {
   std::string suite_file, thresholds_file, baseline_file, write_baseline_file, out_dir;
   reference::GateThresholds thresholds;
   std::optional<std::vector<reference::GateMetric>> baseline;
-  double processor_scale = 0.1;
 };
 
 // The metrics of the complete entries, the checks, metrics.json, gate.md and
@@ -54,7 +53,7 @@ int WriteVerdict(const VerdictInputs& v, const std::vector<reference::GateEntryO
   std::vector<reference::GateCheck> checks;
   std::string metrics_json;
   try {
-    metrics = reference::ComputeGateMetrics(dirs, v.processor_scale);
+    metrics = reference::ComputeGateMetrics(dirs);
     checks = reference::CheckGate(metrics, v.thresholds, v.baseline ? &*v.baseline : nullptr);
     metrics_json = reference::GateMetricsJson(metrics);
     util::WriteFileAtomically(fs::path(v.out_dir) / "metrics.json", metrics_json);
@@ -202,7 +201,6 @@ int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::os
   run.fault_match_noise_px = options.fault_match_noise_px;
   run.colmap_executable = options.colmap_executable;
   run.shard = shard;
-  verdict.processor_scale = run.processor_scale;
   progress("suite " + options.suite_file + ": " + std::to_string(suite.entries.size()) + " entries" +
            (shard.Whole() ? "" : " (shard " + shard.Text() + " runs every " + std::to_string(shard.count) +
                                      "th from the " + std::to_string(shard.index) + "th)") +
@@ -250,7 +248,6 @@ int RunGateMerge(const GateMergeOptions& options, std::ostream& out, std::ostrea
   VerdictInputs verdict;
   reference::GateSuite suite;
   if (const int code = ReadInputs(options, &suite, &verdict, err, command); code != kExitOk) return code;
-  verdict.processor_scale = reference::GateRunOptions().processor_scale;
   std::vector<reference::GateEntryOutcome> outcomes;
   try {
     outcomes = reference::MergeGateShards(suite, options.shard_dirs, options.out_dir);

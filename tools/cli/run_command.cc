@@ -29,7 +29,9 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
     if (!options.quiet) err << "hdabench run: " << line << "\n";
   };
   std::vector<HdaFlag> flags;
-  if (options.processor_scale) flags.push_back({"--processor-scale", "processor_scale", *options.processor_scale});
+  if (options.flight_instructions_per_s) {
+    flags.push_back({"--flight-rate", "flight_instructions_per_s", *options.flight_instructions_per_s});
+  }
   if (options.budget_s) flags.push_back({"--budget-s", "compute_budget_s", *options.budget_s});
   if (options.site_size_m) flags.push_back({"--site-size-m", "quadtree.site_size_m", *options.site_size_m});
   reference::HdaSettings hda_settings;
@@ -89,12 +91,12 @@ struct RunArgs {
   RunFlightOptions options;
   std::string frames_text;
   std::vector<std::string> rois_text;
-  double processor_scale = hda::HdaOptions().processor_scale;
+  double flight_instructions_per_s = hda::HdaOptions().flight_instructions_per_s;
   double budget_s = hda::HdaOptions().compute_budget_s;
   double site_size_m = hda::HdaOptions().quadtree.site_size_m;
   bool no_figures = false;
   bool no_report = false;
-  CLI::Option* scale_option = nullptr;
+  CLI::Option* rate_option = nullptr;
   CLI::Option* budget_option = nullptr;
   CLI::Option* site_option = nullptr;
 };
@@ -106,7 +108,7 @@ int RunParsedFlight(RunArgs& args) {
     const std::vector<int> v = ParseIntList(text, 4, "--roi", "X,Y,WIDTH,HEIGHT");
     args.options.rois_px.emplace_back(v[0], v[1], v[2], v[3]);
   }
-  if (args.scale_option->count() > 0) args.options.processor_scale = args.processor_scale;
+  if (args.rate_option->count() > 0) args.options.flight_instructions_per_s = args.flight_instructions_per_s;
   if (args.budget_option->count() > 0) args.options.budget_s = args.budget_s;
   if (args.site_option->count() > 0) args.options.site_size_m = args.site_size_m;
   args.options.figures = !args.no_figures;
@@ -130,13 +132,15 @@ Command AddRunCommand(CLI::App& app) {
   run->add_option("--out", args->options.out_dir,
                   "Output folder (created if missing; files replaced)")
       ->required();
-  args->scale_option =
-      run->add_option("--processor-scale", args->processor_scale,
-                      "This machine's seconds per second of the flight computer's work")
+  args->rate_option =
+      run->add_option("--flight-rate", args->flight_instructions_per_s,
+                      "The flight computer's speed, in this machine's (x86-64) instructions per\n"
+                      "second; the budget counts the method's work, never a clock")
           ->capture_default_str();
   args->budget_option =
       run->add_option("--budget-s", args->budget_s,
-                      "Computation budget on the flight computer, seconds")
+                      "Computation budget on the flight computer, seconds (the work predicted to\n"
+                      "take longer is not evaluated)")
           ->capture_default_str();
   args->site_option =
       run->add_option("--site-size-m", args->site_size_m,

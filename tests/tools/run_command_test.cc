@@ -143,7 +143,8 @@ TEST(RunCommand, ParamsFileAndSetReachTheResult) {
     derived.push_back(d["key"]);
     EXPECT_FALSE(d["rule"].get<std::string>().empty());
   }
-  EXPECT_EQ(derived, (std::vector<std::string>{"quadtree.site_size_m", "prediction.range_sigma_m",
+  EXPECT_EQ(derived, (std::vector<std::string>{"quadtree.site_size_m", "max_hazard_height_m",
+                                               "max_roughness_rms_m", "prediction.range_sigma_m",
                                                "prediction.nav_position_sigma_m"}));
   EXPECT_NE(run.err.find("from the geometry: prediction.range_sigma_m"), std::string::npos) << run.err;
 

@@ -21,8 +21,8 @@ struct UnitInfo {
 // calibration had 16-bit images: their conversion is counted but not priced.
 constexpr UnitInfo kUnits[kNumWorkUnits] = {
     {"converted_pixels", Stage::kConvert, 0.0},
-    {"quadtree_pixels", Stage::kQuadtree, 7.111},
-    {"quadtree_blocks", Stage::kQuadtree, 485.3},
+    {"quadtree_pixels", Stage::kQuadtree, 7.112},
+    {"quadtree_blocks", Stage::kQuadtree, 448.3},
     {"predicted_rois", Stage::kPrediction, 30720.0},
     {"iterated_predictions", Stage::kPrediction, 196100.0},
     {"orb_pixels", Stage::kMatching, 44.56},
@@ -35,7 +35,7 @@ constexpr UnitInfo kUnits[kNumWorkUnits] = {
     {"iterated_pixels", Stage::kMatching, 11130.0},
     {"ransac_hypotheses", Stage::kMatching, 1680000.0},
     {"ransac_tests", Stage::kMatching, 2591.0},
-    {"rejection_points", Stage::kRejection, 1480.0},
+    {"rejection_points", Stage::kRejection, 1440.0},
     {"plane_points", Stage::kPlane, 39510.0},
 };
 

@@ -54,12 +54,12 @@ def fail(message, code=2):
     sys.exit(code)
 
 
-def inclusive_costs(path):
-    """Inclusive instructions per function name: the sum of the costs of the
-    calls into it from other functions (callgrind splits an inlined function
-    by source file; the calls into every part are summed)."""
+def call_costs(path):
+    """The call graph's edges, (caller, callee, inclusive instructions of the
+    calls), by function name. Callgrind splits an inlined function by source
+    file into parts of the same name; calls between the parts are left out."""
     names = {}
-    totals = {}
+    edges = {}
     caller = None
     callee = None
     pending = False
@@ -85,18 +85,17 @@ def inclusive_costs(path):
                 pending = False
                 fields = line.split()
                 if len(fields) >= 2 and callee != caller:
-                    totals[callee] = totals.get(callee, 0) + int(fields[1])
-    return totals
+                    edges[(caller, callee)] = edges.get((caller, callee), 0) + int(fields[1])
+    return edges
 
 
-def summed(costs, patterns):
-    total = 0
-    for name, value in costs.items():
-        if any(p in name for p in patterns):
-            # A function named by two patterns (or one calling another of the
-            # same group) is counted once: only calls from outside the group.
-            total += value
-    return total
+def summed(edges, patterns):
+    """Inclusive instructions of the functions `patterns` name (substrings of
+    callgrind's demangled names): the calls into them from functions the
+    patterns do not name, so that a named function calling another is counted
+    once."""
+    named = lambda name: any(p in name for p in patterns)
+    return sum(cost for (caller, callee), cost in edges.items() if named(callee) and not named(caller))
 
 
 def measure(hdabench, dataset, out_dir):
@@ -125,7 +124,7 @@ def run_profiled(hdabench, dataset, run_dir, profile):
 def read_run(name, result_path, profile):
     with open(result_path, encoding="utf-8") as f:
         result = json.load(f)
-    costs = inclusive_costs(profile)
+    costs = call_costs(profile)
     groups = {}
     for group, patterns, _ in GROUPS:
         if patterns is not None:

@@ -5,6 +5,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <sstream>
 
@@ -313,6 +314,116 @@ const std::vector<std::string>& GeometryScaledKeys() {
   return keys;
 }
 
+namespace {
+
+// The site side from the geometry (ResolveHdaOptions' rule for
+// quadtree.site_size_m): the value and the rule in words with its numbers.
+DerivedParam SiteFromGeometry(const hda::HdaOptions& o, const calib::CameraModel& camera,
+                              const PairGeometry& geometry) {
+  const double range = geometry.lrf_range_m;
+  const hda::HdaOptions defaults;
+  // The lander's site, unless its image is smaller than one ORB patch (it
+  // could hold no keypoint of its own) or than the side that holds
+  // kSiteKeypointsPerFitPoint * min_points keypoints at image 1's density,
+  // or larger than a quarter of the image's smaller side (the quadtree
+  // could place too few sites); the last bound over the others.
+  const double lander_m = defaults.quadtree.site_size_m;
+  double lander_px =
+      hda::ProjectedSiteSidePx(camera, range, lander_m, "flight-method site size from the geometry");
+  // Near the axis a site's side is in proportion to it. A site that, so
+  // measured, is wider than the image has its edges where the lens model
+  // is extrapolated (a distortion polynomial can blow up or fold back
+  // there): the near-axis side chooses the bound.
+  const double probe_m = kSiteProbeFraction * range;
+  const double near_axis_px =
+      lander_m / probe_m *
+      hda::ProjectedSiteSidePx(camera, range, probe_m, "flight-method site size from the geometry");
+  std::string lander_how;
+  if (near_axis_px > std::max(camera.WidthPx(), camera.HeightPx())) {
+    lander_px = near_axis_px;
+    lander_how = " (a small site's side scaled up: wider than the image)";
+  }
+  double lo_px = o.matching.orb_patch_size_px;
+  std::string lo_why = "one ORB patch";
+  const double density = geometry.keypoints_per_px;
+  if (std::isfinite(density) && density > 0) {
+    const double texture_px = std::sqrt(kSiteKeypointsPerFitPoint * o.min_points / density);
+    if (texture_px > lo_px) {
+      lo_px = texture_px;
+      lo_why = "the side holding " + Format(kSiteKeypointsPerFitPoint * o.min_points) +
+               " ORB keypoints at image 1's " + Format(1000.0 * density) + " per 1000 lit px^2";
+    }
+  }
+  const double hi_px = 0.25 * std::min(camera.WidthPx(), camera.HeightPx());
+  const std::string hi_why = "a quarter of the image's smaller side";
+  double site = lander_m;
+  std::string why = "the lander's " + Format(lander_m) + " m site: " + Format(lander_px) +
+                    " px at " + Format(range) + " m, within [" + Format(lo_px) + ", " + Format(hi_px) +
+                    "] px";
+  // The upper bound wins: an image too small for the lower one still gets
+  // sites, whose ROIs then say why they fail.
+  const double target_px = std::min(std::max(lander_px, lo_px), hi_px);
+  if (target_px != lander_px) {
+    site = lander_m * target_px / lander_px;
+    // The side is linear in the site only while the lens model projects
+    // the site's edges as it does near the axis: a lander's site seen from
+    // a few metres reaches far outside the calibrated field, where a
+    // distortion polynomial can put it a million pixels wide. Rescaled
+    // until the site's own side is the target.
+    // The closest of the tries is kept.
+    double best_site = site, best_px = kInfinitePx;
+    for (int i = 0; i <= kSiteRescalings; ++i) {
+      const double side_px =
+          hda::ProjectedSiteSidePx(camera, range, site, "flight-method site size from the geometry");
+      if (!(side_px > 0.0) || !std::isfinite(side_px)) break;
+      if (std::abs(side_px - target_px) < std::abs(best_px - target_px)) {
+        best_site = site;
+        best_px = side_px;
+      }
+      if (std::abs(side_px - target_px) <= kSiteTolerancePx) break;
+      site *= target_px / side_px;
+    }
+    site = best_site;
+    const double side_px = best_px;
+    const bool up = target_px > lander_px;
+    why = "the lander's " + Format(lander_m) + " m site is " + Format(lander_px) + " px" + lander_how + " at " +
+          Format(range) + " m, " + (up ? "under " + lo_why : "over " + hi_why) +
+          (lo_px > hi_px ? " (" + lo_why + " is " + Format(lo_px) + " px, over " + hi_why + ")" : "") +
+          ": the site scaled to " + Format(target_px) + " px";
+    if (!(std::abs(side_px - target_px) <= kSiteTolerancePx)) {
+      why += " (its side is " + Format(side_px) + " px: the lens model does not project it in proportion)";
+    }
+  }
+  return {"quadtree.site_size_m", site, why};
+}
+
+// The hazard limits of a site scaled with the geometry (ResolveHdaOptions'
+// rule): a site scaled with the geometry stands for a lander scaled as much,
+// so its hazard limits scale with it (a 41 m site at 2.5 km; a kilometre one
+// at 30 km, where a relief of the lander's 0.15 m is far under the points'
+// noise and any site would be "unsafe roughness"). Only the keys not given.
+void ScaleHazardLimits(double site_m, const std::function<bool(const std::string&)>& free, hda::HdaOptions* o,
+                       std::vector<DerivedParam>* out) {
+  const hda::HdaOptions defaults;
+  const double lander_m = defaults.quadtree.site_size_m;
+  const double site_scale = site_m / lander_m;
+  const std::string scaled = site_scale == 1.0 ? " (the site is the lander's)"
+                                               : " scaled by the site's " + Format(site_m) +
+                                                     " m against the lander's " + Format(lander_m) + " m";
+  if (free("max_hazard_height_m")) {
+    o->max_hazard_height_m = defaults.max_hazard_height_m * site_scale;
+    out->push_back({"max_hazard_height_m", o->max_hazard_height_m,
+                    "the lander's " + Format(defaults.max_hazard_height_m) + " m" + scaled});
+  }
+  if (free("max_roughness_rms_m")) {
+    o->max_roughness_rms_m = defaults.max_roughness_rms_m * site_scale;
+    out->push_back({"max_roughness_rms_m", o->max_roughness_rms_m,
+                    "the lander's " + Format(defaults.max_roughness_rms_m) + " m" + scaled});
+  }
+}
+
+}  // namespace
+
 hda::HdaOptions ResolveHdaOptions(const HdaSettings& settings, const calib::CameraModel& camera,
                                   const PairGeometry& geometry, std::vector<DerivedParam>* derived) {
   const double range = geometry.lrf_range_m;
@@ -331,98 +442,10 @@ hda::HdaOptions ResolveHdaOptions(const HdaSettings& settings, const calib::Came
   const double baseline_scale = baseline / kDesignBaselineM;
 
   if (free("quadtree.site_size_m")) {
-    // The lander's site, unless its image is smaller than one ORB patch (it
-    // could hold no keypoint of its own) or than the side that holds
-    // kSiteKeypointsPerFitPoint * min_points keypoints at image 1's density,
-    // or larger than a quarter of the image's smaller side (the quadtree
-    // could place too few sites); the last bound over the others.
-    const double lander_m = defaults.quadtree.site_size_m;
-    double lander_px =
-        hda::ProjectedSiteSidePx(camera, range, lander_m, "flight-method site size from the geometry");
-    // Near the axis a site's side is in proportion to it. A site that, so
-    // measured, is wider than the image has its edges where the lens model
-    // is extrapolated (a distortion polynomial can blow up or fold back
-    // there): the near-axis side chooses the bound.
-    const double probe_m = kSiteProbeFraction * range;
-    const double near_axis_px =
-        lander_m / probe_m *
-        hda::ProjectedSiteSidePx(camera, range, probe_m, "flight-method site size from the geometry");
-    std::string lander_how;
-    if (near_axis_px > std::max(camera.WidthPx(), camera.HeightPx())) {
-      lander_px = near_axis_px;
-      lander_how = " (a small site's side scaled up: wider than the image)";
-    }
-    double lo_px = o.matching.orb_patch_size_px;
-    std::string lo_why = "one ORB patch";
-    const double density = geometry.keypoints_per_px;
-    if (std::isfinite(density) && density > 0) {
-      const double texture_px = std::sqrt(kSiteKeypointsPerFitPoint * o.min_points / density);
-      if (texture_px > lo_px) {
-        lo_px = texture_px;
-        lo_why = "the side holding " + Format(kSiteKeypointsPerFitPoint * o.min_points) +
-                 " ORB keypoints at image 1's " + Format(1000.0 * density) + " per 1000 lit px^2";
-      }
-    }
-    const double hi_px = 0.25 * std::min(camera.WidthPx(), camera.HeightPx());
-    const std::string hi_why = "a quarter of the image's smaller side";
-    double site = lander_m;
-    std::string why = "the lander's " + Format(lander_m) + " m site: " + Format(lander_px) +
-                      " px at " + Format(range) + " m, within [" + Format(lo_px) + ", " + Format(hi_px) +
-                      "] px";
-    // The upper bound wins: an image too small for the lower one still gets
-    // sites, whose ROIs then say why they fail.
-    const double target_px = std::min(std::max(lander_px, lo_px), hi_px);
-    if (target_px != lander_px) {
-      site = lander_m * target_px / lander_px;
-      // The side is linear in the site only while the lens model projects
-      // the site's edges as it does near the axis: a lander's site seen from
-      // a few metres reaches far outside the calibrated field, where a
-      // distortion polynomial can put it a million pixels wide. Rescaled
-      // until the site's own side is the target.
-      // The closest of the tries is kept.
-      double best_site = site, best_px = kInfinitePx;
-      for (int i = 0; i <= kSiteRescalings; ++i) {
-        const double side_px =
-            hda::ProjectedSiteSidePx(camera, range, site, "flight-method site size from the geometry");
-        if (!(side_px > 0.0) || !std::isfinite(side_px)) break;
-        if (std::abs(side_px - target_px) < std::abs(best_px - target_px)) {
-          best_site = site;
-          best_px = side_px;
-        }
-        if (std::abs(side_px - target_px) <= kSiteTolerancePx) break;
-        site *= target_px / side_px;
-      }
-      site = best_site;
-      const double side_px = best_px;
-      const bool up = target_px > lander_px;
-      why = "the lander's " + Format(lander_m) + " m site is " + Format(lander_px) + " px" + lander_how + " at " +
-            Format(range) + " m, " + (up ? "under " + lo_why : "over " + hi_why) +
-            (lo_px > hi_px ? " (" + lo_why + " is " + Format(lo_px) + " px, over " + hi_why + ")" : "") +
-            ": the site scaled to " + Format(target_px) + " px";
-      if (!(std::abs(side_px - target_px) <= kSiteTolerancePx)) {
-        why += " (its side is " + Format(side_px) + " px: the lens model does not project it in proportion)";
-      }
-    }
-    o.quadtree.site_size_m = site;
-    out.push_back({"quadtree.site_size_m", site, why});
-    // A site scaled with the geometry stands for a lander scaled as much: its
-    // hazard limits scale with it (a 41 m site at 2.5 km, a kilometre one at
-    // 30 km, where a relief of the lander's 0.15 m is far under the points'
-    // noise and any site would be "unsafe roughness").
-    const double site_scale = site / lander_m;
-    const std::string scaled = site_scale == 1.0 ? " (the site is the lander's)"
-                                                 : " scaled by the site's " + Format(site) +
-                                                       " m against the lander's " + Format(lander_m) + " m";
-    if (free("max_hazard_height_m")) {
-      o.max_hazard_height_m = defaults.max_hazard_height_m * site_scale;
-      out.push_back({"max_hazard_height_m", o.max_hazard_height_m,
-                     "the lander's " + Format(defaults.max_hazard_height_m) + " m" + scaled});
-    }
-    if (free("max_roughness_rms_m")) {
-      o.max_roughness_rms_m = defaults.max_roughness_rms_m * site_scale;
-      out.push_back({"max_roughness_rms_m", o.max_roughness_rms_m,
-                     "the lander's " + Format(defaults.max_roughness_rms_m) + " m" + scaled});
-    }
+    const DerivedParam site = SiteFromGeometry(o, camera, geometry);
+    o.quadtree.site_size_m = site.value;
+    out.push_back(site);
+    ScaleHazardLimits(site.value, free, &o, &out);
   }
   if (free("max_relief_m")) {
     o.max_relief_m = defaults.max_relief_m * range_scale;

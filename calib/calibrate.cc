@@ -216,6 +216,22 @@ OrderedJson SummaryJson(const CalibrateOptions& options, const CalibrateResult& 
     images.push_back(row);
   }
   j["images"] = images;
+  OrderedJson requirements = OrderedJson::array();
+  for (const CalibrationRequirement& r : result.requirements) {
+    if (!r.available) {
+      requirements.push_back(nullptr);
+      continue;
+    }
+    requirements.push_back({{"share", r.share},
+                            {"band_median_px", r.band_median_px},
+                            {"slope_rms_deg", r.slope_rms_deg},
+                            {"allowed_band_median_px_per_method_sigma_deg", r.allowed_px_per_deg},
+                            {"method_sigma_deg", r.method_sigma_deg > 0.0 ? OrderedJson(r.method_sigma_deg)
+                                                                            : OrderedJson(nullptr)},
+                            {"allowed_band_median_px",
+                             r.method_sigma_deg > 0.0 ? OrderedJson(r.allowed_px) : OrderedJson(nullptr)}});
+  }
+  j["requirements"] = requirements;
   j["seconds"] = {{"detection", result.detection_s},
                   {"mrcal", result.mrcal_s},
                   {"analysis", result.analysis_s}};
@@ -320,7 +336,7 @@ constexpr char kSeededMrcalRun[] =
 
 // The command line of mrcal-calibrate-cameras: the corners cache, the board,
 // the seeds, and one image glob per camera; run through kSeededMrcalRun with
-// the calibration's seed.
+// the calibration's seed. It runs in `work`, so its paths are absolute.
 std::vector<std::string> MrcalArguments(const CalibrateOptions& options, const std::string& python,
                                         const std::string& tool, const fs::path& out,
                                         const fs::path& work, const std::string& focal_list,
@@ -331,7 +347,7 @@ std::vector<std::string> MrcalArguments(const CalibrateOptions& options, const s
                                    std::to_string(options.analysis.seed),
                                    tool,
                                    "--corners-cache",
-                                   (out / "corners.vnl").string(),
+                                   fs::absolute(out / "corners.vnl").string(),
                                    "--lensmodel",
                                    options.lensmodel,
                                    "--focal",
@@ -346,7 +362,7 @@ std::vector<std::string> MrcalArguments(const CalibrateOptions& options, const s
                                    "--object-height-n",
                                    std::to_string(options.board.height),
                                    "--outdir",
-                                   work.string()};
+                                   fs::absolute(work).string()};
   for (size_t c = 0; c < num_cameras; ++c) argv.push_back("cam" + std::to_string(c) + "-*");
   return argv;
 }
@@ -441,6 +457,9 @@ void AnalyseModels(const CalibrateOptions& options, const fs::path& out, Calibra
   const auto start = Clock::now();
   try {
     result->analysis = AnalyseCalibration(result->model_paths, options.out_dir, options.analysis);
+    for (const CameraAnalysis& camera : result->analysis.cameras) {
+      result->requirements.push_back(RequirementOf(camera, options.slope_share, options.method_slope_sigma_deg));
+    }
   } catch (const std::exception& e) {
     std::error_code ec;
     const fs::path aside = out / "unanalysed";
@@ -480,6 +499,9 @@ std::vector<std::string> CalibrateOptions::Validate() const {
   RequireOption(mrcal_timeout_s > 0.0, "mrcal_timeout_s", mrcal_timeout_s, "a positive time limit",
                 &errors);
   if (out_dir.empty()) errors.push_back("out_dir: empty: expected an output folder");
+  RequireOption(slope_share > 0.0 && slope_share <= 1.0, "slope_share", slope_share, "in (0, 1]", &errors);
+  RequireOption(method_slope_sigma_deg >= 0.0 && std::isfinite(method_slope_sigma_deg), "method_slope_sigma_deg",
+                method_slope_sigma_deg, "0 (not given) or a positive slope sigma in degrees", &errors);
   try {
     LensModelParameterCount(lensmodel, "lens model");
   } catch (const InputError& e) {
@@ -699,9 +721,40 @@ constexpr double kVerdictResidualRmsPx = 0.5;
 constexpr double kVerdictSlopeNotLimitDeg = 0.1;
 constexpr double kVerdictSlopeLimitDeg = 0.5;
 
+CalibrationRequirement RequirementOf(const CameraAnalysis& camera, double share, double method_sigma_deg) {
+  CalibrationRequirement r;
+  r.share = share;
+  r.method_sigma_deg = method_sigma_deg;
+  if (!camera.uncertainty || !camera.slope.rms_deg || !(*camera.slope.rms_deg > 0.0)) return r;
+  r.available = true;
+  r.band_median_px = camera.uncertainty->band_median_px;
+  r.slope_rms_deg = *camera.slope.rms_deg;
+  r.allowed_px_per_deg = r.band_median_px * share / r.slope_rms_deg;
+  r.allowed_px = r.allowed_px_per_deg * method_sigma_deg;
+  return r;
+}
+
+// The requirement in words: what the band's projection uncertainty may be.
+std::string RequirementLine(const CalibrationRequirement& r) {
+  const std::string share = util::FixedCell(100.0 * r.share, 0) + " %";
+  std::string line = "for its slope term to stay under " + share + " of the flight method's own slope sigma S, the " +
+                     "HDA band's projection uncertainty may be at most " + util::FixedCell(r.allowed_px_per_deg, 3) +
+                     " px per degree of S (median; it is " + util::FixedCell(r.band_median_px, 3) + " px, " +
+                     util::FixedCell(r.slope_rms_deg, 3) + " deg RMS of slope)";
+  if (r.method_sigma_deg > 0.0) {
+    line += ": with S = " + util::ShortestText(r.method_sigma_deg) + " deg, at most " +
+            util::FixedCell(r.allowed_px, 3) + " px, " +
+            (r.band_median_px <= r.allowed_px ? "met" : "NOT MET: add views over the band, or a sharper board");
+  } else {
+    line += "; give --method-sigma-deg S (the median slope_sigma_deg of a run) for the figure";
+  }
+  return line;
+}
+
 std::vector<std::string> CalibrationVerdict(const CalibrateResult& result) {
   std::vector<std::string> lines;
-  for (const CameraAnalysis& cam : result.analysis.cameras) {
+  for (size_t c = 0; c < result.analysis.cameras.size(); ++c) {
+    const CameraAnalysis& cam = result.analysis.cameras[c];
     const std::string who = "camera " + std::to_string(cam.index) + ": ";
     if (cam.residuals.rms_px <= kVerdictResidualRmsPx) {
       lines.push_back(who + "residuals fine (RMS " + util::FixedCell(cam.residuals.rms_px, 3) +
@@ -732,6 +785,9 @@ std::vector<std::string> CalibrationVerdict(const CalibrateResult& result) {
       lines.push_back(who + "CALIBRATION LIMITS THE HDA SLOPE: " +
                       util::FixedCell(*cam.slope.p90_deg, 3) +
                       " deg of slope error (p90) at the HDA geometry from the calibration alone");
+    }
+    if (c < result.requirements.size() && result.requirements[c].available) {
+      lines.push_back(who + RequirementLine(result.requirements[c]));
     }
   }
   return lines;

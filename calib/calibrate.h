@@ -60,6 +60,12 @@ struct CalibrateOptions {
   // Wall-time limit of mrcal-calibrate-cameras, seconds (> 0).
   double mrcal_timeout_s = 900.0;
   AnalysisOptions analysis;
+  // How good the calibration must be (docs/calibration.md, "How good must the
+  // calibration be?"): its slope term may be at most `slope_share` (in
+  // (0, 1]) of the flight method's own slope sigma, `method_slope_sigma_deg`
+  // (> 0; 0: not given, and the requirement is stated per degree of it).
+  double slope_share = 0.1;
+  double method_slope_sigma_deg = 0.0;
   // Called with one line per step (may be empty: no progress).
   std::function<void(const std::string&)> progress;
 
@@ -79,6 +85,24 @@ struct ImageUse {
   int height_px = 0;
 };
 
+// What one camera's calibration must reach at the HDA geometry. The slope
+// term grows in proportion to the projection uncertainty (first order), so
+// the HDA band's median projection uncertainty may be at most
+// band_median_px * share * S / slope_rms_deg for a method sigma S.
+struct CalibrationRequirement {
+  bool available = false;          // the analysis gave both figures
+  double share = 0.1;
+  double band_median_px = 0.0;     // mrcal's, worst direction, over the band
+  double slope_rms_deg = 0.0;      // the slope Monte Carlo's RMS
+  double allowed_px_per_deg = 0.0; // the allowed band median per degree of the method's sigma
+  double method_sigma_deg = 0.0;   // 0: not given
+  double allowed_px = 0.0;         // with method_sigma_deg
+};
+
+// The requirement of one camera's analysis (not available without its
+// uncertainty or slope figure).
+CalibrationRequirement RequirementOf(const CameraAnalysis& camera, double share, double method_sigma_deg);
+
 struct CalibrateResult {
   std::vector<ImageUse> images;
   // One per camera: out_dir/camera-N.cameramodel.
@@ -92,6 +116,7 @@ struct CalibrateResult {
   double mrcal_rms_px = 0.0;
   double mrcal_worst_px = 0.0;
   CalibrationAnalysis analysis;
+  std::vector<CalibrationRequirement> requirements;  // one per camera of the analysis
   double detection_s = 0.0;
   double mrcal_s = 0.0;
   double analysis_s = 0.0;

@@ -27,6 +27,8 @@ using Json = nlohmann::json;
 
 constexpr char kAnalysisFormat[] = "hdabench-calibration-analysis";
 constexpr char kDiffFormat[] = "hdabench-calibration-diff";
+constexpr char kModesFormat[] = "hdabench-calibration-modes";
+constexpr char kResolvedFormat[] = "hdabench-calibration-resolved";
 constexpr int kFormatVersion = 1;
 // Exit code of the script for unusable input; its message is the last line
 // of its output that starts with kScriptMessagePrefix.
@@ -218,6 +220,18 @@ class Reader {
     const double share = Number(object, key, where);
     if (share < 0.0 || share > 1.0) Fail(where, "expected a share in [0,1]");
     return share;
+  }
+  // An array of finite numbers.
+  std::vector<double> Numbers(const Json& object, const char* key, const std::string& where) const {
+    std::vector<double> numbers;
+    for (const Json& value : Array(object, key, where)) numbers.push_back(Number(value, where));
+    return numbers;
+  }
+  // An array of exactly three finite numbers.
+  Eigen::Vector3d Vector3(const Json& object, const char* key, const std::string& where) const {
+    const std::vector<double> numbers = Numbers(object, key, where);
+    if (numbers.size() != 3) Fail(where, "expected 3 numbers");
+    return Eigen::Vector3d(numbers[0], numbers[1], numbers[2]);
   }
   // A path the JSON gives relative to its own folder.
   std::string Path(const Json& object, const char* key, const std::string& where) const {
@@ -488,6 +502,57 @@ ProjectionDiff ReadDiff(const fs::path& json_path, bool with_uncertainty) {
   return d;
 }
 
+ResolvedCalibration ReadResolved(const fs::path& json_path) {
+  const Reader r(json_path);
+  r.CheckFormat(kResolvedFormat);
+  const Json& j = r.root();
+  ResolvedCalibration c;
+  c.lensmodel = r.String(j, "lensmodel", "lensmodel");
+  c.intrinsics = r.Numbers(j, "intrinsics", "intrinsics");
+  c.noise_stdev_px = r.Number(j, "noise_stdev_px", "noise_stdev_px");
+  c.failed = r.Integer(j, "failed", "failed");
+  for (const Json& failure : r.Array(j, "failures", "failures")) {
+    if (!failure.is_string()) r.Fail("failures", "expected strings");
+    c.failures.push_back(failure.get<std::string>());
+  }
+  const Json& samples = r.Array(j, "samples", "samples");
+  for (size_t k = 0; k < samples.size(); ++k) {
+    if (samples[k].is_null()) continue;  // a failed sample, counted in "failed"
+    const std::string where = "samples[" + std::to_string(k) + "]";
+    ResolvedIntrinsics solved;
+    solved.intrinsics = r.Numbers(samples[k], "intrinsics", where + ".intrinsics");
+    if (solved.intrinsics.size() != c.intrinsics.size()) r.Fail(where, "one value per intrinsic expected");
+    solved.rotation_rad = r.Vector3(samples[k], "rotation_rad", where + ".rotation_rad");
+    c.solved.push_back(std::move(solved));
+  }
+  return c;
+}
+
+IntrinsicsModes ReadModes(const fs::path& json_path) {
+  const Reader r(json_path);
+  r.CheckFormat(kModesFormat);
+  const Json& j = r.root();
+  IntrinsicsModes m;
+  m.lensmodel = r.String(j, "lensmodel", "lensmodel");
+  m.intrinsics = r.Numbers(j, "intrinsics", "intrinsics");
+  m.noise_stdev_px = r.Number(j, "noise_stdev_px", "noise_stdev_px");
+  m.imager_worst_stdev_median_px = r.Number(j, "imager_worst_stdev_median_px", "imager_worst_stdev_median_px");
+  m.compensated_worst_stdev_median_px =
+      r.Number(j, "compensated_worst_stdev_median_px", "compensated_worst_stdev_median_px");
+  m.variance_kept = r.Share(j, "variance_kept", "variance_kept");
+  const Json& modes = r.Array(j, "modes", "modes");
+  for (size_t k = 0; k < modes.size(); ++k) {
+    const std::string where = "modes[" + std::to_string(k) + "]";
+    IntrinsicsMode mode;
+    mode.intrinsics_delta = r.Numbers(modes[k], "intrinsics_delta", where + ".intrinsics_delta");
+    if (mode.intrinsics_delta.size() != m.intrinsics.size()) r.Fail(where, "one change per intrinsic expected");
+    mode.rotation_rad = r.Vector3(modes[k], "rotation_rad", where + ".rotation_rad");
+    mode.projection_rms_px = r.Number(modes[k], "projection_rms_px", where + ".projection_rms_px");
+    m.modes.push_back(std::move(mode));
+  }
+  return m;
+}
+
 }  // namespace
 
 std::vector<std::string> HdaGeometry::Validate() const {
@@ -619,6 +684,64 @@ ProjectionDiff DiffCalibrations(const std::string& a, const std::string& b,
   diff.heatmap_png = png.string();
   diff.log_path = log.string();
   return diff;
+}
+
+std::vector<std::string> ModesOptions::Validate() const {
+  std::vector<std::string> errors;
+  if (python.empty())
+    errors.push_back("python is empty: expected an interpreter such as /usr/bin/python3");
+  RequireOption(timeout_s > 0, "timeout_s", timeout_s, "> 0 seconds", &errors);
+  return errors;
+}
+
+bool ModelHasOptimizationInputs(const std::string& path) {
+  bool ok = false;
+  const std::string text = ReadText(path, &ok);
+  return ok && (text.find("'optimization_inputs'") != std::string::npos ||
+                text.find("\"optimization_inputs\"") != std::string::npos);
+}
+
+namespace {
+
+// Runs the script's `command` on a calibration's model (one holding its
+// optimization_inputs) in a temporary folder and reads the JSON it writes.
+template <typename Record>
+Record RunOnCalibration(const std::string& model, const ModesOptions& options, const std::string& command,
+                        const std::vector<std::string>& extra, const std::string& what,
+                        Record (*read)(const fs::path&)) {
+  ThrowIfInvalid("calibration script options: ", options.Validate());
+  RequireModelFile(model);
+  if (!ModelHasOptimizationInputs(model)) {
+    throw InputError(model + ": the model holds no optimization_inputs, so its calibration has no "
+                     "uncertainty to propagate (mrcal-calibrate-cameras and hdabench calibrate write them; "
+                     "re-saving a model elsewhere drops them)");
+  }
+  const util::TempFolder work("calibration-" + command);
+  const fs::path json = work.path() / (command + ".json");
+  std::vector<std::string> arguments = {command, "--json", json.string()};
+  arguments.insert(arguments.end(), extra.begin(), extra.end());
+  arguments.insert(arguments.end(), {"--", model});
+  RunScript(options.python, options.timeout_s, arguments, work.path() / (command + ".log"), what);
+  return read(json);
+}
+
+}  // namespace
+
+IntrinsicsModes ComputeIntrinsicsModes(const std::string& model, const ModesOptions& options) {
+  IntrinsicsModes modes = RunOnCalibration(model, options, "modes", {}, "the calibration's uncertainty modes",
+                                           ReadModes);
+  modes.model = model;
+  return modes;
+}
+
+ResolvedCalibration ResolveCalibration(const std::string& model, int samples, std::uint64_t seed,
+                                       const ModesOptions& options) {
+  if (samples < 1) throw InputError("calibration re-solves: samples = " + std::to_string(samples) + ": expected >= 1");
+  ResolvedCalibration resolved =
+      RunOnCalibration(model, options, "resolve", {"--samples", std::to_string(samples), "--seed", std::to_string(seed)},
+                       "the calibration's re-solves", ReadResolved);
+  resolved.model = model;
+  return resolved;
 }
 
 }  // namespace hdabench::calib

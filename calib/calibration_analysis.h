@@ -24,6 +24,8 @@
 #include <string>
 #include <vector>
 
+#include "calib/intrinsics_modes.h"
+
 namespace hdabench::calib {
 
 // The HDA viewing geometry the analysis evaluates the calibration for.
@@ -269,6 +271,59 @@ struct ProjectionDiff {
 ProjectionDiff DiffCalibrations(const std::string& a, const std::string& b,
                                 const std::string& out_json, const std::string& heatmap_png,
                                 const DiffOptions& options = {});
+
+// ---------------------------------------------------------------- the calibration's modes
+
+struct ModesOptions {
+  std::string python = "/usr/bin/python3";
+  double timeout_s = 300.0;  // wall-time limit, seconds, > 0
+
+  std::vector<std::string> Validate() const;
+};
+
+// Whether a .cameramodel file holds mrcal's optimization_inputs (the key
+// 'optimization_inputs' of its dictionary), which the modes need. False for a
+// file that cannot be read.
+bool ModelHasOptimizationInputs(const std::string& path);
+
+// The calibration's uncertainty as independent modes of the intrinsics
+// (calib/intrinsics_modes.h), from the model's optimization_inputs: mrcal's
+// propagation of the corner noise through the solve gives the intrinsics'
+// covariance; the rotation each change implies (fitted over the imager,
+// weighted as the slope Monte Carlo's fit is) is carried with it; the modes
+// are the covariance's directions ordered by how far they move projections
+// once that rotation is out, every imager point counting alike, kept until
+// 99.9 % of that variance (at most 40). Runs the script in a temporary folder.
+// Throws InputError for invalid options, a missing model or one without
+// optimization_inputs (naming the file); ExternalError as AnalyseCalibration.
+IntrinsicsModes ComputeIntrinsicsModes(const std::string& model, const ModesOptions& options = {});
+
+// The calibration re-solved from perturbed corners, as the slope Monte Carlo
+// of AnalyseCalibration does it (Gaussian noise of the solve's residual
+// level on every inlier corner, outlier rejection off, each solve started
+// from the nominal optimum): each re-solved camera's intrinsics and the
+// implied rotation from the nominal camera frame (mrcal's rotation fit over
+// the imager at infinity, weighted 1/stdev^4 by the nominal projection
+// uncertainty: the fit IntrinsicsModes linearises). The check of the
+// predicted calibration sigmas (reference/flight: CheckCalibrationTerm).
+struct ResolvedIntrinsics {
+  std::vector<double> intrinsics;
+  Eigen::Vector3d rotation_rad = Eigen::Vector3d::Zero();  // Rodrigues, nominal -> re-solved frame
+};
+struct ResolvedCalibration {
+  std::string model;
+  std::string lensmodel;
+  std::vector<double> intrinsics;            // the nominal ones
+  double noise_stdev_px = 0.0;               // the corner noise drawn
+  std::vector<ResolvedIntrinsics> solved;    // the samples that solved, in draw order
+  int failed = 0;                            // samples whose re-solve or rotation fit failed
+  std::vector<std::string> failures;         // the first few distinct reasons
+};
+
+// `samples` >= 1 re-solves with numpy's generator seeded by `seed`. Throws as
+// ComputeIntrinsicsModes does, and InputError for samples < 1.
+ResolvedCalibration ResolveCalibration(const std::string& model, int samples, std::uint64_t seed,
+                                       const ModesOptions& options = {});
 
 // The analysis script's text (calib/calibration_analysis.py), compiled in.
 const std::string& CalibrationAnalysisScript();

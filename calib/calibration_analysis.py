@@ -7,6 +7,8 @@
 #
 #   analyse --json OUT.json --figures DIR --opencv-dir DIR [geometry options] MODEL...
 #   diff --json OUT.json --png HEATMAP.png A B [--gridn N] [--uncertainty-of-a]
+#   modes --json OUT.json MODEL
+#   resolve --json OUT.json [--samples N] [--seed S] MODEL
 #
 # The JSON format is "hdabench-calibration-analysis" (analyse) and
 # "hdabench-calibration-diff" (diff), version 1: every number is finite or
@@ -907,6 +909,188 @@ def slope_summary(model, resolved, band_px, geometry, imager_q, imager_v, imager
     return record
 
 
+# ---------------------------------------------------------------- intrinsics modes
+
+MODES_FORMAT = 'hdabench-calibration-modes'
+RESOLVED_FORMAT = 'hdabench-calibration-resolved'
+MODES_ENERGY = 0.999           # share of the compensated projection variance the modes keep
+MAX_MODES = 40                 # at most this many modes
+
+
+def intrinsics_covariance(model):
+    '''Covariance of the optimized intrinsics of the model's camera, by
+    mrcal's own propagation of the calibration's noise (the residual level
+    of the solve, as mrcal.projection_uncertainty takes it) through the
+    solve: Var(F) for F = the intrinsics. Returns (covariance (N, N) over
+    every intrinsic, zero rows for those not optimized, noise stdev px).'''
+    import mrcal.model_analysis as model_analysis
+    oi = model.optimization_inputs()
+    lensmodel, _ = model.intrinsics()
+    icam = model.icam_intrinsics()
+    _, x, jacobian, factorization = mrcal.optimizer_callback(**oi)
+    if factorization is None:
+        raise InputProblem(f'{model_path_of(model)}: mrcal cannot factorize the solve\'s '
+                           f'J^T J, so the calibration has no uncertainty')
+    count = mrcal.lensmodel_num_params(lensmodel)
+    has_core = mrcal.lensmodel_metadata_and_config(lensmodel)['has_core']
+    first = 0 if oi.get('do_optimize_intrinsics_core') or not has_core else 4
+    last = count if oi.get('do_optimize_intrinsics_distortions') else (4 if has_core else 0)
+    covariance = np.zeros((count, count))
+    noise = float(np.std(mrcal.residuals_chessboard(oi, residuals=x).ravel()))
+    if last <= first:
+        return covariance, noise
+    state = mrcal.state_index_intrinsics(icam, **oi)
+    optimized = last - first
+    dF_db = np.zeros((optimized, jacobian.shape[-1]))
+    dF_db[:, state:state + optimized] = np.eye(optimized)
+    mrcal.unpack_state(dF_db, **oi)  # the state is in the denominator
+    boards = mrcal.num_measurements_boards(**oi)
+    if boards == mrcal.num_measurements(**oi):
+        boards = None
+    covariance[first:last, first:last] = model_analysis._propagate_calibration_uncertainty(
+        dF_db, factorization, jacobian, boards, noise, 'covariance')
+    return 0.5 * (covariance + covariance.T), noise
+
+
+def rotation_compensation(model, q, v, weights):
+    '''The linear map M (3, N) from an intrinsics change d to the rotation
+    r = M d (radians, Rodrigues, nominal frame -> perturbed frame) that best
+    lines up the perturbed projections with the nominal ones over the pixels
+    q (directions v), weighted: implied_rotation()'s fit to first order. A
+    direction p then projects, with the rotation taken out, at
+    q + (dq/dintrinsics + dq/dp (-[p]x) M) d. Returns (M, dq/dintrinsics
+    (n, 2, N), dq/dr (n, 2, 3)) over the n pixels.'''
+    lensmodel, intrinsics = model.intrinsics()
+    _, dq_dp, dq_di = mrcal.project(v, lensmodel, intrinsics, get_gradients=True)
+    skew = np.zeros(v.shape[:-1] + (3, 3))
+    skew[..., 0, 1], skew[..., 0, 2], skew[..., 1, 2] = -v[..., 2], v[..., 1], -v[..., 0]
+    skew[..., 1, 0], skew[..., 2, 0], skew[..., 2, 1] = v[..., 2], -v[..., 1], v[..., 0]
+    dq_dr = -np.einsum('...ij,...jk->...ik', dq_dp, skew).reshape(-1, 2, 3)
+    dq_di = dq_di.reshape(-1, 2, dq_di.shape[-1])
+    w = np.ones(len(dq_dr)) if weights is None else np.asarray(weights, dtype=float).ravel()
+    normal = np.einsum('n,nij,nik->jk', w, dq_dr, dq_dr)
+    right = np.einsum('n,nij,nik->jk', w, dq_dr, dq_di)
+    return -np.linalg.solve(normal, right), dq_di, dq_dr
+
+
+def intrinsics_modes(model):
+    '''The calibration's uncertainty as a few independent modes: intrinsics
+    changes d_k (1 sigma each, uncorrelated: Cov = sum d_k d_k^T, restricted
+    to what moves a projection) with the implied rotation r_k = M d_k each
+    brings. Ordered by how far they move the projections over the imager
+    once the rotation is taken out, and kept until MODES_ENERGY of that
+    variance (at most MAX_MODES). The rotation fit is weighted as the slope
+    Monte Carlo's is: 1/stdev^4 of mrcal's projection uncertainty.'''
+    covariance, noise = intrinsics_covariance(model)
+    lensmodel, intrinsics = model.intrinsics()
+    width, height = (int(v) for v in model.imagersize())
+    gridn_width, gridn_height = imager_grid(width, height)
+    v, q = mrcal.sample_imager_unproject(gridn_width, gridn_height, width, height,
+                                         lensmodel, intrinsics, normalize=True)
+    stdev = mrcal.projection_uncertainty(v, model, atinfinity=True, what='worstdirection-stdev')
+    M, dq_di, dq_dr = rotation_compensation(model, q, v, rotation_fit_weights(stdev, None))
+    compensated = dq_di + np.einsum('nij,jk->nik', dq_dr, M)            # (n, 2, N)
+    values, vectors = np.linalg.eigh(covariance)
+    root = vectors * np.sqrt(np.clip(values, 0.0, None))  # covariance = root root^T
+    # Each grid point counts alike, however uncertain it is: its rows are
+    # scaled by its own compensated stdev, so that the modes kept hold
+    # MODES_ENERGY of the variance of the average point, not of the
+    # imager's corners alone (where an unconstrained distortion dominates).
+    per_point = np.einsum('nij,jk->nik', compensated, root)
+    spread = np.sqrt(np.sum(per_point ** 2, axis=(1, 2)))
+    scale = np.where(spread > 0, 1.0 / np.where(spread > 0, spread, 1.0), 0.0)
+    _, singular, vt = np.linalg.svd((per_point * scale[:, None, None]).reshape(-1, root.shape[1]),
+                                    full_matrices=False)
+    energy = singular ** 2
+    total = float(np.sum(energy))
+    keep = 0
+    while keep < min(MAX_MODES, len(energy)) and energy[keep] > 0 and \
+            (keep == 0 or np.sum(energy[:keep]) < MODES_ENERGY * total):
+        keep += 1
+    modes = []
+    for k in range(keep):
+        d = root @ vt[k]
+        # A fixed sign, so that the same model gives the same bytes.
+        if d[np.argmax(np.abs(d))] < 0:
+            d = -d
+        moved = np.einsum('nij,j->ni', compensated, d)
+        modes.append({'intrinsics_delta': d, 'rotation_rad': M @ d,
+                      'projection_rms_px': float(np.sqrt(np.mean(np.sum(moved ** 2, axis=1))))})
+    worst = np.sqrt([np.max(np.linalg.eigvalsh(c)) for c in
+                     np.einsum('nij,jk,nlk->nil', compensated, covariance, compensated)])
+    return {
+        'lensmodel': lensmodel,
+        'intrinsics': intrinsics,
+        'imager_size': [width, height],
+        'noise_stdev_px': noise,
+        'intrinsics_stdev': np.sqrt(np.clip(np.diag(covariance), 0.0, None)),
+        'imager_grid': [gridn_width, gridn_height],
+        'imager_worst_stdev_median_px': quantile(stdev, 0.5),
+        'compensated_worst_stdev_median_px': quantile(worst, 0.5),
+        'variance_kept': float(np.sum(energy[:keep]) / total) if total > 0 else 1.0,
+        'modes': modes,
+    }
+
+
+def modes(args):
+    model = load_model(args.model, need_optimization_inputs=True)
+    _model_paths[id(model)] = args.model
+    record = {'format': MODES_FORMAT, 'format_version': FORMAT_VERSION,
+              'software': software_versions(), 'model': args.model}
+    record.update(intrinsics_modes(model))
+    write_json(args.json, record)
+
+
+def resolved_models(args):
+    '''The calibration re-solved from perturbed corners (resolve_samples, as
+    the slope Monte Carlo of analyse does), each re-solved camera's
+    intrinsics with the implied rotation from the nominal frame fitted over
+    the imager (weighted as the modes' linear fit is). For the bench's check
+    of its predicted calibration sigmas against the spread the re-solves
+    give.'''
+    model = load_model(args.model, need_optimization_inputs=True)
+    _model_paths[id(model)] = args.model
+    if args.samples < 1:
+        raise InputProblem(f'samples = {args.samples}: expected >= 1')
+    oi = model.optimization_inputs()
+    icam = model.icam_intrinsics()
+    lensmodel, intrinsics = model.intrinsics()
+    width, height = (int(v) for v in model.imagersize())
+    gridn_width, gridn_height = imager_grid(width, height)
+    v_nominal, q_grid = mrcal.sample_imager_unproject(gridn_width, gridn_height, width, height,
+                                                      lensmodel, intrinsics, normalize=True)
+    stdev = mrcal.projection_uncertainty(v_nominal, model, atinfinity=True,
+                                         what='worstdirection-stdev')
+    weights = rotation_fit_weights(stdev, None)
+    x = mrcal.optimizer_callback(**oi, no_jacobian=True, no_factorization=True)[1]
+    noise = float(np.std(mrcal.residuals_chessboard(oi, residuals=x).ravel()))
+    samples = []
+    failures = []
+    for state, failure in resolve_samples(oi, noise, args.samples, args.seed):
+        if failure is None:
+            try:
+                resolved = state['intrinsics'][icam]
+                v = mrcal.unproject(q_grid, lensmodel, resolved, normalize=True)
+                Rt10 = implied_rotation(q_grid, v_nominal, v, weights=weights)
+                rotation = mrcal.r_from_R(Rt10[:3, :])
+                if not (np.all(np.isfinite(resolved)) and np.all(np.isfinite(rotation))):
+                    raise RuntimeError('non-finite intrinsics or rotation')
+                samples.append({'intrinsics': resolved, 'rotation_rad': rotation})
+                continue
+            except Exception as e:
+                failure = f'rotation fit: {one_line(e)}'
+        samples.append(None)
+        failures.append(failure)
+    write_json(args.json, {
+        'format': RESOLVED_FORMAT, 'format_version': FORMAT_VERSION,
+        'software': software_versions(), 'model': args.model,
+        'lensmodel': lensmodel, 'intrinsics': intrinsics,
+        'noise_stdev_px': noise, 'seed': args.seed,
+        'samples': samples, 'failures': failures[:MAX_FAILURE_NOTES],
+        'failed': len(failures),
+    })
+
+
 # ---------------------------------------------------------------- analyse
 
 def relative_pose(model0, model1):
@@ -1175,10 +1359,26 @@ def main():
                         'points whose difference is within 1, 2, 3 times it')
     d.add_argument('models', nargs=2)
 
+    m = commands.add_parser('modes', help='the intrinsics uncertainty of a calibration as '
+                                          'independent modes, with their implied rotations')
+    m.add_argument('--json', required=True)
+    m.add_argument('model')
+
+    r = commands.add_parser('resolve', help='re-solve a calibration from perturbed corners: each '
+                                            're-solved model\'s intrinsics and implied rotation')
+    r.add_argument('--json', required=True)
+    r.add_argument('--samples', type=int, default=30)
+    r.add_argument('--seed', type=int, default=1)
+    r.add_argument('model')
+
     args = parser.parse_args()
     try:
         if args.command == 'analyse':
             analyse(args)
+        elif args.command == 'modes':
+            modes(args)
+        elif args.command == 'resolve':
+            resolved_models(args)
         else:
             diff(args)
     except InputProblem as e:

@@ -275,18 +275,31 @@ class Placer {
     const double high_y = (board.corners_y + board.margin_squares) * board.spacing_m;
     outline_in_board_ = {Eigen::Vector3d(low, low, 0.0), Eigen::Vector3d(high_x, low, 0.0),
                          Eigen::Vector3d(high_x, high_y, 0.0), Eigen::Vector3d(low, high_y, 0.0)};
-    imager_centre_ = Eigen::Vector2d((camera.WidthPx() - 1) / 2.0, (camera.HeightPx() - 1) / 2.0);
+    // The region in pixel coordinates: its edges (the whole imager spans
+    // -0.5 .. W - 0.5), and its centre and half size over pixel centres.
+    const double w = camera.WidthPx();
+    const double h = camera.HeightPx();
+    left_ = options.region_x0 * w - 0.5;
+    right_ = options.region_x1 * w - 0.5;
+    top_ = options.region_y0 * h - 0.5;
+    bottom_ = options.region_y1 * h - 0.5;
+    imager_centre_ = Eigen::Vector2d((options.region_x0 + options.region_x1) / 2.0 * (w - 1),
+                                     (options.region_y0 + options.region_y1) / 2.0 * (h - 1));
+    half_size_ = Eigen::Vector2d((options.region_x1 - options.region_x0) * (w - 1) / 2.0,
+                                 (options.region_y1 - options.region_y0) * (h - 1) / 2.0);
   }
 
+  // The centre of the region the boards stay in (the imager's by default), and its half size.
   const Eigen::Vector2d& ImagerCentre() const { return imager_centre_; }
+  const Eigen::Vector2d& HalfSize() const { return half_size_; }
   const Eigen::Vector3d& CentreInBoard() const { return centre_in_board_; }
 
   // The distance at which a face-on board at the imager centre shows squares
   // of fill x the largest size that still obeys the border rule there. Zero
   // when the camera cannot unproject the pixels this needs.
   double DistanceForFill(double fill) const {
-    const double width = camera_.WidthPx();
-    const double height = camera_.HeightPx();
+    const double width = (options_.region_x1 - options_.region_x0) * camera_.WidthPx();
+    const double height = (options_.region_y1 - options_.region_y0) * camera_.HeightPx();
     const double border = 2.0 * options_.min_border_squares;
     const double square_px =
         fill * std::min(width / (board_.corners_x - 1 + border), height / (board_.corners_y - 1 + border));
@@ -329,8 +342,6 @@ class Placer {
     if (camera_.Project(points, corners_px, &valid) != static_cast<int>(points.size())) return false;
     const int nx = board_.corners_x;
     const int ny = board_.corners_y;
-    const double right = camera_.WidthPx() - 0.5;
-    const double bottom = camera_.HeightPx() - 0.5;
     for (int j = 0; j < ny; ++j) {
       for (int i = 0; i < nx; ++i) {
         const Eigen::Vector2d& p = (*corners_px)[static_cast<size_t>(j * nx + i)];
@@ -343,7 +354,7 @@ class Placer {
         neighbour(i + 1, j);
         neighbour(i, j - 1);
         neighbour(i, j + 1);
-        const double to_edge = std::min({p.x() + 0.5, right - p.x(), p.y() + 0.5, bottom - p.y()});
+        const double to_edge = std::min({p.x() - left_, right_ - p.x(), p.y() - top_, bottom_ - p.y()});
         if (!(to_edge >= options_.min_border_squares * square)) return false;
       }
     }
@@ -377,6 +388,8 @@ class Placer {
   Eigen::Vector3d centre_in_board_;
   std::array<Eigen::Vector3d, 4> outline_in_board_;
   Eigen::Vector2d imager_centre_;
+  Eigen::Vector2d half_size_;
+  double left_ = 0.0, right_ = 0.0, top_ = 0.0, bottom_ = 0.0;
 };
 
 // Anchors in units of the imager's half size: four corners, four edge
@@ -471,6 +484,14 @@ std::vector<std::string> ChessboardViewsOptions::Validate() const {
   RequireOption(max_roll_deg >= 0.0 && max_roll_deg <= 180.0, "max_roll_deg", max_roll_deg, "in [0, 180] degrees",
                 &errors);
   RequireOption(coverage > 0.0 && coverage <= 1.0, "coverage", coverage, "in (0, 1]", &errors);
+  if (!(region_x0 >= 0.0 && region_x0 < region_x1 && region_x1 <= 1.0)) {
+    errors.push_back("region x " + util::ShortestText(region_x0) + ".." + util::ShortestText(region_x1) +
+                     ": expected 0 <= x0 < x1 <= 1");
+  }
+  if (!(region_y0 >= 0.0 && region_y0 < region_y1 && region_y1 <= 1.0)) {
+    errors.push_back("region y " + util::ShortestText(region_y0) + ".." + util::ShortestText(region_y1) +
+                     ": expected 0 <= y0 < y1 <= 1");
+  }
   RequireOption(min_border_squares >= 1.0, "min_border_squares", min_border_squares,
                 ">= 1 (the outer squares must be in view)", &errors);
   RequireOption(max_attempts >= 1, "max_attempts", max_attempts, ">= 1", &errors);
@@ -510,12 +531,12 @@ PoseDraw DrawPose(const Placer& placer, const ChessboardViewsOptions& options, i
 }
 
 // Places view v: draws poses until kPlacementCandidates (one for the centre
-// anchor) fit at the imager centre, slides each toward the view's anchor and
-// keeps the one whose corners come nearest to it. Throws InputError when no
-// draw out of max_attempts fits.
+// anchor) fit at the centre of the region the boards stay in, slides each
+// toward the view's anchor and keeps the one whose corners come nearest to
+// it. Throws InputError when no draw out of max_attempts fits.
 Placement PlaceView(const Placer& placer, const ChessboardViewsOptions& options, const std::array<double, 2>& anchor,
-                    int stratum, size_t v, bool by_fill, int width, int height, Uniforms* random) {
-  const Eigen::Vector2d half_size((width - 1) / 2.0, (height - 1) / 2.0);
+                    int stratum, size_t v, bool by_fill, Uniforms* random) {
+  const Eigen::Vector2d& half_size = placer.HalfSize();
   const Eigen::Vector2d target =
       placer.ImagerCentre() +
       options.coverage * Eigen::Vector2d(anchor[0] * half_size.x(), anchor[1] * half_size.y());
@@ -805,7 +826,7 @@ std::vector<ChessboardView> RenderChessboardViews(const calib::CameraModel& came
   std::vector<ViewShading> shading(views.size());
   for (size_t v = 0; v < views.size(); ++v) {
     const Placement placement =
-        PlaceView(placer, options, anchors[v], strata[v], v, by_fill, width, height, &random);
+        PlaceView(placer, options, anchors[v], strata[v], v, by_fill, &random);
     DescribeView(placement, placer, width, height, &views[v]);
     shading[v] = ShadingFor(placement.pose, options, v, width, height, &random);
     views[v].image = cv::Mat(height, width, CV_8UC1);

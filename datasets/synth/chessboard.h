@@ -79,6 +79,15 @@ struct ChessboardViewsOptions {
   // corners come nearest to the anchor is kept. coverage scales the anchors
   // toward the centre: 1 reaches the whole imager, less gives a poorer set.
   double coverage = 1.0;  // (0, 1]
+  // The part of the imager the boards stay in, as fractions of its width (x)
+  // and height (y, 0 the top edge): every inner corner keeps the border rule
+  // from this region's edges, the anchors and the fill are the region's, and
+  // the rest of the imager sees no board (a calibration that leaves part of
+  // the imager uncovered). 0 <= x0 < x1 <= 1, the same in y.
+  double region_x0 = 0.0;
+  double region_x1 = 1.0;
+  double region_y0 = 0.0;
+  double region_y1 = 1.0;
   // Border rule: every inner corner stays at least this many local square
   // sizes (its largest distance to a neighbouring corner, pixels) from the
   // imager's edge, so the outer squares and part of the margin are in view.

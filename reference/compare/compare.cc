@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "datasets/synth/truth.h"
+#include "hda/calibration_sigma.h"
 #include "reference/compare/method.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
@@ -138,7 +139,7 @@ SlopeSample SampleOfMethodRoi(const MethodRoi& roi, const RoiTruthValue* truth) 
   SlopeSample s;
   s.has_slope = roi.HasSlope();
   s.num_points = roi.num_points;
-  if (roi.has_sigma) s.sigma_deg = roi.slope_sigma_deg;
+  if (roi.has_sigma) s.sigma_deg = hda::CombinedSlopeSigmaDeg(roi.slope_sigma_deg, roi.slope_sigma_calibration_deg);
   if (truth != nullptr && roi.has_fit) {
     s.error_deg = roi.slope_deg - truth->slope_deg;
     s.tilt_error_deg = TiltErrorDeg(roi.normal_in_local, truth->normal_in_local);

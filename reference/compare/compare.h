@@ -18,6 +18,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -204,6 +205,10 @@ struct MethodRoi {
   double roughness_max_m = 0.0;
   bool has_sigma = false;         // the method predicts its slope uncertainty (flight only)
   double slope_sigma_deg = 0.0;
+  // The camera calibration's share of the slope sigma (flight only, where
+  // the run has a calibration term; NaN otherwise): within-two-sigma uses
+  // the two in quadrature.
+  double slope_sigma_calibration_deg = std::numeric_limits<double>::quiet_NaN();
   std::string configuration;      // OpenGV, colmap-free: the pair's (well-conditioned, planar, low parallax, too few points)
   PointAccuracy accuracy;
   std::vector<Eigen::Vector3d> points_in_local_m;  // the method's points in the ROI

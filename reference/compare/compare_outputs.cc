@@ -8,6 +8,7 @@
 
 #include "tools/util/error.h"
 #include "tools/util/files.h"
+#include "hda/calibration_sigma.h"
 #include "reference/flight/flight_outputs.h"
 #include "tools/util/text.h"
 
@@ -47,6 +48,11 @@ Json MethodRoiJson(const MethodRoi& r) {
   j["num_points"] = r.num_points;
   j["slope_deg"] = r.has_fit ? Number(r.slope_deg) : Json(nullptr);
   j["slope_sigma_deg"] = r.has_fit && r.has_sigma ? Number(r.slope_sigma_deg) : Json(nullptr);
+  if (r.has_sigma) {
+    j["slope_sigma_calibration_deg"] = r.has_fit ? Number(r.slope_sigma_calibration_deg) : Json(nullptr);
+    j["slope_sigma_combined_deg"] =
+        r.has_fit ? Number(hda::CombinedSlopeSigmaDeg(r.slope_sigma_deg, r.slope_sigma_calibration_deg)) : Json(nullptr);
+  }
   j["normal"] = r.has_fit ? Json::array({Number(r.normal_in_local.x()), Number(r.normal_in_local.y()),
                                          Number(r.normal_in_local.z())})
                           : Json(nullptr);
@@ -120,6 +126,7 @@ std::string CompareResultJson(const CompareRun& run) {
   // The slope limit every method's decision is taken under, and the lander of the truth.
   j["max_slope_deg"] = Number(f.options.max_slope_deg);
   j["lander"] = LanderJson(f.lander);
+  j["calibration_term"] = CalibrationTermJson(f.calibration);
   Json methods = Json::array();
   for (size_t m = 0; m < run.methods.size(); ++m) {
     const MethodSummary& s = run.summaries[m];
@@ -203,7 +210,7 @@ std::string CompareRoisCsv(const CompareRun& run) {
   std::ostringstream out;
   out << "roi,method,status,num_points,slope_deg,slope_sigma_deg,truth_slope_deg,slope_error_deg,"
          "tilt_error_deg,roughness_rms_m,truth_roughness_rms_m,configuration,points_within_0_3_m,"
-         "tilt_definition_deg,tilt_estimation_deg\n";
+         "tilt_definition_deg,tilt_estimation_deg,slope_sigma_calibration_deg\n";
   const auto quoted = [](const std::string& text) {
     std::string q = "\"";
     for (const char c : text) q += c == '"' ? std::string("\"\"") : std::string(1, c);
@@ -221,7 +228,8 @@ std::string CompareRoisCsv(const CompareRun& run) {
           << "," << util::CsvNumber(TiltError(run, m, i)) << "," << (r.has_fit ? util::CsvNumber(r.roughness_rms_m) : "") << ","
           << (t != nullptr ? util::CsvNumber(t->roughness_rms_m) : "") << "," << r.configuration << ","
           << (r.accuracy.available ? util::CsvNumber(r.accuracy.within_0_3_m) : "") << ","
-          << util::CsvNumber(parts.definition_tilt_deg) << "," << util::CsvNumber(parts.estimation_tilt_deg) << "\n";
+          << util::CsvNumber(parts.definition_tilt_deg) << "," << util::CsvNumber(parts.estimation_tilt_deg) << ","
+          << (r.has_fit && r.has_sigma ? util::CsvNumber(r.slope_sigma_calibration_deg) : "") << "\n";
     }
   }
   return out.str();

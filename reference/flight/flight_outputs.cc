@@ -86,11 +86,21 @@ Json CountsJson(const hda::RoiCounts& c) {
           {"triangulated", c.triangulated},       {"depth_inliers", c.depth_inliers}};
 }
 
-Json FitJson(const hda::RoiResult& roi) {
+Json FitJson(const FlightRun& run, size_t i) {
+  const hda::RoiResult& roi = run.result.rois[i];
   if (!roi.has_fit) return nullptr;
   Json j;
   j["slope_deg"] = Number(roi.slope_deg);
   j["slope_sigma_deg"] = Number(roi.slope_sigma_deg);
+  // The calibration's term (CalibrationTerm) and the two in quadrature: the
+  // sigma the within-two-sigma share uses. Null terms where the run has none
+  // (calibration_term says why) or this ROI has none (the reason beside it).
+  j["slope_sigma_calibration_deg"] = Number(run.calibration.SlopeSigmaDeg(i));
+  j["tilt_sigma_calibration_deg"] = Number(run.calibration.TiltSigmaDeg(i));
+  if (run.calibration.available && i < run.calibration.rois.size() && !run.calibration.rois[i].available) {
+    j["calibration_sigma_why"] = run.calibration.rois[i].why;
+  }
+  j["slope_sigma_combined_deg"] = Number(run.CombinedSlopeSigmaDeg(i));
   j["sigma_terms"] = {{"pixel_deg", Number(roi.slope_sigma_terms.pixel_deg)},
                       {"baseline_deg", Number(roi.slope_sigma_terms.baseline_deg)},
                       {"attitude_deg", Number(roi.slope_sigma_terms.attitude_deg)},
@@ -163,7 +173,7 @@ Json RoiJson(const FlightRun& run, size_t i) {
   j["matching_status"] = roi.matched ? Json(hda::ToString(roi.matching_status)) : Json(nullptr);
   j["prewarped"] = roi.matched ? Json(roi.prewarped) : Json(nullptr);
   j["flight_computer_s"] = Number(run.result.FlightSeconds(roi.work));
-  j["fit"] = FitJson(roi);
+  j["fit"] = FitJson(run, i);
   j["score"] = IsRanked(roi) ? Number(roi.score) : Json(nullptr);
   j["rank"] = roi.rank > 0 ? Json(roi.rank) : Json(nullptr);
   j["truth"] = TruthJson(run, i);
@@ -383,6 +393,33 @@ std::string RoiFileStem(int id) {
   return buffer;
 }
 
+// Whether the slopes' sigmas carry the calibration's term, and what it is
+// made of: the modes of the model's uncertainty (calib/intrinsics_modes.h).
+Json CalibrationTermJson(const CalibrationTerm& term) {
+  if (!term.available) return {{"available", false}, {"why", term.why}};
+  const calib::IntrinsicsModes& m = term.modes;
+  Json modes = Json::array();
+  for (const calib::IntrinsicsMode& mode : m.modes) {
+    Json delta = Json::array();
+    for (double d : mode.intrinsics_delta) delta.push_back(Number(d));
+    modes.push_back({{"intrinsics_delta", delta},
+                     {"rotation_rad", Vector3Json(mode.rotation_rad)},
+                     {"projection_rms_px", Number(mode.projection_rms_px)}});
+  }
+  const auto with_sigma = std::count_if(term.rois.begin(), term.rois.end(),
+                                        [](const hda::CalibrationSigma& s) { return s.available; });
+  return {{"available", true},
+          {"model", term.model_file},
+          {"lens_model", m.lensmodel},
+          {"noise_stdev_px", Number(m.noise_stdev_px)},
+          {"imager_worst_stdev_median_px", Number(m.imager_worst_stdev_median_px)},
+          {"compensated_worst_stdev_median_px", Number(m.compensated_worst_stdev_median_px)},
+          {"variance_kept", Number(m.variance_kept)},
+          {"mode_step_sigma", Number(hda::kCalibrationModeStep)},
+          {"rois_with_sigma", with_sigma},
+          {"modes", modes}};
+}
+
 std::string FlightResultJson(const FlightRun& run) {
   const hda::HdaResult& result = run.result;
   Json j;
@@ -418,6 +455,7 @@ std::string FlightResultJson(const FlightRun& run) {
   j["budget_s"] = Number(result.budget_s);
   j["budget_exhausted"] = result.budget_exhausted;
   j["flight_computer"] = FlightComputerJson(result);
+  j["calibration_term"] = CalibrationTermJson(run.calibration);
   Json status_counts = Json::object();
   for (size_t s = 0; s < kNumStatuses; ++s) {
     const auto status = static_cast<hda::RoiStatus>(s);
@@ -466,7 +504,8 @@ std::string FlightRoisCsv(const FlightRun& run) {
   std::ostringstream out;
   out << "id,status,x1,y1,w1,h1,x2,y2,w2,h2,order,keypoints1,keypoints2,matches,ransac_inliers,"
          "epipolar_inliers,triangulated,depth_inliers,slope_deg,slope_sigma_deg,roughness_rms_m,"
-         "roughness_excess_m,area_m2,score,rank,truth_slope_deg,slope_error_deg,tilt_error_deg\n";
+         "roughness_excess_m,area_m2,score,rank,truth_slope_deg,slope_error_deg,tilt_error_deg,"
+         "slope_sigma_calibration_deg,slope_sigma_combined_deg\n";
   for (size_t i = 0; i < run.result.rois.size(); ++i) {
     const hda::RoiResult& roi = run.result.rois[i];
     const cv::Rect& b1 = roi.box1_px;
@@ -490,7 +529,8 @@ std::string FlightRoisCsv(const FlightRun& run) {
         << (roi.rank > 0 ? std::to_string(roi.rank) : "") << ",";
     const RoiTruthValue* truth = TruthOf(run, i);
     out << (truth != nullptr ? util::CsvNumber(truth->slope_deg) : "") << ","
-        << util::CsvNumber(SlopeErrorDeg(run, i)) << "," << util::CsvNumber(TiltErrorOf(run, i)) << "\n";
+        << util::CsvNumber(SlopeErrorDeg(run, i)) << "," << util::CsvNumber(TiltErrorOf(run, i)) << ","
+        << fit_value(run.calibration.SlopeSigmaDeg(i)) << "," << fit_value(run.CombinedSlopeSigmaDeg(i)) << "\n";
   }
   return out.str();
 }
@@ -524,7 +564,7 @@ SlopeErrorStats ComputeSlopeErrorStats(const FlightRun& run) {
     sample.num_points = roi.counts.depth_inliers;
     sample.error_deg = SlopeErrorDeg(run, i);
     sample.tilt_error_deg = TiltErrorOf(run, i);
-    sample.sigma_deg = roi.slope_sigma_deg;
+    sample.sigma_deg = run.CombinedSlopeSigmaDeg(i);
     pool.Add(sample);
   }
   SlopeErrorStats stats;
@@ -581,6 +621,28 @@ ProbabilityDecisions ComputeProbabilityDecisions(const FlightRun& run) {
   return out;
 }
 
+// One line: whether the slopes' sigmas carry the calibration's term, and its size.
+std::string CalibrationTermLine(const CalibrationTerm& term) {
+  if (!term.available) return "calibration term: none (" + term.why + ")";
+  std::vector<double> sigmas;
+  for (const hda::CalibrationSigma& s : term.rois) {
+    if (s.available) sigmas.push_back(s.slope_deg);
+  }
+  std::ostringstream line;
+  line << "calibration term (" << term.model_file << ", " << term.modes.modes.size()
+       << " modes, corner noise " << util::FixedCell(term.modes.noise_stdev_px, 3) << " px): ";
+  std::sort(sigmas.begin(), sigmas.end());
+  if (sigmas.empty()) {
+    line << "no ROI with a fit got one";
+  } else {
+    line << "slope sigma median " << util::FixedCell(util::Quantile(sigmas, 0.5), 3) << " deg, p90 "
+         << util::FixedCell(util::Quantile(sigmas, 0.9), 3) << " deg, max " << util::FixedCell(sigmas.back(), 3)
+         << " deg over " << sigmas.size()
+         << " ROIs; added in quadrature to the method's";
+  }
+  return line.str();
+}
+
 std::string FlightReport(const FlightRun& run) {
   std::ostringstream out;
   out << run.result.Summary() << "; frames " << run.frame1 << "," << run.frame2 << ", baseline "
@@ -597,8 +659,11 @@ std::string FlightReport(const FlightRun& run) {
     }
     out << "\n";
   }
+  // A run made in memory, whose term was never looked for, says nothing.
+  if (run.calibration.available || !run.calibration.why.empty()) out << CalibrationTermLine(run.calibration) << "\n";
   if (run.result.rois.empty()) return out.str();
   const bool truth = run.AnyTruth();
+  const bool calibration = run.calibration.available;
   std::vector<std::vector<std::string>> rows;
   if (truth) {
     rows.push_back({"ROI", "status", "truth slope (deg)", "est. slope (deg)", "sigma (deg)",
@@ -606,6 +671,7 @@ std::string FlightReport(const FlightRun& run) {
   } else {
     rows.push_back({"ROI", "status", "est. slope (deg)", "sigma (deg)", "# points", "est. relief (m)"});
   }
+  if (calibration) rows.front().insert(rows.front().begin() + (truth ? 5 : 4), "calib. sigma (deg)");
   for (size_t i = 0; i < run.result.rois.size(); ++i) {
     const hda::RoiResult& roi = run.result.rois[i];
     const auto fit = [&](double value, int digits) { return roi.has_fit ? util::FixedCell(value, digits) : "-"; };
@@ -614,6 +680,10 @@ std::string FlightReport(const FlightRun& run) {
     if (truth) row.push_back(t != nullptr ? util::FixedCell(t->slope_deg, 2) : "-");
     row.push_back(fit(roi.slope_deg, 2));
     row.push_back(fit(roi.slope_sigma_deg, 2));
+    if (calibration) {
+      const double sigma = run.calibration.SlopeSigmaDeg(i);
+      row.push_back(std::isfinite(sigma) ? util::FixedCell(sigma, 3) : "-");
+    }
     row.push_back(std::to_string(roi.counts.depth_inliers));
     if (truth) row.push_back(t != nullptr ? util::FixedCell(t->roughness_rms_m, 3) : "-");
     row.push_back(fit(roi.roughness_excess_m, 3));

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
 #include <opencv2/core/mat.hpp>
 
 #include "hda/hda_options.h"
@@ -28,6 +29,14 @@ inline constexpr int kFlightResultFormatVersion = 1;
 // non-finite values. Two runs on the same inputs give the same bytes (unless
 // the time budget ran out at different ROIs).
 std::string FlightResultJson(const FlightRun& run);
+
+// result.json's "calibration_term" (compare.json has it too): whether the
+// slopes' sigmas carry the calibration's term; when they do, the model, the
+// corner noise, the projection stdevs and the modes.
+nlohmann::ordered_json CalibrationTermJson(const CalibrationTerm& term);
+
+// One line of the run's text: the calibration term, or why there is none.
+std::string CalibrationTermLine(const CalibrationTerm& term);
 
 // timings.json: StageTimes, budget and each ROI's seconds (not deterministic).
 std::string FlightTimingsJson(const FlightRun& run);

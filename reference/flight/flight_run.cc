@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
 
+#include "calib/calibration_analysis.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 #include "tools/util/options_check.h"
@@ -218,6 +220,7 @@ FlightRun RunFlight(const datasets::Dataset& dataset, int frame1, int frame2,
   run.result = hda::RunHda(input, dataset.camera, options, hda::SteadySeconds, progress);
   run.lander = lander;
   run.truths = TruthOfRois(dataset, frame1, run.result, lander);
+  run.calibration = ComputeCalibrationTerm(dataset, input, options, run.result);
   return run;
 }
 
@@ -253,6 +256,61 @@ double TiltErrorDeg(const Eigen::Vector3d& normal, const Eigen::Vector3d& true_n
     return std::numeric_limits<double>::quiet_NaN();
   }
   return std::atan2(normal.cross(true_normal).norm(), std::abs(normal.dot(true_normal))) * util::kRadToDeg;
+}
+
+double CalibrationTerm::SlopeSigmaDeg(size_t i) const {
+  return available && i < rois.size() && rois[i].available ? rois[i].slope_deg
+                                                            : std::numeric_limits<double>::quiet_NaN();
+}
+
+double CalibrationTerm::TiltSigmaDeg(size_t i) const {
+  return available && i < rois.size() && rois[i].available ? rois[i].tilt_deg
+                                                            : std::numeric_limits<double>::quiet_NaN();
+}
+
+CalibrationTerm ComputeCalibrationTerm(const datasets::Dataset& dataset, const hda::HdaInput& input,
+                                       const hda::HdaOptions& options, const hda::HdaResult& result) {
+  CalibrationTerm term;
+  if (dataset.dir.empty()) {
+    term.why = "the dataset was built in memory: no camera model file to take a calibration from";
+    return term;
+  }
+  term.model_file = (std::filesystem::path(dataset.dir) / dataset.camera_model_file).string();
+  if (!calib::ModelHasOptimizationInputs(term.model_file)) {
+    term.why = term.model_file +
+               " holds no optimization_inputs (a model that is not a calibration's output, such as a "
+               "synthetic scene's true camera): no calibration term";
+    return term;
+  }
+  try {
+    term.modes = calib::ComputeIntrinsicsModes(term.model_file);
+    const double window_px = hda::MatchWindowPx(options.matching);
+    for (const hda::RoiResult& roi : result.rois) {
+      hda::CalibrationSigma sigma;
+      if (!roi.has_fit) {
+        sigma.why = "no fit";
+      } else {
+        sigma = hda::SiteCalibrationSigma(input, dataset.camera, options, term.modes, roi.box1_px, roi.points1_px,
+                                          roi.points2_px, window_px);
+      }
+      term.rois.push_back(std::move(sigma));
+    }
+  } catch (const InputError& e) {
+    term.rois.clear();
+    term.why = e.what();
+    return term;
+  } catch (const ExternalError& e) {
+    term.rois.clear();
+    term.why = e.what();
+    return term;
+  }
+  term.available = true;
+  return term;
+}
+
+double FlightRun::CombinedSlopeSigmaDeg(size_t i) const {
+  const double method = i < result.rois.size() ? result.rois[i].slope_sigma_deg : std::numeric_limits<double>::quiet_NaN();
+  return hda::CombinedSlopeSigmaDeg(method, calibration.SlopeSigmaDeg(i));
 }
 
 bool FlightRun::AnyTruth() const {

@@ -12,6 +12,8 @@
 
 #include "datasets/dataset.h"
 #include "datasets/synth/lander_truth.h"
+#include "calib/intrinsics_modes.h"
+#include "hda/calibration_sigma.h"
 #include "hda/hda_options.h"
 #include "hda/pipeline.h"
 #include "reference/flight/hda_params.h"
@@ -90,6 +92,31 @@ std::vector<RoiTruthValue> TruthOfRois(const datasets::Dataset& dataset, int fra
                                        const hda::HdaResult& result,
                                        const datasets::synth::LanderGeometry& lander = {});
 
+// The calibration's share of each ROI's slope uncertainty (docs/calibration.md,
+// "The calibration in each slope's error budget"): available when the
+// dataset's .cameramodel holds mrcal's optimization_inputs and their modes
+// could be computed.
+struct CalibrationTerm {
+  bool available = false;
+  std::string why;                          // when not available: the reason, one line
+  std::string model_file;                   // the dataset's .cameramodel ("" for a dataset in memory)
+  calib::IntrinsicsModes modes;             // when available
+  std::vector<hda::CalibrationSigma> rois;  // when available: parallel to HdaResult::rois
+
+  // The calibration's slope sigma of ROI i, degrees; NaN where there is none.
+  double SlopeSigmaDeg(size_t i) const;
+  double TiltSigmaDeg(size_t i) const;
+};
+
+// The calibration term of a run of the method on `input` with the dataset's
+// camera: the modes of the dataset's model file (calib::ComputeIntrinsicsModes,
+// which runs python), then each fitted ROI's sigma (hda::SiteCalibrationSigma)
+// from its surviving matches. Never throws for the model or the script: a
+// model without optimization_inputs, a dataset built in memory, or a failure
+// of the script leaves the term unavailable, saying why.
+CalibrationTerm ComputeCalibrationTerm(const datasets::Dataset& dataset, const hda::HdaInput& input,
+                                       const hda::HdaOptions& options, const hda::HdaResult& result);
+
 // Everything one run produced and what it was run on.
 struct FlightRun {
   std::string dataset_name;
@@ -111,8 +138,12 @@ struct FlightRun {
   // Truth per ROI, parallel to result.rois (TruthOfRois). Empty, or all
   // unavailable, when the dataset has no truth.
   std::vector<RoiTruthValue> truths;
+  CalibrationTerm calibration;    // the calibration's share of each slope's sigma
 
   bool AnyTruth() const;
+  // The slope sigma of ROI i with the calibration's term in quadrature
+  // (hda::CombinedSlopeSigmaDeg): the method's own where there is no term.
+  double CombinedSlopeSigmaDeg(size_t i) const;
 };
 
 // Runs the flight method on frames (frame1, frame2) of a dataset loaded with

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "hda/calibration_sigma.h"
 #include "tools/util/statistics.h"
 
 namespace hdabench::reference {
@@ -67,7 +68,10 @@ SlopeSample SampleOfCompareRecord(const std::string& method, const nlohmann::jso
                                    slope_records::NumberOrNaN(truth, "roughness_rms_m"));
   }
   s.tilt_error_deg = slope_records::NumberOrNaN(entry, "tilt_error_deg");
-  s.sigma_deg = slope_records::NumberOrNaN(entry, "slope_sigma_deg");
+  // The flight method's sigma with the calibration's term in quadrature,
+  // where the record has one.
+  s.sigma_deg = hda::CombinedSlopeSigmaDeg(slope_records::NumberOrNaN(entry, "slope_sigma_deg"),
+                                           slope_records::NumberOrNaN(entry, "slope_sigma_calibration_deg"));
   s.definition_tilt_deg = slope_records::NumberOrNaN(entry, "tilt_definition_deg");
   s.estimation_tilt_deg = slope_records::NumberOrNaN(entry, "tilt_estimation_deg");
   s.definition_error_deg = slope_records::NumberOrNaN(entry, "slope_definition_error_deg");
@@ -90,7 +94,8 @@ SlopeSample SampleOfFlightRecord(const nlohmann::json& roi) {
     s.roughness_error_m = std::abs(slope_records::NumberOrNaN(fit, "roughness_rms_m") -
                                    slope_records::NumberOrNaN(truth, "roughness_rms_m"));
   }
-  s.sigma_deg = slope_records::NumberOrNaN(fit, "slope_sigma_deg");
+  s.sigma_deg = hda::CombinedSlopeSigmaDeg(slope_records::NumberOrNaN(fit, "slope_sigma_deg"),
+                                           slope_records::NumberOrNaN(fit, "slope_sigma_calibration_deg"));
   return s;
 }
 

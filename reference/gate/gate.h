@@ -143,6 +143,9 @@ GateThresholds ReadGateThresholds(const std::string& path);
 //   missed_safe_rate            declared unsafe among the truly safe sites with a verdict
 //   unsafe_caught_rate          declared unsafe among the truly unsafe sites with a verdict
 //   top_site_unsafe_share       flight: the share of entries whose top-ranked site is unsafe
+//   calibration_sigma_share_p90 flight: p90 over the ROIs with a slope and a calibration term
+//                               of slope_sigma_calibration_deg / slope_sigma_deg (absent
+//                               when no dataset's model carries its calibration)
 // A metric without data (no ROI with truth, say) is absent. The entries with
 // a fault are pooled per method and fault (GateEntry::fault), apart from the
 // others, and those of a named pool per pool (GateEntry::pool).

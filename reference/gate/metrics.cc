@@ -5,6 +5,7 @@
 // against thresholds and a baseline, and their file.
 #include "reference/gate/gate.h"
 
+#include <algorithm>
 #include <map>
 #include <tuple>
 
@@ -12,6 +13,7 @@
 #include "reference/flight/decision_statistics.h"
 #include "reference/flight/slope_statistics.h"
 #include "reference/gate/internal/common.h"
+#include "tools/util/statistics.h"
 
 namespace hdabench::reference {
 
@@ -29,6 +31,9 @@ struct MetricPool {
   DecisionPool decisions;
   int failed = 0;
   double flight_seconds = -1.0;
+  // Per flight ROI with a slope and a calibration term: its calibration
+  // sigma over the method's own.
+  std::vector<double> calibration_shares;
 };
 
 // A pool: a method, a fault (empty: the entries without one) and a named
@@ -106,8 +111,16 @@ void AddCompareEntry(const fs::path& dir, MetricPools* pools) {
   std::map<std::string, std::vector<DecisionSample>> decisions;
   for (const Json& roi : j.at("rois")) {
     for (const auto& item : roi.at("methods").items()) {
-      pools->by_key[{item.key(), fault, named_pool}].slopes.Add(
-          SampleOfCompareRecord(item.key(), item.value(), roi.at("truth")));
+      MetricPool& pool = pools->by_key[{item.key(), fault, named_pool}];
+      const SlopeSample sample = SampleOfCompareRecord(item.key(), item.value(), roi.at("truth"));
+      pool.slopes.Add(sample);
+      const Json& v = item.value();
+      if (item.key() == kMethodFlight && sample.has_slope && v.contains("slope_sigma_calibration_deg") &&
+          v["slope_sigma_calibration_deg"].is_number() && v["slope_sigma_deg"].is_number() &&
+          v["slope_sigma_deg"].get<double>() > 0.0) {
+        pool.calibration_shares.push_back(v["slope_sigma_calibration_deg"].get<double>() /
+                                          v["slope_sigma_deg"].get<double>());
+      }
       decisions[item.key()].push_back(DecisionOfCompareRecord(item.key(), item.value(), roi, max_slope_deg));
     }
   }
@@ -153,6 +166,11 @@ void AddPoolMetrics(const PoolKey& key, const MetricPool& pool, const StudyWorst
   }
   if (method == kMethodFlight && slopes.count() > 0) add("within_two_sigma_share", slopes.WithinTwoSigmaShare());
   if (method == kMethodFlight && pool.flight_seconds >= 0.0) add("flight_seconds_per_pair", pool.flight_seconds);
+  if (!pool.calibration_shares.empty()) {
+    std::vector<double> shares = pool.calibration_shares;
+    std::sort(shares.begin(), shares.end());
+    add("calibration_sigma_share_p90", util::Quantile(shares, 0.9));
+  }
   const DecisionPool& decisions = pool.decisions;
   if (decisions.sites() > 0) {
     add("decision_sites", decisions.sites());

@@ -918,6 +918,12 @@ struct Plots {
 // The compare record's methods come in its order, so that each keeps its
 // colour when it has no slope.
 std::string PlotSeriesJson(const Json& result, const std::string& kind) {
+  // The sigma the within-two-sigma share uses: the method's, with the
+  // calibration's term in quadrature where the record has one.
+  const auto sigma_of = [](const Json& record) -> const Json& {
+    const Json& combined = Member(record, "slope_sigma_combined_deg");
+    return IsNumber(combined) ? combined : Member(record, "slope_sigma_deg");
+  };
   const auto sample = [](const Json& roi_id, const Json& slope, const Json& truth_deg, const Json& sigma,
                          int num_points, bool counts) {
     return Json{{"roi", roi_id},
@@ -946,7 +952,7 @@ std::string PlotSeriesJson(const Json& result, const std::string& kind) {
         } catch (const Json::exception&) {  // a method entry without its status or count: not counted
         }
         samples[item.key()].push_back(sample(Member(roi, "id"), Member(v, "slope_deg"), Member(truth, "slope_deg"),
-                                             Member(v, "slope_sigma_deg"), IntOr(Member(v, "num_points"), 0),
+                                             sigma_of(v), IntOr(Member(v, "num_points"), 0),
                                              counts));
       }
     }
@@ -961,7 +967,7 @@ std::string PlotSeriesJson(const Json& result, const std::string& kind) {
       const Json& truth = Member(roi, "truth");
       flight.push_back(sample(Member(roi, "id"), Member(fit, "slope_deg"),
                               Member(truth, "available") == true ? Member(truth, "slope_deg") : Json(nullptr),
-                              Member(fit, "slope_sigma_deg"),
+                              sigma_of(fit),
                               IntOr(Member(Member(roi, "counts"), "depth_inliers"), 0),
                               SampleOfFlightRecord(roi).Counts()));
     }

@@ -239,6 +239,45 @@ def plot_error_vs_sigma(plots, series, colours):
                "the points under the 2-sigma line.")
 
 
+def plot_calibration_check(plots, check):
+    """The calibration check of a run (hdabench run --calibration-check):
+    each ROI's slope spread over the re-solved calibrations against its
+    predicted calibration sigma."""
+    if not check or not check.get("rois"):
+        return
+    fixed = [(r["predicted_slope_deg"], r["fixed_slope_rms_deg"]) for r in check["rois"]
+             if finite(r.get("predicted_slope_deg")) and finite(r.get("fixed_slope_rms_deg"))
+             and r["predicted_slope_deg"] > 0 and r["fixed_slope_rms_deg"] > 0]
+    rerun = [(r["predicted_slope_deg"], r["rerun_slope_rms_deg"]) for r in check["rois"]
+             if finite(r.get("predicted_slope_deg")) and finite(r.get("rerun_slope_rms_deg"))
+             and r["predicted_slope_deg"] > 0 and r["rerun_slope_rms_deg"] > 0]
+    if not fixed and not rerun:
+        return
+    fig, ax = new_axes()
+    values = [v for pair in fixed + rerun for v in pair]
+    low, high = min(values) / 1.5, max(values) * 1.5
+    ax.plot([low, high], [low, high], color="black", linewidth=1.0, label="empirical = predicted")
+    for factor, style in ((0.8, ":"), (1.25, ":")):
+        ax.plot([low, high], [low * factor, high * factor], color="grey", linewidth=1.0, linestyle=style)
+    if fixed:
+        ax.scatter([p for p, _ in fixed], [e for _, e in fixed], s=14, color="tab:blue",
+                   label="matches fixed")
+    if rerun:
+        ax.scatter([p for p, _ in rerun], [e for _, e in rerun], s=14, marker="x", color="tab:orange",
+                   label="method re-run")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(low, high)
+    ax.set_ylim(low, high)
+    ax.set_xlabel("predicted calibration slope sigma (deg)")
+    ax.set_ylabel("slope RMS over the re-solved calibrations (deg)")
+    ax.grid(True, alpha=0.3, which="both")
+    ax.legend(fontsize=8, loc="best")
+    plots.save(fig, "calibration_check.png", "Calibration sigma against the re-solved spread",
+               f"Each ROI's slope spread over {check.get('solved')} re-solves of the calibration "
+               f"against its predicted calibration sigma; dotted lines at 0.8 and 1.25 times.")
+
+
 STAGES = [("convert_s", "convert"), ("quadtree_s", "quadtree"), ("prediction_s", "prediction"),
           ("matching_s", "matching"), ("rejection_s", "rejection"), ("plane_s", "plane fit"),
           ("ranking_s", "ranking"), ("total_s", "total")]
@@ -317,6 +356,8 @@ def main(argv):
     plot_error_vs_sigma(plots, series, colours)
     plot_stage_timings(plots, timings)
     plot_method_timings(plots, compare_timings, colours)
+    if kind == "run":
+        plot_calibration_check(plots, read_json_if_present(os.path.join(run_dir, "calibration_check.json")))
     with open(os.path.join(out_dir, "plots.json"), "w", encoding="utf-8") as f:
         json.dump(plots.written, f, indent=1)
     return 0

@@ -399,6 +399,50 @@ TEST(CalibrationAnalysis, AModelWithoutOptimizationInputsIsAnInputError) {
   EXPECT_LT(diff.max_px, 1e-3);
 }
 
+// The calibration's modes (calib/intrinsics_modes.h) are about the model's
+// own intrinsics, at most one per intrinsic, and hold the compensated
+// variance they promise; a model without optimization_inputs has none.
+TEST(IntrinsicsModes, ACalibrationGivesItsModesAndABareModelNone) {
+  const fs::path calibration = Calibration({"left"});
+  const std::string path = Model(calibration, 0);
+  const CameraModel model = CameraModel::Load(path);
+  EXPECT_TRUE(ModelHasOptimizationInputs(path));
+  const IntrinsicsModes modes = ComputeIntrinsicsModes(path);
+  EXPECT_EQ(modes.model, path);
+  EXPECT_EQ(modes.lensmodel, model.LensModelName());
+  EXPECT_EQ(modes.intrinsics, model.Intrinsics());
+  ASSERT_GE(modes.modes.size(), 1u);
+  EXPECT_LE(modes.modes.size(), model.Intrinsics().size());
+  EXPECT_GE(modes.variance_kept, 0.999);
+  EXPECT_GT(modes.noise_stdev_px, 0.0);
+  EXPECT_GT(modes.imager_worst_stdev_median_px, 0.0);
+  EXPECT_GT(modes.compensated_worst_stdev_median_px, 0.0);
+  for (const IntrinsicsMode& mode : modes.modes) {
+    EXPECT_EQ(mode.intrinsics_delta.size(), model.Intrinsics().size());
+    EXPECT_GT(mode.projection_rms_px, 0.0);
+    EXPECT_TRUE(mode.rotation_rad.allFinite());
+  }
+  // The same model, the same modes.
+  const IntrinsicsModes again = ComputeIntrinsicsModes(path);
+  ASSERT_EQ(again.modes.size(), modes.modes.size());
+  for (size_t k = 0; k < modes.modes.size(); ++k) {
+    EXPECT_EQ(again.modes[k].intrinsics_delta, modes.modes[k].intrinsics_delta);
+  }
+
+  const fs::path dir = FreshTestDir();
+  const std::string bare = (dir / "bare.cameramodel").string();
+  model.Save(bare);
+  EXPECT_FALSE(ModelHasOptimizationInputs(bare));
+  EXPECT_FALSE(ModelHasOptimizationInputs((dir / "missing.cameramodel").string()));
+  try {
+    ComputeIntrinsicsModes(bare);
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(bare), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("optimization_inputs"), std::string::npos) << e.what();
+  }
+}
+
 TEST(CalibrationAnalysis, AMissingModelIsAnInputError) {
   const fs::path dir = FreshTestDir();
   const std::string missing = (dir / "missing.cameramodel").string();

@@ -265,17 +265,19 @@ TEST(FlightOutputs, RoisCsvHasAHeaderAndOneRowPerRoi) {
   EXPECT_EQ(lines[0],
             "id,status,x1,y1,w1,h1,x2,y2,w2,h2,order,keypoints1,keypoints2,matches,ransac_inliers,"
             "epipolar_inliers,triangulated,depth_inliers,slope_deg,slope_sigma_deg,roughness_rms_m,"
-            "roughness_excess_m,area_m2,score,rank,truth_slope_deg,slope_error_deg,tilt_error_deg");
+            "roughness_excess_m,area_m2,score,rank,truth_slope_deg,slope_error_deg,tilt_error_deg,"
+            "slope_sigma_calibration_deg,slope_sigma_combined_deg");
   for (const std::string& line : lines) {
-    EXPECT_EQ(std::count(line.begin(), line.end(), ','), 27) << line;
+    EXPECT_EQ(std::count(line.begin(), line.end(), ','), 29) << line;
   }
   // ROI 1's normal (0, 0.0436, 0.999) is 2.499 deg from the vertical, toward
   // the truth's tilt of 2 deg: a tilt error of 0.499 deg.
   EXPECT_EQ(lines[1], "1,evaluated,4,6,16,16,20,2,32,30,1,40,90,30,26,25,25,25,2.5,0.4,0.08,0.0625,"
-                      "110.0,0.75,1,2.0,0.5,0.49901071024847216");
-  EXPECT_EQ(lines[2], "2,not in image 2,40,40,16,16,,,,,3,0,0,0,0,0,0,0,,,,,,,,,,");
-  // The infinite sigma is an empty cell.
-  EXPECT_EQ(lines[3], "3,degenerate,40,4,16,16,30,0,30,28,2,0,0,3,3,0,0,3,26.5,,0.0,0.0,0.0,,,1.0,25.5,1.0");
+                      "110.0,0.75,1,2.0,0.5,0.49901071024847216,,0.4");
+  EXPECT_EQ(lines[2], "2,not in image 2,40,40,16,16,,,,,3,0,0,0,0,0,0,0,,,,,,,,,,,,");
+  // The infinite sigma is an empty cell; without a calibration term the
+  // combined sigma is the method's.
+  EXPECT_EQ(lines[3], "3,degenerate,40,4,16,16,30,0,30,28,2,0,0,3,3,0,0,3,26.5,,0.0,0.0,0.0,,,1.0,25.5,1.0,,");
 }
 
 // The tilt error sees the direction of the tilt, which the difference of

@@ -93,6 +93,15 @@ TEST(Calibrate, RealLeftImagesAllUsedFocalMatchesUpstreamAndTheModelLoadsInTheBe
   const double rms = analysis["cameras"][0]["residuals"]["rms_px"].get<double>();
   EXPECT_LT(rms, 0.5);
   EXPECT_GT(rms, 0.0);
+  // How good the calibration must be: the band's uncertainty scaled by a
+  // tenth of the method's sigma over the calibration's slope RMS, per degree
+  // of that sigma (none given here).
+  const Json& requirement = summary["requirements"][0];
+  const double band = analysis["cameras"][0]["uncertainty"]["band_median_px"].get<double>();
+  const double slope = analysis["cameras"][0]["slope_error"]["rms_deg"].get<double>();
+  EXPECT_DOUBLE_EQ(requirement["allowed_band_median_px_per_method_sigma_deg"].get<double>(), band * 0.1 / slope);
+  EXPECT_TRUE(requirement["allowed_band_median_px"].is_null());
+  EXPECT_NE(run.out.find("px per degree of S (median; it is"), std::string::npos) << run.out;
 
   const hdabench::calib::CameraModel model =
       hdabench::calib::CameraModel::Load((dir / "cal/camera-0.cameramodel").string());
@@ -165,6 +174,26 @@ TEST(Calibrate, TheSameImagesGiveTheSameModelAndAnalysisTwice) {
   EXPECT_FALSE(models[0].empty());
   EXPECT_TRUE(models[0] == models[1]) << "the two models differ";
   EXPECT_TRUE(analyses[0] == analyses[1]) << "the two analysis.json differ";
+}
+
+// An output folder given relative to the working folder: mrcal runs in a
+// scratch folder of its own, so the paths it is given must not be relative.
+// With the method's sigma given, the requirement is a figure, met or not.
+TEST(Calibrate, ARelativeOutputFolderWorks) {
+  const fs::path dir = FreshTestDir();
+  const fs::path previous = fs::current_path();
+  fs::current_path(dir);
+  std::vector<std::string> args = CalibrateArgs(BoardImages("left"), "cal");
+  args.insert(args.end(), {"--method-sigma-deg", "0.94"});
+  const CommandResult run = RunHdabench(args, dir);
+  fs::current_path(previous);
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const Json requirement = Json::parse(ReadText(dir / "cal/calibration.json"))["requirements"][0];
+  EXPECT_DOUBLE_EQ(requirement["allowed_band_median_px"].get<double>(),
+                   requirement["allowed_band_median_px_per_method_sigma_deg"].get<double>() * 0.94);
+  EXPECT_NE(run.out.find("with S = 0.94 deg, at most "), std::string::npos) << run.out;
+  EXPECT_NO_THROW(hdabench::calib::CameraModel::Load((dir / "cal/camera-0.cameramodel").string()));
+  EXPECT_TRUE(fs::is_regular_file(dir / "cal/analysis.json"));
 }
 
 // Two cameras calibrated together: both models, and their relative pose

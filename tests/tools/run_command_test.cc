@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -546,3 +547,109 @@ TEST(RunCommand, HasHelp) {
 }
 
 }  // namespace
+
+// The calibration's term (docs/calibration.md): a synthetic scene's true
+// camera holds no optimization_inputs, so its slopes carry no term and the
+// outputs say so; the same scene seen through a calibration's own model (the
+// OpenCV sample camera, mrcal's output with its optimization_inputs) gets a
+// calibration sigma per fitted ROI, added in quadrature to the method's.
+TEST(RunCommand, TheCalibrationTermIsThereExactlyWhenTheModelCarriesItsCalibration) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult bare = RunInOwnFolder(
+      {"run", SmallSyntheticDataset().string(), "--out", (dir / "bare").string(), "--quiet", "--no-figures"});
+  ASSERT_EQ(bare.exit_code, 0) << bare.out << bare.err;
+  const nlohmann::json without = nlohmann::json::parse(ReadText(dir / "bare" / "result.json"));
+  EXPECT_EQ(without["calibration_term"]["available"], false);
+  EXPECT_NE(without["calibration_term"]["why"].get<std::string>().find("optimization_inputs"), std::string::npos);
+  EXPECT_NE(bare.out.find("calibration term: none ("), std::string::npos) << bare.out;
+  for (const nlohmann::json& roi : without["rois"]) {
+    if (roi["fit"].is_null()) continue;
+    EXPECT_TRUE(roi["fit"]["slope_sigma_calibration_deg"].is_null());
+    EXPECT_EQ(roi["fit"]["slope_sigma_combined_deg"], roi["fit"]["slope_sigma_deg"]);
+  }
+
+  const fs::path model =
+      fs::path(HDABENCH_SOURCE_DIR) / "tests" / "data" / "opencv-stereo-chessboard" / "mrcal" / "camera-0.cameramodel";
+  const CommandResult synth = RunInOwnFolder({"synth", "--out", (dir / "scene").string(), "--camera-model",
+                                              model.string(), "--frames", "pair", "--quiet"});
+  ASSERT_EQ(synth.exit_code, 0) << synth.out << synth.err;
+  fs::copy_file(model, dir / "scene" / "camera.cameramodel", fs::copy_options::overwrite_existing);
+  const CommandResult calibrated = RunInOwnFolder(
+      {"run", (dir / "scene").string(), "--out", (dir / "calibrated").string(), "--quiet", "--no-figures"});
+  ASSERT_EQ(calibrated.exit_code, 0) << calibrated.out << calibrated.err;
+  const nlohmann::json with = nlohmann::json::parse(ReadText(dir / "calibrated" / "result.json"));
+  const nlohmann::json& term = with["calibration_term"];
+  ASSERT_EQ(term["available"], true) << term.dump();
+  EXPECT_EQ(term["lens_model"], "LENSMODEL_OPENCV8");
+  EXPECT_GE(term["modes"].size(), 1u);
+  EXPECT_LE(term["modes"].size(), 12u);
+  EXPECT_GE(term["variance_kept"].get<double>(), 0.999);
+  EXPECT_NE(calibrated.out.find("calibration term ("), std::string::npos) << calibrated.out;
+  int with_sigma = 0;
+  for (const nlohmann::json& roi : with["rois"]) {
+    if (roi["fit"].is_null()) continue;
+    const nlohmann::json& fit = roi["fit"];
+    if (fit["slope_sigma_calibration_deg"].is_null()) {
+      EXPECT_TRUE(fit.contains("calibration_sigma_why")) << roi.dump();
+      continue;
+    }
+    ++with_sigma;
+    const double method = fit["slope_sigma_deg"].get<double>();
+    const double calibration = fit["slope_sigma_calibration_deg"].get<double>();
+    EXPECT_GE(calibration, 0.0);
+    EXPECT_NEAR(fit["slope_sigma_combined_deg"].get<double>(), std::hypot(method, calibration), 1e-12);
+  }
+  EXPECT_GT(with_sigma, 0);
+  EXPECT_EQ(term["rois_with_sigma"], with_sigma);
+  const std::string csv = ReadText(dir / "calibrated" / "rois.csv");
+  EXPECT_NE(csv.substr(0, csv.find('\n')).find(",slope_sigma_calibration_deg,slope_sigma_combined_deg"),
+            std::string::npos);
+
+  // The check: a few re-solves of the calibration, every ROI with a
+  // prediction in calibration_check.json, and the report's scatter plot.
+  const CommandResult checked =
+      RunInOwnFolder({"run", (dir / "scene").string(), "--out", (dir / "checked").string(), "--quiet",
+                      "--no-figures", "--calibration-check", "6"});
+  ASSERT_EQ(checked.exit_code, 0) << checked.out << checked.err;
+  const nlohmann::json check = nlohmann::json::parse(ReadText(dir / "checked" / "calibration_check.json"));
+  EXPECT_EQ(check["format"], "hdabench-calibration-check");
+  EXPECT_EQ(check["solved"], 6);
+  EXPECT_EQ(static_cast<int>(check["rois"].size()), with_sigma);
+  EXPECT_EQ(check["ratios"]["fixed_slope"]["rois"], with_sigma);
+  // Six re-solves give a rough ratio, but one of the right order.
+  EXPECT_GT(check["ratios"]["fixed_slope"]["median"].get<double>(), 0.3);
+  EXPECT_LT(check["ratios"]["fixed_slope"]["median"].get<double>(), 3.0);
+  EXPECT_NE(checked.out.find("calibration check, 6 of 6 re-solves"), std::string::npos) << checked.out;
+  EXPECT_NE(ReadText(dir / "checked" / "report.md").find("Calibration sigma against the re-solved spread"),
+            std::string::npos);
+  // Without a calibration term the check cannot run: exit 3, the run's outputs kept, no stale check.
+  fs::copy_file(dir / "checked" / "calibration_check.json", dir / "bare" / "calibration_check.json");
+  const CommandResult refused = RunInOwnFolder({"run", SmallSyntheticDataset().string(), "--out",
+                                                (dir / "bare").string(), "--quiet", "--no-figures",
+                                                "--calibration-check", "3"});
+  EXPECT_EQ(refused.exit_code, 3) << refused.out << refused.err;
+  EXPECT_NE(refused.err.find("no calibration term to check"), std::string::npos) << refused.err;
+  EXPECT_TRUE(fs::is_regular_file(dir / "bare" / "result.json"));
+  EXPECT_FALSE(fs::exists(dir / "bare" / "calibration_check.json"));
+}
+
+// Chessboard views through the default camera, for calibrate; a board kept
+// to the imager's top half leaves the rest without a corner.
+TEST(ChessboardCommand, WritesViewsTheCameraAndKeepsToItsRegion) {
+  const fs::path dir = FreshTestDir();
+  const CommandResult run = RunInOwnFolder({"chessboard", "--out", (dir / "views").string(), "--views", "3",
+                                            "--region", "0,1,0,0.5", "--quiet"});
+  ASSERT_EQ(run.exit_code, 0) << run.out << run.err;
+  for (const char* name : {"board-01.png", "board-03.png", "truth.csv", "poses.csv", "true.cameramodel"}) {
+    EXPECT_TRUE(fs::is_regular_file(dir / "views" / name)) << name;
+  }
+  const std::vector<std::string> rows = SplitLines(ReadText(dir / "views" / "truth.csv"));
+  ASSERT_EQ(rows.size(), 1u + 3u * 54u);
+  for (size_t i = 1; i < rows.size(); ++i) {
+    const double y = std::stod(rows[i].substr(rows[i].rfind(',') + 1));
+    EXPECT_LT(y, 0.5 * 1024 - 0.5) << rows[i];
+  }
+  EXPECT_EQ(RunInOwnFolder({"chessboard", "--out", (dir / "bad").string(), "--board", "9by6"}).exit_code, 2);
+  EXPECT_EQ(RunInOwnFolder({"chessboard", "--out", (dir / "bad").string(), "--region", "0,1,0.6,0.5"}).exit_code, 2);
+  EXPECT_EQ(RunInOwnFolder({"chessboard", "--out", (dir / "views").string()}).exit_code, 2);  // in use
+}

@@ -47,6 +47,8 @@ int RunCalibrate(const CalibrateCommandOptions& options, std::ostream& out, std:
   calibrate.analysis.hda.baseline_m = options.hda_baseline_m;
   calibrate.analysis.hda.site_m = options.hda_site_m;
   calibrate.analysis.slope_samples = options.slope_samples;
+  calibrate.slope_share = options.slope_share;
+  calibrate.method_slope_sigma_deg = options.method_sigma_deg;
   calibrate.analysis.seed = options.seed;
   try {
     calibrate.detector = calib::ParseCornerDetector(options.detector);
@@ -192,6 +194,14 @@ Command AddCalibrateCommand(CLI::App& app) {
                         "HDA geometry: baseline between the two images, m")
       ->capture_default_str();
   calibrate->add_option("--hda-site-m", options->hda_site_m, "HDA geometry: landing-site side, m")
+      ->capture_default_str();
+  calibrate->add_option("--method-sigma-deg", options->method_sigma_deg,
+                        "The flight method's own slope sigma S (e.g. the median slope_sigma_deg of a run):\n"
+                        "the verdict states the projection uncertainty the calibration may have for its\n"
+                        "slope term to stay under --slope-share of S (0: stated per degree of S)")
+      ->capture_default_str();
+  calibrate->add_option("--slope-share", options->slope_share,
+                        "The share of the method's slope sigma the calibration's slope term may reach")
       ->capture_default_str();
   calibrate->add_option("--slope-samples", options->slope_samples,
                         "Monte Carlo re-solves behind the slope-error figure")

@@ -36,6 +36,22 @@ std::vector<int> ParseIntList(const std::string& text, std::size_t count, const 
   return values;
 }
 
+std::vector<double> ParseNumberList(const std::string& text, std::size_t count, const std::string& flag,
+                                    const std::string& form) {
+  std::vector<double> values;
+  for (const std::string_view item : util::SplitAtCommas(text)) {
+    double value = 0.0;
+    if (util::ParseDouble(item, &value) != util::ParseStatus::kOk) {
+      throw CLI::ValidationError(flag, "expected " + form + " (numbers), got '" + text + "'");
+    }
+    values.push_back(value);
+  }
+  if (values.size() != count) {
+    throw CLI::ValidationError(flag, "expected " + form + ", got '" + text + "'");
+  }
+  return values;
+}
+
 CLI::Validator NonNegativeWhole() {
   return CLI::Validator(
       [](std::string& text) -> std::string {

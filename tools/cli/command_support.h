@@ -41,6 +41,10 @@ CLI::Validator NonNegativeWhole();
 std::vector<int> ParseIntList(const std::string& text, std::size_t count, const std::string& flag,
                               const std::string& form);
 
+// The same for numbers "a,b,..." (finite decimals).
+std::vector<double> ParseNumberList(const std::string& text, std::size_t count, const std::string& flag,
+                                    const std::string& form);
+
 // The --frames flag's "i,j" as a pair (ParseIntList); nothing when `text` is
 // empty, i.e. the flag was not given.
 std::optional<std::pair<int, int>> ParseFramesFlag(const std::string& text);

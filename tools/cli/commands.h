@@ -70,6 +70,11 @@ struct RunFlightOptions {
   bool figures = true;                        // write figures/ (PNG)
   bool report = true;                         // write report.html and report.md (docs/report.md)
   bool quiet = false;                         // no progress lines on err
+  // --calibration-check N: re-solve the dataset's calibration N times and set
+  // each ROI's slope spread beside its predicted calibration sigma
+  // (reference/flight/calibration_check.h); 0: no check.
+  int calibration_check_samples = 0;
+  std::uint64_t calibration_check_seed = 1;
 };
 // hdabench run: the flight method on two frames of a dataset, its outputs
 // written into out_dir (docs/flight-results.md) and the report with the
@@ -248,6 +253,8 @@ struct CalibrateCommandOptions {
   double hda_baseline_m = 30.0;
   double hda_site_m = 10.0;
   int slope_samples = 30;                // Monte Carlo re-solves for that figure
+  double slope_share = 0.1;              // the calibration's slope term under this share of...
+  double method_sigma_deg = 0.0;         // ...the flight method's own slope sigma (0: not given)
   std::uint64_t seed = 1;                // of the Monte Carlo noise
   bool quiet = false;                    // no progress lines
 };

@@ -1,20 +1,24 @@
 // `hdabench run`: load a dataset, run the flight method on two of its frames,
 // write the outputs (reference/flight/flight_outputs.h, docs/flight-results.md) and
 // print the report.
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/core/utility.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/files.h"
 #include "tools/util/text.h"
 #include "datasets/dataset.h"
 #include "hda/hda_options.h"
 #include "hda/pipeline.h"
+#include "reference/flight/calibration_check.h"
 #include "reference/flight/flight_outputs.h"
 #include "reference/flight/flight_run.h"
 #include "tools/cli/command_line.h"
@@ -76,11 +80,39 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   out << "wrote " << written.size() << " files to " << options.out_dir
       << " (result.json, timings.json, rois.csv, points/"
       << (options.figures ? ", figures/" : "") << ")\n";
+  // After the outputs: a check that cannot run loses nothing of the run. An
+  // earlier run's check never stays beside this run's results.
+  int check_code = kExitOk;
+  const std::filesystem::path check_path = std::filesystem::path(options.out_dir) / "calibration_check.json";
+  std::error_code removed;
+  std::filesystem::remove(check_path, removed);
+  if (options.calibration_check_samples > 0 && !run.calibration.available) {
+    err << "hdabench run: --calibration-check: no calibration term to check: " << run.calibration.why << "\n";
+    check_code = kExitInput;
+  } else if (options.calibration_check_samples > 0) {
+    progress("calibration check: " + std::to_string(options.calibration_check_samples) +
+             " re-solves of " + run.calibration.model_file);
+    try {
+      const reference::CalibrationCheck check = reference::CheckCalibrationTerm(
+          dataset, run, options.calibration_check_samples, options.calibration_check_seed,
+          [&](int done, int samples) {
+            progress("calibration check: re-solve " + std::to_string(done) + " of " + std::to_string(samples));
+          });
+      util::WriteFileAtomically(check_path, reference::CalibrationCheckJson(check));
+      out << reference::CalibrationCheckLine(check) << "\n";
+    } catch (const InputError& e) {
+      err << "hdabench run: --calibration-check: " << e.what() << "\n";
+      check_code = kExitInput;
+    } catch (const ExternalError& e) {
+      err << "hdabench run: --calibration-check: " << e.what() << "\n";
+      check_code = kExitExternal;
+    }
+  }
   // The report never changes the exit code: a problem is a warning line.
   if (options.report) {
     WriteReportAfterCommand(options.out_dir, options.dataset_dir, "run", options.quiet, out, err);
   }
-  return kExitOk;
+  return check_code;
 }
 
 namespace {
@@ -154,6 +186,16 @@ Command AddRunCommand(CLI::App& app) {
       ->allow_extra_args(false);
   run->add_option("--params", args->options.params_file, kParamsHelp);
   run->add_option("--set", args->options.hda_sets, kSetHelp)->allow_extra_args(false);
+  run->add_option("--calibration-check", args->options.calibration_check_samples,
+                  "Re-solve the dataset's calibration (a .cameramodel with mrcal's\n"
+                  "optimization_inputs) N times, run the method with each re-solved model and\n"
+                  "write calibration_check.json: each ROI's slope spread beside its predicted\n"
+                  "calibration sigma (0: no check)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  run->add_option("--calibration-seed", args->options.calibration_check_seed,
+                  "Seed of the corner noise of --calibration-check's re-solves")
+      ->capture_default_str();
   run->add_flag("--no-figures", args->no_figures, "Do not write figures/");
   run->add_flag("--no-report", args->no_report, "Do not write report.html and report.md");
   run->add_flag("--quiet", args->options.quiet, "No progress lines");

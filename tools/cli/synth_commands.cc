@@ -17,11 +17,13 @@
 #include <nlohmann/json.hpp>
 
 #include "tools/util/error.h"
+#include "tools/util/options_check.h"
 #include "tools/util/parallel_for.h"
 #include "tools/util/text.h"
 #include "calib/camera_model.h"
 #include "datasets/dataset.h"
 #include "datasets/faults.h"
+#include "datasets/synth/chessboard.h"
 #include "datasets/synth/synth.h"
 #include "datasets/synth/truth.h"
 #include "tools/cli/command_line.h"
@@ -303,9 +305,101 @@ Command AddTruthCommand(CLI::App& app) {
 
 }  // namespace
 
-// synth, then truth.
+// What `chessboard` parses into.
+struct ChessboardArgs {
+  std::string out_dir;
+  std::string preset = "novac-lateral";
+  std::string camera_model_file;
+  std::string board_text = "9x6";
+  std::string region_text = "0,1,0,1";
+  synth::ChessboardBoard board;
+  synth::ChessboardViewsOptions views;
+  bool quiet = false;
+};
+
+// Renders the views and writes them with the camera they were seen through.
+int RunChessboard(ChessboardArgs& args, std::ostream& out, std::ostream& err) {
+  std::error_code ec;
+  if (fs::exists(args.out_dir, ec) && (!fs::is_directory(args.out_dir, ec) || !fs::is_empty(args.out_dir, ec))) {
+    err << "hdabench chessboard: " << args.out_dir << " already exists and is not an empty folder; choose a new --out\n";
+    return kExitUsage;
+  }
+  std::optional<calib::CameraModel> camera;
+  if (!ParseBoardSize(args.board_text, &args.board.corners_x, &args.board.corners_y)) {
+    err << "hdabench chessboard: --board " << args.board_text << ": expected WxH, inner corners per row x rows\n";
+    return kExitUsage;
+  }
+  try {
+    const std::vector<double> region = ParseNumberList(args.region_text, 4, "--region", "x0,x1,y0,y1");
+    args.views.region_x0 = region[0];
+    args.views.region_x1 = region[1];
+    args.views.region_y0 = region[2];
+    args.views.region_y1 = region[3];
+    if (args.camera_model_file.empty()) {
+      const synth::SynthOptions preset = synth::SynthPreset(args.preset);
+      camera.emplace(synth::DefaultSynthCamera(preset.image_size_px, preset.horizontal_fov_deg));
+    }
+    ThrowIfInvalid("chessboard: ", args.board.Validate());
+    ThrowIfInvalid("chessboard: ", args.views.Validate());
+  } catch (const InputError& e) {
+    err << "hdabench chessboard: " << e.what() << "\n";
+    return kExitUsage;
+  }
+  try {
+    if (!camera) camera.emplace(calib::CameraModel::Load(args.camera_model_file));
+    if (!args.quiet) {
+      err << "hdabench chessboard: rendering " << args.views.views << " views through " << camera->LensModelName()
+          << " " << camera->WidthPx() << " x " << camera->HeightPx() << "\n";
+    }
+    const std::vector<synth::ChessboardView> views = synth::RenderChessboardViews(*camera, args.board, args.views);
+    synth::WriteChessboardViews(views, args.out_dir, "board-");
+    camera->Save((fs::path(args.out_dir) / "true.cameramodel").string());
+  } catch (const InputError& e) {
+    err << "hdabench chessboard: " << e.what() << "\n";
+    return kExitInput;
+  }
+  out << "wrote " << args.views.views << " views to " << args.out_dir
+      << " (board-NN.png, truth.csv, poses.csv, true.cameramodel); calibrate them with hdabench calibrate "
+      << args.out_dir << "/board-*.png --board " << args.board.corners_x << "x" << args.board.corners_y
+      << " --spacing " << util::ShortestText(args.board.spacing_m) << "\n";
+  return kExitOk;
+}
+
+// chessboard: synthetic chessboard views through a camera, for calibrate.
+Command AddChessboardCommand(CLI::App& app) {
+  const auto args = std::make_shared<ChessboardArgs>();
+  CLI::App* c = app.add_subcommand(
+      "chessboard",
+      "Render chessboard views through a camera (default: a preset's synthetic camera) for calibrate\n"
+      "(docs/calibration.md)");
+  c->add_option("--out", args->out_dir, "Folder to create (must not exist, or be empty)")->required();
+  c->add_option("--preset", args->preset, "The preset whose default camera sees the board")->capture_default_str();
+  c->add_option("--camera-model", args->camera_model_file, "A .cameramodel to see the board through instead");
+  c->add_option("--board", args->board_text, "Inner corners per row x rows")->capture_default_str();
+  c->add_option("--spacing", args->board.spacing_m, "Distance between neighbouring corners, metres")
+      ->capture_default_str();
+  c->add_option("--views", args->views.views, "Number of views")->capture_default_str();
+  AddSeedOption(c, &args->views.seed, "Seed of the poses and the noise: same seed, same bytes");
+  c->add_option("--coverage", args->views.coverage,
+                "How far toward the imager's corners and edges the boards reach, (0, 1]: 1 the whole\n"
+                "imager, less a poorer set")
+      ->capture_default_str();
+  c->add_option("--region", args->region_text,
+                "The part of the imager the boards stay in, x0,x1,y0,y1 as fractions of its width and\n"
+                "height (y from the top); the rest sees no board")
+      ->capture_default_str();
+  c->add_option("--noise", args->views.noise_sigma, "Gaussian noise, grey levels")->capture_default_str();
+  c->add_option("--blur-px", args->views.blur_sigma_px, "Gaussian blur of the optics, pixels")->capture_default_str();
+  c->add_option("--threads", args->views.threads, "Render workers (0: every core); output does not depend on it")
+      ->check(NonNegativeWhole())
+      ->capture_default_str();
+  c->add_flag("--quiet", args->quiet, "No progress lines");
+  return {c, [args] { return RunChessboard(*args, std::cout, std::cerr); }};
+}
+
+// synth, then truth and chessboard.
 std::vector<Command> AddSynthCommands(CLI::App& app) {
-  return {AddSynthCommand(app), AddTruthCommand(app)};
+  return {AddSynthCommand(app), AddTruthCommand(app), AddChessboardCommand(app)};
 }
 
 }  // namespace hdabench::tools

@@ -26,6 +26,7 @@ std::vector<MethodRoi> FlightRois(const FlightRun& flight, const PairContext& ct
     roi.roughness_max_m = r.roughness_max_m;
     roi.has_sigma = r.has_fit && std::isfinite(r.slope_sigma_deg);
     roi.slope_sigma_deg = r.slope_sigma_deg;
+    roi.slope_sigma_calibration_deg = flight.calibration.SlopeSigmaDeg(i);
     roi.wall_s = r.wall_s;
     if (ctx.dataset().truth.dem.has_value() && !r.points_in_local_m.empty()) {
       roi.accuracy = ComputePointAccuracy(r.points_in_local_m, *ctx.dataset().truth.dem);

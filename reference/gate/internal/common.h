@@ -84,7 +84,7 @@ inline const std::vector<std::string>& MetricNames() {
       "observability_p95_deg",  "observability_median_deg", "observability_sigma_ratio",
       "decision_sites",         "truly_unsafe_share",    "false_safe_rate",
       "false_safe_upper_95",    "missed_safe_rate",      "unsafe_caught_rate",
-      "top_site_unsafe_share"};
+      "top_site_unsafe_share",  "calibration_sigma_share_p90"};
   return names;
 }
 

@@ -482,6 +482,7 @@ ProjectionDiff ReadDiff(const fs::path& json_path, bool with_uncertainty) {
   d.p90_px = r.Number(j, "p90_px", "p90_px");
   d.max_px = r.Number(j, "max_px", "max_px");
   d.rotation_deg = r.Number(j, "rotation_deg", "rotation_deg");
+  d.rotation_rad = r.Vector3(j, "rotation_rad", "rotation_rad");
   d.points = r.Integer(j, "points", "points");
   const Json& grid = r.Array(j, "grid", "grid");
   if (grid.size() != 2) r.Fail("grid", "expected [width, height]");

@@ -251,6 +251,7 @@ struct ProjectionDiff {
   double p90_px = 0;
   double max_px = 0;
   double rotation_deg = 0;  // size of the implied rotation the fit took out
+  Eigen::Vector3d rotation_rad = Eigen::Vector3d::Zero();  // the rotation itself (Rodrigues, A's frame -> B's)
   int grid_width = 0;
   int grid_height = 0;
   int points = 0;  // grid points with a finite difference

@@ -1107,7 +1107,8 @@ def relative_pose(model0, model1):
     }
 
 
-def analyse(args):
+def analysis_settings(args):
+    '''The HDA geometry and band of the arguments, checked: (geometry, band).'''
     geometry = {'range_m': args.range_m, 'baseline_m': args.baseline_m, 'site_m': args.site_m}
     band = {'x0': args.band_x0, 'x1': args.band_x1, 'y0': args.band_y0, 'y1': args.band_y1}
     problems = []
@@ -1122,103 +1123,117 @@ def analyse(args):
         problems.append(f'samples = {args.samples}: expected >= 0')
     if problems:
         raise InputProblem('; '.join(problems))
+    return geometry, band
 
-    models = []
-    for path in args.models:
-        model = load_model(path, need_optimization_inputs=True)
-        _model_paths[id(model)] = path
-        models.append(model)
 
-    json_path = args.json
-    resolved = {}  # solve fingerprint -> Monte Carlo re-solves
-    cameras = []
-    for index, (path, model) in enumerate(zip(args.models, models)):
-        oi = model.optimization_inputs()
-        width, height = (int(v) for v in model.imagersize())
-        lensmodel, intrinsics = model.intrinsics()
-        band_px = band_pixels(width, height, band)
-        name = f'camera-{index}'
-        x, residuals_px = board_residuals_px(oi)
-        residuals = residual_summary(model, oi, x, residuals_px)
+def own_corners(model, oi):
+    '''The inlier and outlier corners (pixels) of the model's own camera.'''
+    icam = model.icam_intrinsics()
+    mine = oi['indices_frame_camintrinsics_camextrinsics'][:, 1] == icam
+    _, inlier, outlier = corner_masks(oi['observations_board'])
+    return (oi['observations_board'][inlier & mine[:, None, None]][:, :2],
+            oi['observations_board'][outlier & mine[:, None, None]][:, :2])
 
-        icam = model.icam_intrinsics()
-        mine = oi['indices_frame_camintrinsics_camextrinsics'][:, 1] == icam
-        _, inlier, outlier = corner_masks(oi['observations_board'])
-        own_inliers = oi['observations_board'][inlier & mine[:, None, None]][:, :2]
-        own_outliers = oi['observations_board'][outlier & mine[:, None, None]][:, :2]
-        coverage = coverage_summary(own_inliers, width, height, band)
-        coverage_png = os.path.join(args.figures, f'coverage-{name}.png')
-        coverage_figure(coverage_png, own_inliers, own_outliers, width, height, band_px,
-                        f'{name}: observed corners, {COVERAGE_CELLS} x {COVERAGE_CELLS} cells, '
-                        f'{coverage["share"] * 100:.0f} % covered')
-        coverage['figure'] = relative_to(coverage_png, json_path)
 
-        # The imager-wide uncertainty grid: heat map, rotation-fit weights of
-        # the OpenCV diff and of the Monte Carlo.
-        gridn_width, gridn_height = imager_grid(width, height)
-        imager_v, imager_q = mrcal.sample_imager_unproject(gridn_width, gridn_height, width, height,
-                                                           lensmodel, intrinsics, normalize=True)
-        imager_stdev = None
-        try:
-            imager_stdev = mrcal.projection_uncertainty(imager_v, model, atinfinity=True,
-                                                        what='worstdirection-stdev')
-            uncertainty = uncertainty_summary(model, band_px, imager_q, imager_stdev)
-            uncertainty['error'] = None
-            uncertainty_png = os.path.join(args.figures, f'uncertainty-{name}.png')
-            heat_map_figure(uncertainty_png, imager_stdev, width, height, band_px,
-                            f'{name}: projection uncertainty at infinity '
-                            f'(worst direction, 1 sigma)',
-                            'stdev (px), log scale', log_scale=True, points=own_inliers)
-            uncertainty['figure'] = relative_to(uncertainty_png, json_path)
-        except Exception as e:
-            uncertainty = {'error': f'mrcal.projection_uncertainty: {one_line(e)}'}
+def camera_coverage(name, inliers, outliers, width, height, band, band_px, args):
+    coverage = coverage_summary(inliers, width, height, band)
+    coverage_png = os.path.join(args.figures, f'coverage-{name}.png')
+    coverage_figure(coverage_png, inliers, outliers, width, height, band_px,
+                    f'{name}: observed corners, {COVERAGE_CELLS} x {COVERAGE_CELLS} cells, '
+                    f'{coverage["share"] * 100:.0f} % covered')
+    coverage['figure'] = relative_to(coverage_png, args.json)
+    return coverage
 
-        if args.samples == 0:
-            slope = {'error': 'skipped (0 samples asked for)', 'samples': 0, 'ok': 0, 'failed': 0}
-        elif imager_stdev is None:
-            slope = {'error': 'needs the projection uncertainty (for the rotation fit), '
-                              'which failed',
-                     'samples': args.samples, 'ok': 0, 'failed': 0}
-        else:
-            # The noise level of the whole solve, as mrcal's uncertainty
-            # propagation takes it: the stdev of every inlier residual
-            # coordinate (weighted, as the solver sees them).
-            solve_noise = float(np.std(mrcal.residuals_chessboard(oi, residuals=x).ravel()))
-            key = solve_fingerprint(oi)
-            if key not in resolved:
-                resolved[key] = resolve_samples(oi, solve_noise, args.samples, args.seed)
-            try:
-                slope = slope_summary(model, resolved[key], band_px, geometry, imager_q, imager_v,
-                                      imager_stdev, solve_noise, args.seed)
-                slope['mrcal_band_centre_stdev_px'] = uncertainty.get('band_centre_px')
-            except Exception as e:
-                slope = {'error': f'slope Monte Carlo: {one_line(e)}', 'samples': args.samples,
-                         'ok': 0, 'failed': args.samples}
 
-        try:
-            opencv = opencv_cross_check(
-                model, oi, os.path.join(args.opencv_dir, f'{name}.cameramodel'), json_path,
-                os.path.join(args.figures, f'opencv-diff-{name}.png'), band_px, imager_stdev,
-                f'{name}: projection difference mrcal vs OpenCV, after the implied rotation')
-        except Exception as e:
-            opencv = {'error': f'OpenCV cross-check: {one_line(e)}'}
+def camera_uncertainty(name, model, band_px, imager_v, imager_q, inliers, args):
+    '''mrcal's projection uncertainty over the imager grid (the heat map, and
+    the weights of the rotation fits): (summary, stdev grid or None).'''
+    width, height = (int(v) for v in model.imagersize())
+    try:
+        imager_stdev = mrcal.projection_uncertainty(imager_v, model, atinfinity=True,
+                                                    what='worstdirection-stdev')
+        uncertainty = uncertainty_summary(model, band_px, imager_q, imager_stdev)
+        uncertainty['error'] = None
+        uncertainty_png = os.path.join(args.figures, f'uncertainty-{name}.png')
+        heat_map_figure(uncertainty_png, imager_stdev, width, height, band_px,
+                        f'{name}: projection uncertainty at infinity '
+                        f'(worst direction, 1 sigma)',
+                        'stdev (px), log scale', log_scale=True, points=inliers)
+        uncertainty['figure'] = relative_to(uncertainty_png, args.json)
+        return uncertainty, imager_stdev
+    except Exception as e:
+        return {'error': f'mrcal.projection_uncertainty: {one_line(e)}'}, None
 
-        cameras.append({
-            'index': index,
-            'name': name,
-            'model': path,
-            'icam_intrinsics': int(icam),
-            'lensmodel': lensmodel,
-            'imager_size': [width, height],
-            'band_px': band_px,
-            'residuals': residuals,
-            'coverage': coverage,
-            'uncertainty': uncertainty,
-            'slope_error': slope,
-            'opencv': opencv,
-        })
 
-    relative_poses = []
+def camera_slope(model, oi, x, band_px, geometry, imager_q, imager_v, imager_stdev, uncertainty,
+                 args, resolved):
+    '''The slope Monte Carlo of one camera; the re-solves are shared by the
+    cameras of one joint solve (`resolved`, by solve fingerprint).'''
+    if args.samples == 0:
+        return {'error': 'skipped (0 samples asked for)', 'samples': 0, 'ok': 0, 'failed': 0}
+    if imager_stdev is None:
+        return {'error': 'needs the projection uncertainty (for the rotation fit), which failed',
+                'samples': args.samples, 'ok': 0, 'failed': 0}
+    # The noise level of the whole solve, as mrcal's uncertainty propagation
+    # takes it: the stdev of every inlier residual coordinate (weighted, as
+    # the solver sees them).
+    solve_noise = float(np.std(mrcal.residuals_chessboard(oi, residuals=x).ravel()))
+    key = solve_fingerprint(oi)
+    if key not in resolved:
+        resolved[key] = resolve_samples(oi, solve_noise, args.samples, args.seed)
+    try:
+        slope = slope_summary(model, resolved[key], band_px, geometry, imager_q, imager_v,
+                              imager_stdev, solve_noise, args.seed)
+        slope['mrcal_band_centre_stdev_px'] = uncertainty.get('band_centre_px')
+        return slope
+    except Exception as e:
+        return {'error': f'slope Monte Carlo: {one_line(e)}', 'samples': args.samples,
+                'ok': 0, 'failed': args.samples}
+
+
+def camera_record(index, path, model, geometry, band, args, resolved):
+    '''Everything the analysis says of one camera.'''
+    oi = model.optimization_inputs()
+    width, height = (int(v) for v in model.imagersize())
+    lensmodel, intrinsics = model.intrinsics()
+    band_px = band_pixels(width, height, band)
+    name = f'camera-{index}'
+    x, residuals_px = board_residuals_px(oi)
+    inliers, outliers = own_corners(model, oi)
+    # The imager-wide grid: heat map, rotation-fit weights of the OpenCV
+    # diff and of the Monte Carlo.
+    gridn_width, gridn_height = imager_grid(width, height)
+    imager_v, imager_q = mrcal.sample_imager_unproject(gridn_width, gridn_height, width, height,
+                                                       lensmodel, intrinsics, normalize=True)
+    record = {
+        'index': index,
+        'name': name,
+        'model': path,
+        'icam_intrinsics': int(model.icam_intrinsics()),
+        'lensmodel': lensmodel,
+        'imager_size': [width, height],
+        'band_px': band_px,
+        'residuals': residual_summary(model, oi, x, residuals_px),
+        'coverage': camera_coverage(name, inliers, outliers, width, height, band, band_px, args),
+    }
+    uncertainty, imager_stdev = camera_uncertainty(name, model, band_px, imager_v, imager_q,
+                                                   inliers, args)
+    record['uncertainty'] = uncertainty
+    record['slope_error'] = camera_slope(model, oi, x, band_px, geometry, imager_q, imager_v,
+                                         imager_stdev, uncertainty, args, resolved)
+    try:
+        record['opencv'] = opencv_cross_check(
+            model, oi, os.path.join(args.opencv_dir, f'{name}.cameramodel'), args.json,
+            os.path.join(args.figures, f'opencv-diff-{name}.png'), band_px, imager_stdev,
+            f'{name}: projection difference mrcal vs OpenCV, after the implied rotation')
+    except Exception as e:
+        record['opencv'] = {'error': f'OpenCV cross-check: {one_line(e)}'}
+    return record
+
+
+def relative_poses(models):
+    '''Cameras 1.. relative to camera 0, where they come from one solve.'''
+    poses = []
     for index in range(1, len(models)):
         same_solve = solve_fingerprint(models[0].optimization_inputs()) == \
             solve_fingerprint(models[index].optimization_inputs())
@@ -1228,9 +1243,35 @@ def analyse(args):
         else:
             entry['note'] = \
                 'the models come from different solves: their extrinsics are not related'
-        relative_poses.append(entry)
+        poses.append(entry)
+    return poses
 
-    record = {
+
+ANALYSIS_DEFINITIONS = {
+    'rms_px': 'sqrt(mean(dx^2 + dy^2)) over the camera\'s inlier corners: per corner',
+    'mrcal_rms_px': 'mrcal-calibrate-cameras\' printed RMS: sqrt(mean(x^2)) over the joint '
+                    'solve\'s measurement vector, per coordinate, outliers as 0, '
+                    'regularization included; about rms_px / sqrt(2)',
+    'uncertainty': 'mrcal.projection_uncertainty, worst-direction stdev, at infinity',
+    'slope_error': 'angle between the plane fitted to the triangulated site and its true '
+                   'normal, from calibration noise alone, after taking out the implied '
+                   'rotation of each re-solved camera frame',
+    'projection_diff': 'mrcal.projection_diff at infinity after the implied-rotation fit '
+                       'weighted 1/(sA*sB)^2 by the projection uncertainties',
+}
+
+
+def analyse(args):
+    geometry, band = analysis_settings(args)
+    models = []
+    for path in args.models:
+        model = load_model(path, need_optimization_inputs=True)
+        _model_paths[id(model)] = path
+        models.append(model)
+    resolved = {}  # solve fingerprint -> Monte Carlo re-solves
+    cameras = [camera_record(index, path, model, geometry, band, args, resolved)
+               for index, (path, model) in enumerate(zip(args.models, models))]
+    write_json(args.json, {
         'format': ANALYSIS_FORMAT,
         'format_version': FORMAT_VERSION,
         'software': software_versions(),
@@ -1241,22 +1282,10 @@ def analyse(args):
             'seed': args.seed,
             'coverage_cells': [COVERAGE_CELLS, COVERAGE_CELLS],
         },
-        'definitions': {
-            'rms_px': 'sqrt(mean(dx^2 + dy^2)) over the camera\'s inlier corners: per corner',
-            'mrcal_rms_px': 'mrcal-calibrate-cameras\' printed RMS: sqrt(mean(x^2)) over the joint '
-                            'solve\'s measurement vector, per coordinate, outliers as 0, '
-                            'regularization included; about rms_px / sqrt(2)',
-            'uncertainty': 'mrcal.projection_uncertainty, worst-direction stdev, at infinity',
-            'slope_error': 'angle between the plane fitted to the triangulated site and its true '
-                           'normal, from calibration noise alone, after taking out the implied '
-                           'rotation of each re-solved camera frame',
-            'projection_diff': 'mrcal.projection_diff at infinity after the implied-rotation fit '
-                               'weighted 1/(sA*sB)^2 by the projection uncertainties',
-        },
+        'definitions': ANALYSIS_DEFINITIONS,
         'cameras': cameras,
-        'relative_poses': relative_poses,
-    }
-    write_json(json_path, record)
+        'relative_poses': relative_poses(models),
+    })
 
 
 # ---------------------------------------------------------------- diff
@@ -1307,6 +1336,9 @@ def diff(args):
     }
     record.update(difference_stats(difflen, q0))
     record['rotation_deg'] = rotation_deg(Rt10)
+    # The implied rotation itself (Rodrigues, A's frame -> B's), which the
+    # bench's slope comparison at the HDA geometry takes out.
+    record['rotation_rad'] = mrcal.r_from_R(Rt10[:3, :])
     if args.uncertainty_of_a:
         finite = np.isfinite(difflen) & np.isfinite(stdev_a)
         within = {}

@@ -12,6 +12,7 @@
 #include "hda/calibration_sigma.h"
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
+#include "tools/util/options_check.h"
 #include "tools/util/statistics.h"
 #include "tools/util/text.h"
 
@@ -137,6 +138,68 @@ CalibrationCheck CheckCalibrationTerm(const datasets::Dataset& dataset, const Fl
   check.rerun_slope = Ratios(check.rois, &CalibrationCheckRoi::rerun_slope_rms_deg,
                              &CalibrationCheckRoi::predicted_slope_deg, &CalibrationCheckRoi::rerun_samples);
   return check;
+}
+
+HdaGeometrySite MakeHdaGeometrySite(const calib::CameraModel& truth, const calib::HdaGeometry& geometry) {
+  ThrowIfInvalid("the HDA geometry: ", geometry.Validate());
+  const double w = truth.WidthPx();
+  const double h = truth.HeightPx();
+  // The band's centre in mrcal's pixels (the imager spans -0.5 .. W - 0.5).
+  const Eigen::Vector2d centre((geometry.band_x0 + geometry.band_x1) / 2.0 * w - 0.5,
+                               (geometry.band_y0 + geometry.band_y1) / 2.0 * h - 0.5);
+  std::vector<Eigen::Vector3d> sight_of;
+  std::vector<unsigned char> valid;
+  if (truth.Unproject({centre}, &sight_of, &valid) != 1) {
+    throw InputError("the HDA geometry: the camera cannot unproject the band's centre");
+  }
+  const Eigen::Vector3d sight = sight_of.front().normalized();
+  const Eigen::Vector3d along_x = (Eigen::Vector3d::UnitX() - sight.x() * sight).normalized();
+  const Eigen::Vector3d along_y = sight.cross(along_x);
+  const Eigen::Vector3d baseline = geometry.baseline_m * along_x;
+  HdaGeometrySite site;
+  // The local frame is camera 1's; the ground is level, so up is -sight.
+  site.input.local_from_cam1 = Rigid3d();
+  site.input.cam2_from_cam1 = Rigid3d(Eigen::Quaterniond::Identity(), -baseline);
+  site.input.gravity_in_local_mps2 = 1.62 * sight;
+  site.input.lrf_range_m = geometry.range_m;
+  site.input.lrf_beam_in_cam1 = sight;
+  site.input.ils_in_local_m = geometry.range_m * sight;
+  site.true_normal_in_local = -sight;
+  constexpr int kGrid = 10;
+  std::vector<Eigen::Vector3d> in_cam1, in_cam2;
+  for (int j = 0; j < kGrid; ++j) {
+    for (int i = 0; i < kGrid; ++i) {
+      const double u = geometry.site_m * ((i + 0.5) / kGrid - 0.5);
+      const double v = geometry.site_m * ((j + 0.5) / kGrid - 0.5);
+      in_cam1.push_back(geometry.range_m * sight + u * along_x + v * along_y);
+      in_cam2.push_back(in_cam1.back() - baseline);
+    }
+  }
+  std::vector<Eigen::Vector2d> q1, q2;
+  if (truth.Project(in_cam1, &q1, &valid) != kGrid * kGrid || truth.Project(in_cam2, &q2, &valid) != kGrid * kGrid) {
+    throw InputError("the HDA geometry: the site does not project into both camera positions");
+  }
+  double x0 = q1.front().x(), x1 = x0, y0 = q1.front().y(), y1 = y0;
+  for (size_t k = 0; k < q1.size(); ++k) {
+    site.points1_px.emplace_back(q1[k].x(), q1[k].y());
+    site.points2_px.emplace_back(q2[k].x(), q2[k].y());
+    x0 = std::min(x0, q1[k].x());
+    x1 = std::max(x1, q1[k].x());
+    y0 = std::min(y0, q1[k].y());
+    y1 = std::max(y1, q1[k].y());
+  }
+  site.box1_px = cv::Rect(cv::Point(static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0))),
+                          cv::Point(static_cast<int>(std::ceil(x1)) + 1, static_cast<int>(std::ceil(y1)) + 1));
+  return site;
+}
+
+double HdaGeometryTiltDeg(const HdaGeometrySite& site, const calib::CameraModel& believed,
+                          const Eigen::Vector3d& rotation_rad) {
+  const hda::RoiResult fit =
+      hda::EvaluateMatchedSite(hda::InputInTurnedFrame(site.input, rotation_rad), believed, hda::HdaOptions(),
+                               site.box1_px, site.points1_px, site.points2_px, 0.0);
+  if (!fit.has_fit) return std::numeric_limits<double>::quiet_NaN();
+  return AngleDeg(fit.normal_in_local, site.true_normal_in_local);
 }
 
 std::string CalibrationCheckJson(const CalibrationCheck& check) {

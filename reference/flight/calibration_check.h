@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "calib/calibration_analysis.h"
 #include "datasets/dataset.h"
 #include "hda/pipeline.h"
 #include "reference/flight/flight_run.h"
@@ -63,6 +64,32 @@ struct CalibrationCheck {
 CalibrationCheck CheckCalibrationTerm(const datasets::Dataset& dataset, const FlightRun& run, int samples,
                                       std::uint64_t seed,
                                       const std::function<void(int done, int samples)>& progress = {});
+
+// The HDA geometry of calibrate's figures (calib::HdaGeometry) as a site the
+// flight method's steps evaluate: a square site of site_m, perpendicular to
+// the line of sight through the band's centre at range_m, seen from a
+// second position moved by baseline_m across that line along the image's x
+// (the same attitude); level ground (gravity along the line of sight), the
+// LRF along it. The matches are the exact projections through `truth` of a
+// 10 x 10 grid of site points.
+struct HdaGeometrySite {
+  hda::HdaInput input;
+  cv::Rect box1_px;
+  std::vector<cv::Point2d> points1_px;
+  std::vector<cv::Point2d> points2_px;
+  Eigen::Vector3d true_normal_in_local = Eigen::Vector3d::UnitZ();
+};
+// Throws InputError when the camera cannot unproject the band's centre or
+// project the site into both positions.
+HdaGeometrySite MakeHdaGeometrySite(const calib::CameraModel& truth, const calib::HdaGeometry& geometry);
+
+// The tilt, degrees, of the plane the flight method's steps fit to the
+// site's matches with the camera model `believed`, its frame turned by
+// `rotation_rad` (the implied rotation from the truth's frame, which the
+// camera's alignment absorbs), against the site's true normal. NaN when the
+// steps fit no plane.
+double HdaGeometryTiltDeg(const HdaGeometrySite& site, const calib::CameraModel& believed,
+                          const Eigen::Vector3d& rotation_rad);
 
 // calibration_check.json: the check's settings, its three ratio summaries and
 // one row per ROI (format "hdabench-calibration-check", version 1).

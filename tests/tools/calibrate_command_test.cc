@@ -152,6 +152,19 @@ TEST(Calibrate, RealLeftImagesAllUsedFocalMatchesUpstreamAndTheModelLoadsInTheBe
                 1e-6 * (1.0 + opencv_diff[key].get<double>()))
         << key;
   }
+  // The slope terms: a finite tilt at the HDA geometry, with the bench
+  // calibration's sigma there (it holds its optimization_inputs).
+  EXPECT_GE(diff_json["hda_slope"]["tilt_deg"].get<double>(), 0.0);
+  EXPECT_GT(diff_json["hda_slope"]["a_calibration_tilt_sigma_deg"].get<double>(), 0.0);
+  // A model without its calibration has no sigma to compare with, and says so.
+  const CommandResult reverse =
+      RunHdabench({"calib-diff", (dir / "cal/opencv/camera-0.cameramodel").string(),
+                   (dir / "cal/camera-0.cameramodel").string(), "--out", (dir / "reverse").string()},
+                  dir);
+  ASSERT_EQ(reverse.exit_code, 0) << reverse.err;
+  EXPECT_NE(reverse.out.find("A holds no optimization_inputs"), std::string::npos) << reverse.out;
+  EXPECT_TRUE(Json::parse(ReadText(dir / "reverse/calib-diff.json"))["hda_slope"]["a_calibration_tilt_sigma_deg"]
+                  .is_null());
 }
 
 // A seed in, the same bytes out: two calibrations of the same images into the
@@ -395,6 +408,16 @@ TEST(Calibrate, SyntheticViewsThroughAKnownLensComeBackWithinTheirUncertainty) {
               d["uncertainty_of_a"]["within_3_sigma"].get<double>());
   EXPECT_LT(d["median_px"].get<double>(), 0.065);
   EXPECT_GE(d["uncertainty_of_a"]["within_3_sigma"].get<double>(), 0.9);
+  // In slope terms: the calibration against the true lens at the HDA
+  // geometry, in units of the calibration's own sigma there: a draw of the
+  // calibration's uncertainty, so of the order of one sigma.
+  const Json& slope = d["hda_slope"];
+  std::printf("[ calib    ] HDA geometry: tilt %.4f deg, calibration sigma %.4f deg, %.2f sigma\n",
+              slope["tilt_deg"].get<double>(), slope["a_calibration_tilt_sigma_deg"].get<double>(),
+              slope["sigmas"].get<double>());
+  EXPECT_GT(slope["a_calibration_tilt_sigma_deg"].get<double>(), 0.0);
+  EXPECT_LT(slope["sigmas"].get<double>(), 4.0);
+  EXPECT_NE(diff.out.find("B tilts the flight method's plane by"), std::string::npos) << diff.out;
 
 }
 

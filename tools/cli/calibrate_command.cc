@@ -1,19 +1,25 @@
 // `hdabench calibrate` and `hdabench calib-diff` (calib/calibrate.h,
 // calib/calibration_analysis.h, docs/calibration.md).
+#include <cmath>
 #include <filesystem>
 #include <iostream>
 #include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <system_error>
 #include <vector>
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include "calib/calibrate.h"
 #include "calib/calibration_analysis.h"
 #include "calib/camera_model.h"
+#include "hda/calibration_sigma.h"
+#include "reference/flight/calibration_check.h"
 #include "tools/util/error.h"
+#include "tools/util/files.h"
 #include "tools/cli/command_line.h"
 #include "tools/cli/command_support.h"
 #include "tools/cli/commands.h"
@@ -83,6 +89,60 @@ int RunCalibrate(const CalibrateCommandOptions& options, std::ostream& out, std:
   });
 }
 
+namespace {
+
+// calib-diff in slope terms: at calibrate's HDA geometry (a 10 m site at
+// 570 m, 30 m baseline, the band's centre), the tilt of the plane the flight
+// method's steps fit with B (its implied rotation from A taken out) when A is
+// the lens, and A's calibration sigma there when A holds its calibration.
+// Added to the diff's JSON as "hda_slope"; returns the line to print.
+std::string SlopeDifferenceAtHdaGeometry(const std::string& path_a, const calib::CameraModel& a,
+                                         const calib::CameraModel& b, const calib::ProjectionDiff& diff) {
+  const calib::HdaGeometry geometry;
+  const reference::HdaGeometrySite site = reference::MakeHdaGeometrySite(a, geometry);
+  const double tilt_deg = reference::HdaGeometryTiltDeg(site, b, diff.rotation_rad);
+  nlohmann::ordered_json slope = {{"range_m", geometry.range_m},
+                                  {"baseline_m", geometry.baseline_m},
+                                  {"site_m", geometry.site_m},
+                                  {"tilt_deg", std::isfinite(tilt_deg) ? nlohmann::ordered_json(tilt_deg)
+                                                                       : nlohmann::ordered_json(nullptr)}};
+  std::ostringstream line;
+  line << "  at the HDA geometry (a " << util::ShortestText(geometry.site_m) << " m site at "
+       << util::ShortestText(geometry.range_m) << " m, " << util::ShortestText(geometry.baseline_m)
+       << " m baseline, the band's centre), B tilts the flight method's plane by "
+       << (std::isfinite(tilt_deg) ? util::FixedText(tilt_deg, 4) + " deg" : std::string("- (no plane)"))
+       << " against A";
+  if (calib::ModelHasOptimizationInputs(path_a)) {
+    const calib::IntrinsicsModes modes = calib::ComputeIntrinsicsModes(path_a);
+    const hda::CalibrationSigma sigma = hda::SiteCalibrationSigma(site.input, a, hda::HdaOptions(), modes,
+                                                                  site.box1_px, site.points1_px, site.points2_px, 0.0);
+    if (sigma.available) {
+      slope["a_calibration_tilt_sigma_deg"] = sigma.tilt_deg;
+      line << "; A's calibration sigma there " << util::FixedText(sigma.tilt_deg, 4) << " deg";
+      if (std::isfinite(tilt_deg) && sigma.tilt_deg > 0.0) {
+        slope["sigmas"] = tilt_deg / sigma.tilt_deg;
+        line << ": " << util::FixedText(tilt_deg / sigma.tilt_deg, 2) << " sigma"
+             << (tilt_deg <= 2.0 * sigma.tilt_deg ? ", within what A could tell"
+                                                  : ", beyond what A could tell: the slopes change");
+      }
+    } else {
+      slope["a_calibration_tilt_sigma_deg"] = nullptr;
+      line << "; A's calibration sigma: none (" << sigma.why << ")";
+    }
+  } else {
+    slope["a_calibration_tilt_sigma_deg"] = nullptr;
+    line << "; A holds no optimization_inputs: no calibration sigma to compare with";
+  }
+  std::string bytes, error;
+  if (!util::ReadFileBytes(diff.json_path, &bytes, &error)) throw InputError(diff.json_path + ": " + error);
+  nlohmann::ordered_json record = nlohmann::ordered_json::parse(bytes);
+  record["hda_slope"] = slope;
+  util::WriteFileAtomically(diff.json_path, record.dump(2) + "\n");
+  return line.str();
+}
+
+}  // namespace
+
 int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std::ostream& err) {
   const std::string command = "hdabench calib-diff: ";
   calib::DiffOptions diff;
@@ -145,6 +205,7 @@ int RunCalibDiff(const CalibDiffCommandOptions& options, std::ostream& out, std:
           << util::FixedText(100 * u.within_1_sigma, 0) << " / " << util::FixedText(100 * u.within_2_sigma, 0) << " / "
           << util::FixedText(100 * u.within_3_sigma, 0) << " % of the grid\n";
     }
+    out << SlopeDifferenceAtHdaGeometry(options.model_a, *a, *b, result) << "\n";
     out << "wrote " << result.json_path << " and " << result.heatmap_png << "\n";
   });
   if (code != kExitOk) made_here.Remove();

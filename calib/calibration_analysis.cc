@@ -2,6 +2,7 @@
 
 #include <stdlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,11 +12,13 @@
 #include <system_error>
 #include <utility>
 
+#include "calib/camera_model.h"
 #include "tools/util/error.h"
 #include "tools/util/files.h"
 #include "tools/util/options_check.h"
 #include "tools/util/process.h"
 #include "tools/util/python_script.h"
+#include "tools/util/statistics.h"
 #include "tools/util/text.h"
 
 namespace hdabench::calib {
@@ -588,6 +591,61 @@ std::vector<std::string> DiffOptions::Validate() const {
   return errors;
 }
 
+// The slope figure of each camera's Monte Carlo: the script leaves each
+// re-solve's intrinsics and implied rotation ("solved"); the flight method's
+// steps (options.hda_tilt_deg) fit the HDA site with each, and the section
+// gets nominal_deg (the nominal model through the same steps: the
+// machinery's floor) and rms, median, p90 and max over the re-solves, in
+// place of the list.
+void AddHdaSlopeErrors(const fs::path& json_path, const std::vector<std::string>& models,
+                       const AnalysisOptions& options) {
+  using OrderedJson = nlohmann::ordered_json;  // the script's key order kept
+  bool ok = false;
+  OrderedJson record = OrderedJson::parse(ReadText(json_path, &ok), nullptr, false);
+  if (!ok || record.is_discarded() || !record.contains("cameras") || !record["cameras"].is_array()) return;  // ReadAnalysis names it
+  for (size_t c = 0; c < record["cameras"].size() && c < models.size(); ++c) {
+    OrderedJson& slope = record["cameras"][c]["slope_error"];
+    if (!slope.is_object() || !slope.contains("solved")) continue;
+    const OrderedJson solved = slope["solved"];
+    slope.erase("solved");
+    if (!options.hda_tilt_deg) {
+      slope["error"] = "no slope figure: the flight method's steps were not given (calib::AnalysisOptions::hda_tilt_deg)";
+      continue;
+    }
+    const CameraModel truth = CameraModel::Load(models[c]);
+    std::vector<double> tilts;
+    int failed = 0;
+    for (const OrderedJson& sample : solved) {
+      std::vector<double> intrinsics = sample.at("intrinsics").get<std::vector<double>>();
+      const std::vector<double> r = sample.at("rotation_rad").get<std::vector<double>>();
+      const CameraModel believed(truth.LensModelName(), std::move(intrinsics), truth.WidthPx(), truth.HeightPx(),
+                                 truth.RtCamRef(), models[c]);
+      const double tilt = options.hda_tilt_deg(truth, believed, Eigen::Vector3d(r.at(0), r.at(1), r.at(2)), options.hda);
+      if (std::isfinite(tilt)) {
+        tilts.push_back(tilt);
+      } else {
+        ++failed;
+      }
+    }
+    if (failed > 0) {
+      slope["ok"] = slope["ok"].get<int>() - failed;
+      slope["failed"] = slope["failed"].get<int>() + failed;
+      slope["failures"].push_back("the flight method's steps fitted no plane to the HDA site");
+    }
+    slope["nominal_deg"] = options.hda_tilt_deg(truth, truth, Eigen::Vector3d::Zero(), options.hda);
+    slope["geometry"]["site_grid"] = {10, 10};
+    if (tilts.empty()) continue;
+    double sum2 = 0.0;
+    for (double t : tilts) sum2 += t * t;
+    std::sort(tilts.begin(), tilts.end());
+    slope["rms_deg"] = std::sqrt(sum2 / static_cast<double>(tilts.size()));
+    slope["median_deg"] = util::Quantile(tilts, 0.5);
+    slope["p90_deg"] = util::Quantile(tilts, 0.9);
+    slope["max_deg"] = tilts.back();
+  }
+  util::WriteFileAtomically(json_path, record.dump(2) + "\n");
+}
+
 CalibrationAnalysis AnalyseCalibration(const std::vector<std::string>& models,
                                        const std::string& out_dir, const AnalysisOptions& options) {
   const std::vector<std::string> errors = options.Validate();
@@ -637,6 +695,12 @@ CalibrationAnalysis AnalyseCalibration(const std::vector<std::string>& models,
     throw;
   }
 
+  try {
+    AddHdaSlopeErrors(json, models, options);
+  } catch (const nlohmann::json::exception& e) {
+    throw ExternalError(json.string() + ": unusable calibration analysis output: the re-solves: " +
+                        util::JsonErrorText(e.what()));
+  }
   CalibrationAnalysis analysis = ReadAnalysis(json);
   if (analysis.cameras.size() != models.size()) {
     throw ExternalError(json.string() + ": unusable calibration analysis output: " +

@@ -20,6 +20,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -46,12 +47,25 @@ struct HdaGeometry {
   std::vector<std::string> Validate() const;
 };
 
+class CameraModel;
+
+// The tilt, degrees, of the plane the flight method's steps fit to the HDA
+// site of `geometry` seen through the lens `truth`, with the camera model
+// `believed` and its frame turned by `rotation_rad` (the implied rotation
+// from the truth's frame): reference::HdaGeometryTiltDeg, which calib cannot
+// call itself (it sits below the flight method). NaN when no plane is fitted.
+using HdaTiltFunction = std::function<double(const CameraModel& truth, const CameraModel& believed,
+                                             const Eigen::Vector3d& rotation_rad, const HdaGeometry& geometry)>;
+
 struct AnalysisOptions {
   std::string python = "/usr/bin/python3";  // interpreter that sees Debian's mrcal, cv2, matplotlib
   double timeout_s = 900.0;                 // wall-time limit of the script, seconds, > 0
   HdaGeometry hda;
   int slope_samples = 30;  // Monte Carlo re-solves, >= 0 (0: no slope error)
   std::uint64_t seed = 1;  // seed of the Monte Carlo noise (numpy)
+  // The slope error of each re-solve; without it the slope figure is left
+  // out and its section says why (hdabench calibrate always gives it).
+  HdaTiltFunction hda_tilt_deg;
 
   std::vector<std::string> Validate() const;
 };
@@ -114,12 +128,13 @@ struct ProjectionSpread {
 
 // The slope error the calibration's uncertainty alone causes at the HDA
 // geometry: the calibration is re-solved `samples` times with its inlier
-// corners perturbed by Gaussian noise of its own residual level; each re-solved
-// model unprojects the nominal model's pixels of a 5 x 5 site grid seen from
-// both camera positions, the implied rotation between the nominal and
-// re-solved camera frames is taken out (the mount alignment is calibrated
-// separately), the site is triangulated with the known relative pose, a plane
-// fitted, and its angle to the true normal taken.
+// corners perturbed by Gaussian noise of its own residual level; the implied
+// rotation between the nominal and each re-solved camera frame is fitted and
+// taken out (the mount alignment is calibrated separately); the flight
+// method's own steps (AnalysisOptions::hda_tilt_deg: nav rejection,
+// triangulation with the known relative pose, its plane fit) fit the HDA
+// site, a 10 x 10 grid projected exactly through the nominal model, with the
+// re-solved model; the figure is the angle to the site's true normal.
 struct SlopeErrorSummary {
   std::string error;  // why there is no result (e.g. 0 samples asked for); empty when done
   int samples = 0;    // re-solves asked for

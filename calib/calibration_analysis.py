@@ -88,7 +88,6 @@ FORMAT_VERSION = 1
 COVERAGE_CELLS = 10            # the imager is cut into COVERAGE_CELLS x COVERAGE_CELLS cells
 BAND_GRID = (16, 12)           # uncertainty samples over the HDA band (x, y)
 IMAGER_GRID_WIDTH = 60         # imager-wide grids: 60 points across, rows to keep them square
-SITE_GRID = 5                  # site points per side for the slope Monte Carlo
 MAX_FAILURE_NOTES = 5          # distinct failure messages kept per Monte Carlo
 
 
@@ -716,46 +715,20 @@ def resolve_samples(optimization_inputs, noise_stdev_px, samples, seed):
     return results
 
 
-def closest_points(d1, o2, d2):
-    '''Closest-approach midpoints of rays p = s*d1 (from the origin) and
-    p = o2 + t*d2, by least squares on [d1, -d2] [s, t]^T = o2.'''
-    points = []
-    for a, c in zip(d1, d2):
-        A = np.stack((a, -c), axis=1)
-        (s, t), *_ = np.linalg.lstsq(A, o2, rcond=None)
-        points.append(0.5 * (s * a + o2 + t * c))
-    return np.array(points)
-
-
-def plane_tilt_deg(points, normal):
-    '''Angle between the least-squares plane through the points and `normal`.'''
-    centred = points - np.mean(points, axis=0)
-    fitted = np.linalg.svd(centred)[2][-1]
-    # atan2 of sine and cosine stays accurate for tiny angles (acos does not).
-    sine = np.linalg.norm(np.cross(fitted, normal))
-    cosine = abs(float(fitted @ normal))
-    return float(np.degrees(math.atan2(sine, cosine)))
-
-
 def hda_geometry(model, band_px, geometry):
     '''The HDA viewing geometry in the camera frame of the first position: the
-    site centred on the line of sight through the band centre, at the slant
-    range, square and perpendicular to that line; the second position is the
-    first moved by the baseline perpendicular to the line of sight, along the
-    image's x direction, with the same orientation (one camera, two frames).'''
+    line of sight through the band centre (the site is centred on it at the
+    slant range, square and perpendicular to it), and the baseline, the first
+    position moved perpendicular to the line of sight along the image's x
+    direction, with the same orientation (one camera, two frames). The site
+    itself, and the flight method's fit to it, are the bench's
+    (reference::MakeHdaGeometrySite).'''
     lensmodel, intrinsics = model.intrinsics()
     q_centre = band_centre(band_px)
     sight = mrcal.unproject(q_centre, lensmodel, intrinsics, normalize=True)
     along_x = np.array((1.0, 0.0, 0.0)) - sight[0] * sight
     along_x /= np.linalg.norm(along_x)
-    along_y = np.cross(sight, along_x)
-    half = geometry['site_m'] / 2.0
-    steps = np.linspace(-half, half, SITE_GRID)
-    site = np.array([geometry['range_m'] * sight + u * along_x + w * along_y
-                     for w in steps for u in steps])
-    baseline = geometry['baseline_m'] * along_x
-    return {'q_centre': q_centre, 'sight': sight, 'site': site, 'baseline': baseline,
-            'normal': -sight}
+    return {'q_centre': q_centre, 'sight': sight, 'baseline': geometry['baseline_m'] * along_x}
 
 
 def board_rotation(optimization_inputs, trial, icam):
@@ -779,49 +752,29 @@ def board_rotation(optimization_inputs, trial, icam):
     return rotation
 
 
-def slope_error_for(model, intrinsics_resolved, geometry_frame, q_grid, v_grid_nominal, weights):
-    '''The slope error one re-solved calibration causes, and the projection
-    difference at the band centre after the rotation fit.
-
-    1. The site's true pixels: projected with the nominal model from both
-       positions (the nominal model plays the true lens).
-    2. The HDA's bearings: those pixels unprojected with the re-solved model
-       (the calibration the lander would carry).
-    3. The rotation between the nominal and re-solved camera frames is fitted
-       over the imager (weighted by the nominal uncertainty, as
-       mrcal.projection_diff does) and taken out: a calibration's frame floats
-       by such a rotation, which the camera-to-lander alignment (calibrated
-       separately) absorbs; left in, it would tilt the whole scene and show up
-       as a slope error that is not the lens's.
-    4. Triangulation with the known relative pose (the navigation's), a plane
-       fit, and the angle to the true normal.
-    Returns (tilt in degrees, band-centre offset in px (2,), fitted rotation in degrees).'''
-    lensmodel, nominal = model.intrinsics()
-    site = geometry_frame['site']
-    baseline = geometry_frame['baseline']
-    q1 = mrcal.project(site, lensmodel, nominal)
-    q2 = mrcal.project(site - baseline, lensmodel, nominal)
-    v1 = mrcal.unproject(q1, lensmodel, intrinsics_resolved, normalize=True)
-    v2 = mrcal.unproject(q2, lensmodel, intrinsics_resolved, normalize=True)
-    if not (np.all(np.isfinite(v1)) and np.all(np.isfinite(v2))):
-        raise RuntimeError('unprojection with the re-solved model failed')
-
+def resolved_rotation(lensmodel, intrinsics_resolved, q_grid, v_grid_nominal, weights):
+    '''The implied rotation Rt10 (nominal frame -> re-solved) of a re-solved
+    model, fitted over the imager grid q_grid (nominal directions
+    v_grid_nominal) with `weights`.'''
     v_grid = mrcal.unproject(q_grid, lensmodel, intrinsics_resolved, normalize=True)
-    Rt10 = implied_rotation(q_grid, v_grid_nominal, v_grid, weights=weights)
-    R10 = Rt10[:3, :]  # nominal frame -> re-solved frame
-    # Bearings back in the nominal frame: v_nominal = R10^T v_resolved.
-    d1 = v1 @ R10
-    d2 = v2 @ R10
-    points = closest_points(d1, baseline, d2)
-    if not np.all(np.isfinite(points)):
-        raise RuntimeError('triangulation failed')
-    tilt = plane_tilt_deg(points, geometry_frame['normal'])
+    if not np.all(np.isfinite(v_grid)):
+        raise RuntimeError('unprojection with the re-solved model failed')
+    return implied_rotation(q_grid, v_grid_nominal, v_grid, weights=weights)
 
-    # The projection spread at the band centre, in the same rotation-fitted
-    # sense: where the re-solved model puts the direction the nominal model
-    # sees at the band centre.
-    moved = mrcal.project(R10 @ geometry_frame['sight'], lensmodel, intrinsics_resolved)
-    return tilt, moved - geometry_frame['q_centre'], rotation_deg(Rt10)
+
+def resolved_frame(model, intrinsics_resolved, geometry_frame, q_grid, v_grid_nominal, weights):
+    '''What one re-solved calibration does to the projections: the rotation
+    between the nominal and re-solved camera frames, fitted over the imager
+    (weighted by the nominal uncertainty, as mrcal.projection_diff does), which
+    the camera-to-lander alignment (calibrated separately) absorbs, and the
+    projection offset at the band centre after it: where the re-solved model
+    puts the direction the nominal model sees there. The slope error it causes
+    is the bench's (the flight method's steps on the HDA site, in C++).
+    Returns (band-centre offset in px (2,), Rt10: nominal frame -> re-solved).'''
+    lensmodel, _ = model.intrinsics()
+    Rt10 = resolved_rotation(lensmodel, intrinsics_resolved, q_grid, v_grid_nominal, weights)
+    moved = mrcal.project(Rt10[:3, :] @ geometry_frame['sight'], lensmodel, intrinsics_resolved)
+    return moved - geometry_frame['q_centre'], Rt10
 
 
 def spread_stats(offsets):
@@ -838,9 +791,13 @@ def spread_stats(offsets):
 
 def slope_summary(model, resolved, band_px, geometry, imager_q, imager_v, imager_stdev,
                   noise_stdev_px, seed):
+    '''The re-solves of the slope Monte Carlo: each re-solved camera's
+    intrinsics and implied rotation ("solved", for the bench to fit the HDA
+    site with; it then adds the slope statistics and drops the list), and the
+    projection spreads at the band centre.'''
     icam = model.icam_intrinsics()
     optimization_inputs = model.optimization_inputs()
-    lensmodel, nominal = model.intrinsics()
+    lensmodel, _ = model.intrinsics()
     frame = hda_geometry(model, band_px, geometry)
     weights = rotation_fit_weights(imager_stdev, None)
     record = {
@@ -855,7 +812,6 @@ def slope_summary(model, resolved, band_px, geometry, imager_q, imager_v, imager
             'range_m': geometry['range_m'],
             'baseline_m': geometry['baseline_m'],
             'site_m': geometry['site_m'],
-            'site_grid': [SITE_GRID, SITE_GRID],
             'band_centre_px': frame['q_centre'],
             'line_of_sight': frame['sight'],
             'baseline_direction': frame['baseline'] / np.linalg.norm(frame['baseline']),
@@ -863,39 +819,31 @@ def slope_summary(model, resolved, band_px, geometry, imager_q, imager_v, imager
                                                            geometry['range_m']))),
         },
     }
-    # The same machinery with the nominal model itself: any tilt here is the
-    # machinery's own (unprojection and fit tolerances), not the calibration's.
-    record['nominal_deg'] = slope_error_for(model, nominal, frame, imager_q, imager_v, weights)[0]
-
-    tilts, fitted_offsets, board_offsets, rotations = [], [], [], []
+    solved, fitted_offsets, board_offsets, rotations = [], [], [], []
     for state, failure in resolved:
         if failure is None:
             try:
                 intrinsics = state['intrinsics'][icam]
-                tilt, offset, rotation = slope_error_for(model, intrinsics, frame,
-                                                         imager_q, imager_v, weights)
+                offset, Rt10 = resolved_frame(model, intrinsics, frame, imager_q, imager_v, weights)
                 R = board_rotation(optimization_inputs, state, icam)
                 board_offset = mrcal.project(R @ frame['sight'], lensmodel, intrinsics) - \
                     frame['q_centre']
-                if not (math.isfinite(tilt) and np.all(np.isfinite(offset)) and
-                        np.all(np.isfinite(board_offset))):
-                    raise RuntimeError('non-finite slope error or projection')
-                tilts.append(tilt)
+                rotation = mrcal.r_from_R(Rt10[:3, :])
+                if not (np.all(np.isfinite(offset)) and np.all(np.isfinite(board_offset)) and
+                        np.all(np.isfinite(rotation))):
+                    raise RuntimeError('non-finite projection or rotation')
+                solved.append({'intrinsics': intrinsics, 'rotation_rad': rotation})
                 fitted_offsets.append(offset)
                 board_offsets.append(board_offset)
-                rotations.append(rotation)
+                rotations.append(rotation_deg(Rt10))
                 continue
             except Exception as e:
                 failure = f'evaluation: {one_line(e)}'
         record['failed'] += 1
         if failure not in record['failures'] and len(record['failures']) < MAX_FAILURE_NOTES:
             record['failures'].append(failure)
-    record['ok'] = len(tilts)
-    tilts = np.array(tilts)
-    record['rms_deg'] = float(np.sqrt(np.mean(tilts ** 2))) if tilts.size else None
-    record['median_deg'] = quantile(tilts, 0.5)
-    record['p90_deg'] = quantile(tilts, 0.9)
-    record['max_deg'] = max_or_none(tilts)
+    record['ok'] = len(solved)
+    record['solved'] = solved
     record['rotation_fit_median_deg'] = quantile(rotations, 0.5)
     # The empirical projection spread at the band centre, two ways:
     # - after the fitted rotation (what the slope error sees; smaller, since
@@ -1070,8 +1018,7 @@ def resolved_models(args):
         if failure is None:
             try:
                 resolved = state['intrinsics'][icam]
-                v = mrcal.unproject(q_grid, lensmodel, resolved, normalize=True)
-                Rt10 = implied_rotation(q_grid, v_nominal, v, weights=weights)
+                Rt10 = resolved_rotation(lensmodel, resolved, q_grid, v_nominal, weights)
                 rotation = mrcal.r_from_R(Rt10[:3, :])
                 if not (np.all(np.isfinite(resolved)) and np.all(np.isfinite(rotation))):
                     raise RuntimeError('non-finite intrinsics or rotation')
@@ -1253,9 +1200,10 @@ ANALYSIS_DEFINITIONS = {
                     'solve\'s measurement vector, per coordinate, outliers as 0, '
                     'regularization included; about rms_px / sqrt(2)',
     'uncertainty': 'mrcal.projection_uncertainty, worst-direction stdev, at infinity',
-    'slope_error': 'angle between the plane fitted to the triangulated site and its true '
-                   'normal, from calibration noise alone, after taking out the implied '
-                   'rotation of each re-solved camera frame',
+    'slope_error': 'angle between the plane the flight method\'s steps fit to the HDA site '
+                   '(hda::EvaluateMatchedSite) and the site\'s true normal, from calibration '
+                   'noise alone, after taking out the implied rotation of each re-solved '
+                   'camera frame',
     'projection_diff': 'mrcal.projection_diff at infinity after the implied-rotation fit '
                        'weighted 1/(sA*sB)^2 by the projection uncertainties',
 }

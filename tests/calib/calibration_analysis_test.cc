@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "calib/camera_model.h"
+#include "reference/flight/calibration_check.h"
 #include "tools/images/codecs.h"
 #include "tools/util/error.h"
 #include "tools/util/process.h"
@@ -32,6 +33,17 @@ using testing_support::CachedDataset;
 using testing_support::FreshTestDir;
 using testing_support::ReadText;
 using testing_support::WriteText;
+
+// Analysis options whose slope figure comes from the flight method's steps,
+// as hdabench calibrate gives them.
+AnalysisOptions WithFlightSlope() {
+  AnalysisOptions options;
+  options.hda_tilt_deg = [](const CameraModel& truth, const CameraModel& believed, const Eigen::Vector3d& rotation_rad,
+                            const HdaGeometry& geometry) {
+    return reference::HdaGeometryTiltDeg(reference::MakeHdaGeometrySite(truth, geometry), believed, rotation_rad);
+  };
+  return options;
+}
 
 const fs::path kImages =
     fs::path(HDABENCH_SOURCE_DIR) / "tests" / "data" / "opencv-stereo-chessboard";
@@ -133,7 +145,7 @@ std::string Model(const fs::path& calibration, int camera) {
 TEST(CalibrationAnalysis, LeftImagesGiveTheExpectedFigures) {
   const fs::path calibration = Calibration({"left"});
   const fs::path dir = FreshTestDir();
-  AnalysisOptions options;
+  AnalysisOptions options = WithFlightSlope();
   options.slope_samples = kTestSamples;
   const CalibrationAnalysis analysis =
       AnalyseCalibration({Model(calibration, 0)}, (dir / "out").string(), options);
@@ -272,10 +284,26 @@ TEST(CalibrationAnalysis, LeftImagesGiveTheExpectedFigures) {
   EXPECT_TRUE(fs::is_regular_file(dir / "diff" / "diff.log"));
 }
 
-TEST(CalibrationAnalysis, SameInputsGiveSameJsonBytes) {
+// The slope figure is the flight method's: without its steps the analysis
+// has every other figure and says why the slope one is missing.
+TEST(CalibrationAnalysis, WithoutTheFlightMethodsStepsTheSlopeFigureSaysWhy) {
   const fs::path calibration = Calibration({"left"});
   const fs::path dir = FreshTestDir();
   AnalysisOptions options;
+  options.slope_samples = 2;
+  const CalibrationAnalysis analysis = AnalyseCalibration({Model(calibration, 0)}, dir.string(), options);
+  ASSERT_EQ(analysis.cameras.size(), 1u);
+  EXPECT_FALSE(analysis.cameras[0].slope.rms_deg);
+  EXPECT_NE(analysis.cameras[0].slope.error.find("the flight method's steps"), std::string::npos)
+      << analysis.cameras[0].slope.error;
+  EXPECT_TRUE(analysis.cameras[0].uncertainty);
+  EXPECT_EQ(ReadText(analysis.json_path).find("\"solved\""), std::string::npos);
+}
+
+TEST(CalibrationAnalysis, SameInputsGiveSameJsonBytes) {
+  const fs::path calibration = Calibration({"left"});
+  const fs::path dir = FreshTestDir();
+  AnalysisOptions options = WithFlightSlope();
   options.slope_samples = 2;  // repeatability needs a Monte Carlo, not a long one
   options.seed = 7;
   const CalibrationAnalysis first =
@@ -302,7 +330,7 @@ TEST(CalibrationAnalysis, SameInputsGiveSameJsonBytes) {
 TEST(CalibrationAnalysis, StereoPairGivesTheRelativePose) {
   const fs::path calibration = Calibration({"left", "right"});
   const fs::path dir = FreshTestDir();
-  AnalysisOptions options;
+  AnalysisOptions options = WithFlightSlope();
   options.slope_samples = 0;  // the Monte Carlo is covered by the mono tests
   const CalibrationAnalysis analysis =
       AnalyseCalibration({Model(calibration, 0), Model(calibration, 1)}, dir.string(), options);
@@ -459,7 +487,7 @@ TEST(CalibrationAnalysis, AMissingModelIsAnInputError) {
 
 TEST(CalibrationAnalysis, InvalidOptionsAreAnInputError) {
   const fs::path dir = FreshTestDir();
-  AnalysisOptions options;
+  AnalysisOptions options = WithFlightSlope();
   options.hda.band_x1 = 0.2;  // left of band_x0
   options.slope_samples = -1;
   try {
@@ -479,7 +507,7 @@ TEST(CalibrationAnalysis, InvalidOptionsAreAnInputError) {
 TEST(CalibrationAnalysis, AMissingPythonIsAnExternalError) {
   const fs::path calibration = Calibration({"left"});
   const fs::path dir = FreshTestDir();
-  AnalysisOptions options;
+  AnalysisOptions options = WithFlightSlope();
   options.python = "/nonexistent/python3";
   try {
     AnalyseCalibration({Model(calibration, 0)}, dir.string(), options);
@@ -507,7 +535,7 @@ TEST(CalibrationAnalysis, ScriptFailuresMapToTheRightErrors) {
   fs::permissions(crash, fs::perms::owner_all);
   fs::permissions(unusable, fs::perms::owner_all);
 
-  AnalysisOptions options;
+  AnalysisOptions options = WithFlightSlope();
   options.python = crash.string();
   try {
     AnalyseCalibration({Model(calibration, 0)}, (dir / "crash").string(), options);
@@ -532,7 +560,7 @@ TEST(CalibrationAnalysis, ScriptFailuresMapToTheRightErrors) {
 TEST(CalibrationAnalysis, ATimeoutIsAnExternalErrorAndLeavesNoRecord) {
   const fs::path calibration = Calibration({"left"});
   const fs::path dir = FreshTestDir();
-  AnalysisOptions options;
+  AnalysisOptions options = WithFlightSlope();
   options.timeout_s = 0.3;  // python alone takes longer to import mrcal and matplotlib
   try {
     AnalyseCalibration({Model(calibration, 0)}, dir.string(), options);

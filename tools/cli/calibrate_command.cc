@@ -30,6 +30,13 @@ namespace hdabench::tools {
 
 namespace {
 
+// The calibration's slope figure through the flight method's own steps.
+calib::HdaTiltFunction HdaTiltOfTheFlightMethod() {
+  return [](const calib::CameraModel& truth, const calib::CameraModel& believed, const Eigen::Vector3d& rotation_rad,
+            const calib::HdaGeometry& geometry) {
+    return reference::HdaGeometryTiltDeg(reference::MakeHdaGeometrySite(truth, geometry), believed, rotation_rad);
+  };
+}
 
 }  // namespace
 
@@ -53,6 +60,7 @@ int RunCalibrate(const CalibrateCommandOptions& options, std::ostream& out, std:
   calibrate.analysis.hda.baseline_m = options.hda_baseline_m;
   calibrate.analysis.hda.site_m = options.hda_site_m;
   calibrate.analysis.slope_samples = options.slope_samples;
+  calibrate.analysis.hda_tilt_deg = HdaTiltOfTheFlightMethod();
   calibrate.slope_share = options.slope_share;
   calibrate.method_slope_sigma_deg = options.method_sigma_deg;
   calibrate.analysis.seed = options.seed;

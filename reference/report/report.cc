@@ -475,6 +475,17 @@ void FillRunPage(const Json& result, Page* page) {
   page->facts.push_back("ROIs: " + std::to_string(rois.size()) + "; time budget " +
                         Fixed(Member(result, "budget_s"), 2) + " s of the flight computer" +
                         (Member(result, "budget_exhausted") == true ? " (ran out)" : ""));
+  // The camera calibration's term in each slope's sigma (docs/calibration.md).
+  const Json& term = Member(result, "calibration_term");
+  const bool calibration = Member(term, "available") == true;
+  if (calibration) {
+    page->facts.push_back("calibration term: " + std::to_string(Member(term, "modes").size()) + " modes of " +
+                          Text(Member(term, "model")) + ", corner noise " + Fixed(Member(term, "noise_stdev_px"), 3) +
+                          " px; each slope's calibration sigma in the table, in quadrature with the method's in "
+                          "the within-two-sigma share");
+  } else if (term.is_object()) {
+    page->facts.push_back("calibration term: none (" + Text(Member(term, "why")) + ")");
+  }
 
   // Statuses and their counts.
   page->summary.id = "status-table";
@@ -490,6 +501,7 @@ void FillRunPage(const Json& result, Page* page) {
   table.id = "roi-table";
   table.header = {"ROI", "status", "truth slope (deg)", "est. slope (deg)", "sigma (deg)",
                   "# points", "truth rough. RMS (m)", "est. relief (m)", "score", "rank"};
+  if (calibration) table.header.insert(table.header.begin() + 5, "calib. sigma (deg)");
   SlopeErrorPool pool;
   std::vector<DecisionSample> decision_samples;
   for (const Json& roi : rois) {
@@ -510,6 +522,11 @@ void FillRunPage(const Json& result, Page* page) {
         {Fixed(Member(roi, "score"), 3), "", ""},
         {Member(roi, "rank").is_number() ? Text(Member(roi, "rank")) : "-", "", ""},
     });
+    if (calibration) {
+      table.rows.back().insert(table.rows.back().begin() + 5,
+                               {Fixed(Member(fit, "slope_sigma_calibration_deg"), 3), "",
+                                Text(Member(fit, "calibration_sigma_why"))});
+    }
     pool.Add(SampleOfFlightRecord(roi));
     decision_samples.push_back(DecisionOfFlightRecord(roi));
   }

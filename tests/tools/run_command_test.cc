@@ -585,6 +585,10 @@ TEST(RunCommand, TheCalibrationTermIsThereExactlyWhenTheModelCarriesItsCalibrati
   EXPECT_LE(term["modes"].size(), 12u);
   EXPECT_GE(term["variance_kept"].get<double>(), 0.999);
   EXPECT_NE(calibrated.out.find("calibration term ("), std::string::npos) << calibrated.out;
+  // The report says it and shows each ROI's calibration sigma.
+  EXPECT_NE(ReadText(dir / "calibrated" / "report.md").find("- calibration term: "), std::string::npos);
+  EXPECT_NE(ReadText(dir / "calibrated" / "report.html").find("calib. sigma (deg)"), std::string::npos);
+  EXPECT_NE(ReadText(dir / "bare" / "report.md").find("- calibration term: none ("), std::string::npos);
   int with_sigma = 0;
   for (const nlohmann::json& roi : with["rois"]) {
     if (roi["fit"].is_null()) continue;

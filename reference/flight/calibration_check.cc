@@ -22,7 +22,7 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 
-Json Number(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
+Json CheckNumber(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
 
 double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), std::abs(a.dot(b))) * util::kRadToDeg;
@@ -45,7 +45,7 @@ RatioStats Ratios(const std::vector<CalibrationCheckRoi>& rois, double Calibrati
 }
 
 Json RatioJson(const RatioStats& r) {
-  return {{"rois", r.rois}, {"median", Number(r.median)}, {"p10", Number(r.p10)}, {"p90", Number(r.p90)}};
+  return {{"rois", r.rois}, {"median", CheckNumber(r.median)}, {"p10", CheckNumber(r.p10)}, {"p90", CheckNumber(r.p90)}};
 }
 
 }  // namespace
@@ -206,12 +206,12 @@ std::string CalibrationCheckJson(const CalibrationCheck& check) {
   Json rows = Json::array();
   for (const CalibrationCheckRoi& r : check.rois) {
     rows.push_back({{"id", r.id},
-                    {"predicted_slope_deg", Number(r.predicted_slope_deg)},
-                    {"predicted_tilt_deg", Number(r.predicted_tilt_deg)},
-                    {"fixed_slope_rms_deg", Number(r.fixed_slope_rms_deg)},
-                    {"fixed_tilt_rms_deg", Number(r.fixed_tilt_rms_deg)},
+                    {"predicted_slope_deg", CheckNumber(r.predicted_slope_deg)},
+                    {"predicted_tilt_deg", CheckNumber(r.predicted_tilt_deg)},
+                    {"fixed_slope_rms_deg", CheckNumber(r.fixed_slope_rms_deg)},
+                    {"fixed_tilt_rms_deg", CheckNumber(r.fixed_tilt_rms_deg)},
                     {"fixed_samples", r.fixed_samples},
-                    {"rerun_slope_rms_deg", Number(r.rerun_slope_rms_deg)},
+                    {"rerun_slope_rms_deg", CheckNumber(r.rerun_slope_rms_deg)},
                     {"rerun_samples", r.rerun_samples}});
   }
   Json j;
@@ -221,7 +221,7 @@ std::string CalibrationCheckJson(const CalibrationCheck& check) {
   j["samples"] = check.samples;
   j["solved"] = check.solved;
   j["seed"] = check.seed;
-  j["noise_stdev_px"] = Number(check.noise_stdev_px);
+  j["noise_stdev_px"] = CheckNumber(check.noise_stdev_px);
   j["failures"] = check.failures;
   j["ratios"] = {{"what", "empirical RMS over the re-solves / predicted sigma, over the ROIs"},
                  {"fixed_slope", RatioJson(check.fixed_slope)},

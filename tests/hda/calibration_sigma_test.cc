@@ -10,7 +10,9 @@
 #include "tools/util/angles.h"
 #include "tools/util/error.h"
 
-namespace hdabench::hda {
+// A namespace of its own: the sanitizer tree's unity build joins this file
+// with the other hda tests, whose helpers have the same names.
+namespace hdabench::hda::calibration_sigma_test {
 namespace {
 
 using util::kDegToRad;
@@ -182,4 +184,4 @@ TEST(CombinedSlopeSigmaDeg, AddsInQuadratureAndKeepsTheMethodsAloneWithoutATerm)
 }
 
 }  // namespace
-}  // namespace hdabench::hda
+}  // namespace hdabench::hda::calibration_sigma_test

@@ -24,10 +24,6 @@ using Json = nlohmann::ordered_json;
 
 Json CheckNumber(double value) { return std::isfinite(value) ? Json(value) : Json(nullptr); }
 
-double AngleDeg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::atan2(a.cross(b).norm(), std::abs(a.dot(b))) * util::kRadToDeg;
-}
-
 RatioStats Ratios(const std::vector<CalibrationCheckRoi>& rois, double CalibrationCheckRoi::*empirical,
                   double CalibrationCheckRoi::*predicted, int CalibrationCheckRoi::*samples) {
   std::vector<double> ratios;
@@ -108,7 +104,7 @@ CalibrationCheck CheckCalibrationTerm(const datasets::Dataset& dataset, const Fl
       CalibrationCheckRoi& row = check.rois[c];
       if (nominal.has_fit && moved.has_fit && moved.counts.depth_inliers == nominal.counts.depth_inliers) {
         fixed_slope2[c] += std::pow(moved.slope_deg - nominal.slope_deg, 2);
-        fixed_tilt2[c] += std::pow(AngleDeg(moved.normal_in_local, nominal.normal_in_local), 2);
+        fixed_tilt2[c] += std::pow(TiltErrorDeg(moved.normal_in_local, nominal.normal_in_local), 2);
         ++row.fixed_samples;
       }
       const hda::RoiResult* again = by_box(rerun, roi.box1_px);
@@ -199,7 +195,7 @@ double HdaGeometryTiltDeg(const HdaGeometrySite& site, const calib::CameraModel&
       hda::EvaluateMatchedSite(hda::InputInTurnedFrame(site.input, rotation_rad), believed, hda::HdaOptions(),
                                site.box1_px, site.points1_px, site.points2_px, 0.0);
   if (!fit.has_fit) return std::numeric_limits<double>::quiet_NaN();
-  return AngleDeg(fit.normal_in_local, site.true_normal_in_local);
+  return TiltErrorDeg(fit.normal_in_local, site.true_normal_in_local);
 }
 
 std::string CalibrationCheckJson(const CalibrationCheck& check) {

@@ -20,6 +20,7 @@
 #include "datasets/internal/csv.h"
 #include "datasets/internal/files.h"
 #include "tools/util/files.h"
+#include "tools/util/parallel_for.h"
 #include "datasets/internal/png.h"
 #include "tools/util/text.h"
 #include "datasets/npy.h"
@@ -1708,8 +1709,15 @@ void WriteDataset(const Dataset& dataset, const std::string& dir) {
       throw InputError(staging.string() + ": cannot create the folder (" + ec.message() + ")");
     }
     util::WriteFileAtomically(staging / dataset.camera_model_file, dataset.camera.ToText());
-    for (const FrameRecord& frame : dataset.frames) {
-      if (frame.HasImage()) util::WriteFileAtomically(staging / frame.image_path, internal::EncodePng(frame.image));
+    // The images are encoded on every core (each PNG depends on its frame
+    // only), then written in frame order.
+    std::vector<std::string> encoded(dataset.frames.size());
+    util::ParallelFor("dataset images", static_cast<int>(dataset.frames.size()), util::WorkerThreads(0), [&](int i) {
+      const FrameRecord& frame = dataset.frames[static_cast<size_t>(i)];
+      if (frame.HasImage()) encoded[static_cast<size_t>(i)] = internal::EncodePng(frame.image);
+    });
+    for (size_t i = 0; i < dataset.frames.size(); ++i) {
+      if (dataset.frames[i].HasImage()) util::WriteFileAtomically(staging / dataset.frames[i].image_path, encoded[i]);
     }
     util::WriteFileAtomically(staging / dataset.frames_file, FramesCsv(dataset));
     util::WriteFileAtomically(

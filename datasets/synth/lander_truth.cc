@@ -20,6 +20,11 @@ namespace {
 // A contact counts as on the plane within this height (metres): the
 // surface's heights are floats.
 constexpr double kOnPlaneM = 1e-4;
+// A square of body cells is passed whole when its bound on the clearance is
+// this far under the limit (metres): far above the rounding of the bound and
+// of the cells' own heights over the plane, so that no cell the square passes
+// would have been over the limit.
+constexpr double kTileBoundMarginM = 1e-6;
 
 // Cell coordinates (fractional) of a point of the local x-y plane.
 double ColOf(const SurfaceGrid& s, double x) { return (x - s.origin_in_local_m.x()) / s.spacing_m; }
@@ -106,13 +111,25 @@ SurfaceGrid SurfaceOfTruth(const Truth& truth) {
 
 namespace {
 
+// Side, cells, of the squares the body cells are grouped in for the safety
+// map: the highest ground of each square bounds its cells' clearance.
+constexpr int kBodyTileCells = 4;
+
+// The body cells of one kBodyTileCells square of offsets, whose top-left
+// offset is `corner`.
+struct BodyTile {
+  cv::Point corner;  // (column, row) offset
+  std::vector<cv::Point> cells;
+};
+
 // One yaw of the lander on the grid, as offsets from the centre's cell: each
 // pad's cell (the cell nearest its centre) and the cells whose centres lie
-// inside the pads' polygon.
+// inside the pads' polygon, also grouped in squares.
 struct YawStencil {
   double yaw_deg = 0.0;
   std::vector<cv::Point> pads;  // (column, row) offsets
   std::vector<cv::Point> body;
+  std::vector<BodyTile> body_tiles;
   // The pad triples (i < j < k, in that order) whose triangle holds the
   // centre: the planes the lander may rest on, the same on every cell.
   std::vector<std::array<int, 3>> triangles;
@@ -154,6 +171,18 @@ YawStencil MakeYawStencil(double spacing_m, double yaw_deg, const LanderGeometry
     for (int dc = -reach; dc <= reach; ++dc) {
       if (InConvexPolygon(corners, Eigen::Vector2d(dc, -dr))) y.body.emplace_back(dc, dr);
     }
+  }
+  // The squares, in the body's order of first appearance.
+  const auto tile_corner = [](int offset) {
+    return offset >= 0 ? offset / kBodyTileCells * kBodyTileCells
+                       : -((-offset + kBodyTileCells - 1) / kBodyTileCells) * kBodyTileCells;
+  };
+  for (const cv::Point& b : y.body) {
+    const cv::Point corner(tile_corner(b.x), tile_corner(b.y));
+    auto tile = std::find_if(y.body_tiles.begin(), y.body_tiles.end(),
+                             [&](const BodyTile& t) { return t.corner == corner; });
+    if (tile == y.body_tiles.end()) tile = y.body_tiles.insert(y.body_tiles.end(), BodyTile{corner, {}});
+    tile->cells.push_back(b);
   }
   return y;
 }
@@ -222,8 +251,12 @@ namespace {
 // as the verdict needs: when the bound from body_max shows it under the
 // limit, it is reported as that bound, and the cells stop at the first over
 // the limit.
+// With `tile_max` as well (LanderOnSurface::SafetyMap's), the body's squares are
+// bounded first, and only the cells of a square whose bound reaches the limit
+// are visited.
 LandingAtYaw AtYawOnCell(const SurfaceGrid& s, const cv::Mat& pad_max, const cv::Mat& body_max,
-                         const YawStencil& y, const LanderGeometry& lander, int r, int c, bool decide_only) {
+                         const cv::Mat* tile_max, const YawStencil& y, const LanderGeometry& lander, int r, int c,
+                         bool decide_only) {
   LandingAtYaw out;
   out.yaw_deg = y.yaw_deg;
   const int n = static_cast<int>(y.pads.size());
@@ -282,10 +315,43 @@ LandingAtYaw AtYawOnCell(const SurfaceGrid& s, const cv::Mat& pad_max, const cv:
     }
   }
   double clearance = 0.0;
-  for (const cv::Point& b : y.body) {
+  // The height of cell offset b over the highest plane, into clearance; true
+  // once over the limit.
+  const auto over_limit = [&](const cv::Point& b) {
     const Eigen::Vector3d q(b.x * sp, -b.y * sp, s.height_m.at<float>(r + b.y, c + b.x));
     for (size_t m = 0; m < planes; ++m) clearance = std::max(clearance, normals[m].dot(q - points[m]));
-    if (decide_only && clearance > lander.body_clearance_m) break;
+    return clearance > lander.body_clearance_m;
+  };
+  if (decide_only && tile_max != nullptr) {
+    for (const BodyTile& tile : y.body_tiles) {
+      // Over the square, each plane's height difference is at most its
+      // highest ground against the plane at the square's corner the plane is
+      // lowest. The square's top-left cell is clamped into the grid: the
+      // maximum is then over a square that still holds the tile's cells.
+      const double top = tile_max->at<float>(std::max(0, r + tile.corner.y), std::max(0, c + tile.corner.x));
+      const double x_lo = tile.corner.x * sp;
+      const double x_hi = (tile.corner.x + kBodyTileCells - 1) * sp;
+      const double y_hi = -tile.corner.y * sp;
+      const double y_lo = -(tile.corner.y + kBodyTileCells - 1) * sp;
+      double bound = -std::numeric_limits<double>::infinity();
+      for (size_t m = 0; m < planes; ++m) {
+        const Eigen::Vector3d& up = normals[m];
+        bound = std::max(bound, up.x() * (up.x() > 0 ? x_hi : x_lo) + up.y() * (up.y() > 0 ? y_hi : y_lo) +
+                                    up.z() * top - up.dot(points[m]));
+      }
+      if (bound <= lander.body_clearance_m - kTileBoundMarginM) {
+        clearance = std::max(clearance, bound);
+        continue;
+      }
+      for (const cv::Point& b : tile.cells) {
+        if (over_limit(b)) break;
+      }
+      if (clearance > lander.body_clearance_m) break;
+    }
+  } else {
+    for (const cv::Point& b : y.body) {
+      if (over_limit(b) && decide_only) break;
+    }
   }
   out.clearance_m = clearance;
   out.unsafe_by_clearance = clearance > lander.body_clearance_m;
@@ -312,17 +378,17 @@ LandingVerdict LanderOnSurface::Evaluate(const Eigen::Vector2d& centre_in_local_
     verdict.why = "the lander's footprint leaves the truth DEM";
     return verdict;
   }
-  return EvaluateOnCell(r, c, false);
+  return EvaluateOnCell(r, c, false, nullptr);
 }
 
-LandingVerdict LanderOnSurface::EvaluateOnCell(int r, int c, bool decide_only) const {
+LandingVerdict LanderOnSurface::EvaluateOnCell(int r, int c, bool decide_only, const cv::Mat* tile_max) const {
   const Prepared& p = *p_;
   const LanderGeometry& lander = p.lander;
   LandingVerdict verdict;
   bool first = true;
   LandingAtYaw best;
   for (const YawStencil& y : p.yaws) {
-    const LandingAtYaw at = AtYawOnCell(p.surface, p.pad_max, p.body_max, y, lander, r, c, decide_only);
+    const LandingAtYaw at = AtYawOnCell(p.surface, p.pad_max, p.body_max, tile_max, y, lander, r, c, decide_only);
     if (!at.defined) {
       verdict = LandingVerdict();
       verdict.why = "no landing plane under the lander";
@@ -350,7 +416,7 @@ LandingVerdict LanderOnSurface::EvaluateOnCell(int r, int c, bool decide_only) c
     }
     first = false;
   }
-  if (lander.chooses_yaw && decide_only) return EvaluateOnCell(r, c, false);
+  if (lander.chooses_yaw && decide_only) return EvaluateOnCell(r, c, false, nullptr);
   verdict.defined = true;
   if (lander.chooses_yaw) {
     verdict.slope_deg = best.slope_deg;
@@ -370,6 +436,11 @@ cv::Mat LanderOnSurface::SafetyMap(int stride, int threads) const {
   const int cols = (z.cols + stride - 1) / stride;
   const int reach = p_->reach;
   cv::Mat map(rows, cols, CV_8UC1, cv::Scalar(0));
+  // The highest surface over the kBodyTileCells square whose top-left cell is
+  // each cell, for AtYawOnCell's bounds.
+  cv::Mat tile_max;
+  cv::dilate(z, tile_max, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(kBodyTileCells, kBodyTileCells)),
+             cv::Point(0, 0), 1, cv::BORDER_REPLICATE);
   // Rows on every core; each cell depends on its index only.
   util::ParallelFor("safety map rows", rows, util::WorkerThreads(threads), [&](int mr) {
     const int r = mr * stride;
@@ -377,7 +448,7 @@ cv::Mat LanderOnSurface::SafetyMap(int stride, int threads) const {
     for (int mc = 0; mc < cols; ++mc) {
       const int c = mc * stride;
       if (c - reach < 0 || c + reach >= z.cols) continue;
-      const LandingVerdict v = EvaluateOnCell(r, c, true);
+      const LandingVerdict v = EvaluateOnCell(r, c, true, &tile_max);
       if (!v.defined) continue;
       map.at<unsigned char>(mr, mc) = v.safe ? 1 : (v.unsafe_by_slope ? 3 : 2);
     }
@@ -395,7 +466,7 @@ LandingAtYaw EvaluateLandingAtYaw(const SurfaceGrid& surface, const Eigen::Vecto
   out.yaw_deg = yaw_deg;
   if (!on.CellOf(centre_in_local_m, &r, &c)) return out;
   const YawStencil y = MakeYawStencil(surface.spacing_m, yaw_deg, lander);
-  return AtYawOnCell(on.p_->surface, on.p_->pad_max, on.p_->body_max, y, lander, r, c, false);
+  return AtYawOnCell(on.p_->surface, on.p_->pad_max, on.p_->body_max, nullptr, y, lander, r, c, false);
 }
 
 LandingVerdict EvaluateLanding(const SurfaceGrid& surface, const Eigen::Vector2d& centre_in_local_m,

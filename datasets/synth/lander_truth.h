@@ -115,8 +115,10 @@ class LanderOnSurface {
  private:
   struct Prepared;
   // decide_only: the clearance only as far as the verdict needs it (the
-  // safety map's classes).
-  LandingVerdict EvaluateOnCell(int row, int col, bool decide_only) const;
+  // safety map's classes); tile_max (or null): the highest surface over the
+  // square of the body's squares' size whose top-left cell is each cell,
+  // which bounds the squares in that mode.
+  LandingVerdict EvaluateOnCell(int row, int col, bool decide_only, const cv::Mat* tile_max) const;
   friend LandingAtYaw EvaluateLandingAtYaw(const SurfaceGrid&, const Eigen::Vector2d&, double,
                                            const LanderGeometry&);
   std::shared_ptr<Prepared> p_;

@@ -1,6 +1,8 @@
 #include "datasets/synth/noise.h"
 
+#include <array>
 #include <cmath>
+#include <cstddef>
 
 namespace hdabench::datasets::synth {
 
@@ -27,6 +29,32 @@ double LatticeValue(std::uint64_t seed, int layer, std::int64_t i, std::int64_t 
                             static_cast<std::uint64_t>(j) * 0x165667b19e3779f9ULL;
   return static_cast<double>(Mix64(key) >> 11) * (2.0 / 9007199254740992.0) - 1.0;
 }
+
+// The lattice values at the corners of the cell that ValueNoise last used,
+// per layer and thread. Neighbouring calls (the nodes of a grid's row, the
+// hits of neighbouring rays) mostly fall in the same cell of all but the
+// finest layers, and the values depend on (seed, layer, i, j) only, so reusing
+// them changes no bit.
+struct LatticeCell {
+  bool valid = false;
+  std::uint64_t seed = 0;
+  std::int64_t i = 0;
+  std::int64_t j = 0;
+  double a = 0.0, b = 0.0, c = 0.0, d = 0.0;  // at (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1)
+};
+constexpr int kCachedLayers = 32;
+thread_local std::array<LatticeCell, kCachedLayers> last_cell;
+
+void FillCell(std::uint64_t seed, int layer, std::int64_t i, std::int64_t j, LatticeCell* cell) {
+  cell->valid = true;
+  cell->seed = seed;
+  cell->i = i;
+  cell->j = j;
+  cell->a = LatticeValue(seed, layer, i, j);
+  cell->b = LatticeValue(seed, layer, i + 1, j);
+  cell->c = LatticeValue(seed, layer, i, j + 1);
+  cell->d = LatticeValue(seed, layer, i + 1, j + 1);
+}
 }  // namespace
 
 double ValueNoise(std::uint64_t seed, int layer, double x, double y) {
@@ -37,10 +65,13 @@ double ValueNoise(std::uint64_t seed, int layer, double x, double y) {
   const auto fade = [](double t) { return t * t * t * (t * (t * 6.0 - 15.0) + 10.0); };
   const double sx = fade(x - fx);
   const double sy = fade(y - fy);
-  const double a = LatticeValue(seed, layer, i, j);
-  const double b = LatticeValue(seed, layer, i + 1, j);
-  const double c = LatticeValue(seed, layer, i, j + 1);
-  const double d = LatticeValue(seed, layer, i + 1, j + 1);
+  LatticeCell uncached;
+  LatticeCell& cell = layer >= 0 && layer < kCachedLayers ? last_cell[static_cast<size_t>(layer)] : uncached;
+  if (!cell.valid || cell.seed != seed || cell.i != i || cell.j != j) FillCell(seed, layer, i, j, &cell);
+  const double a = cell.a;
+  const double b = cell.b;
+  const double c = cell.c;
+  const double d = cell.d;
   const double top = a + (b - a) * sx;
   const double bottom = c + (d - c) * sx;
   return top + (bottom - top) * sy;

@@ -194,16 +194,18 @@ SupportTruth ComputeSupportTruth(const Dataset& dataset, int frame, const std::v
   return result;
 }
 
-void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double max_slope_deg,
-                    double max_hazard_m) {
+std::vector<TruthMapFile> EncodeTruthMaps(const Dataset& dataset, double max_slope_deg, double max_hazard_m) {
   if (!dataset.truth.dem.has_value() || dataset.truth.dem->height_in_local_m.empty()) {
     throw InputError("the dataset has no truth DEM in memory: no maps to draw");
   }
   const TruthDem& dem = *dataset.truth.dem;
   const cv::Mat& z = dem.height_in_local_m;
-  std::error_code ec;
-  std::filesystem::create_directories(out_dir, ec);
-  if (ec) throw InputError(out_dir + ": cannot create the folder: " + ec.message());
+
+  // Every cell about a metre apart as a landing point of the default lander
+  // (lander_truth.h). First, so that the lander's grids are freed before the
+  // maps are drawn.
+  const int stride = std::max(1, static_cast<int>(std::lround(1.0 / dem.spacing_m)));
+  const cv::Mat safety_classes = SafetyMap(SurfaceOfTruth(dataset.truth), LanderGeometry(), stride);
 
   // Slope over a baseline of about 1 m (at least one node each side).
   const int k = std::max(1, static_cast<int>(std::lround(0.5 / dem.spacing_m)));
@@ -224,10 +226,12 @@ void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double m
   cv::normalize(z, elevation_8u, 0, 255, cv::NORM_MINMAX, CV_8UC1);
   cv::Mat elevation_color;
   cv::applyColorMap(elevation_8u, elevation_color, cv::COLORMAP_VIRIDIS);
+  elevation_8u.release();
   cv::Mat slope_8u;
   slope_deg.convertTo(slope_8u, CV_8UC1, 255.0 / 30.0);  // 0..30 degrees
   cv::Mat slope_color;
   cv::applyColorMap(slope_8u, slope_color, cv::COLORMAP_INFERNO);
+  slope_8u.release();
 
   // Hazards: red where the slope is over the limit, yellow under rocks over max_hazard_m.
   cv::Mat hazards(z.rows, z.cols, CV_8UC3, cv::Scalar(40, 120, 40));
@@ -240,26 +244,42 @@ void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double m
     cv::circle(hazards, cv::Point(static_cast<int>(std::lround(col)), static_cast<int>(std::lround(row))),
                radius, cv::Scalar(0, 220, 255), cv::FILLED);
   }
-  // Every cell about a metre apart as a landing point of the default lander
-  // (lander_truth.h), the map at the DEM's size.
-  const int stride = std::max(1, static_cast<int>(std::lround(1.0 / dem.spacing_m)));
-  const cv::Mat safety_classes = SafetyMap(SurfaceOfTruth(dataset.truth), LanderGeometry(), stride);
-  cv::Mat safety_small = SafetyMapImage(safety_classes), safety;
-  cv::resize(safety_small, safety, z.size(), 0, 0, cv::INTER_NEAREST);
-  const std::filesystem::path dir(out_dir);
+  slope_deg.release();
+  // The safety classes drawn at the DEM's size.
+  cv::Mat safety;
+  cv::resize(SafetyMapImage(safety_classes), safety, z.size(), 0, 0, cv::INTER_NEAREST);
   const std::array<std::pair<const char*, const cv::Mat*>, 4> maps = {{{"elevation.png", &elevation_color},
                                                                        {"slope.png", &slope_color},
                                                                        {"hazards.png", &hazards},
                                                                        {"safety.png", &safety}}};
-  // Each map is encoded and written by one worker: PNG encoding is most of the time.
+  std::vector<TruthMapFile> files(maps.size());
+  // Each map is encoded by one worker: PNG encoding is most of the time.
   util::ParallelFor("map files", static_cast<int>(maps.size()), threads, [&](int i) {
     const auto& [name, map] = maps[static_cast<size_t>(i)];
-    util::WriteFileAtomically(dir / name, images::EncodePng(*map));
+    TruthMapFile& file = files[static_cast<size_t>(i)];
+    file.name = name;
+    file.png = images::EncodePng(*map);
     // Its preview for the report (the bytes a report would make from the
     // written PNG, which decodes to this image), when the map is larger.
-    const std::string preview = PreviewPng(*map, kMapPreviewSidePx);
-    if (!preview.empty()) util::WriteFileAtomically(dir / kMapPreviewFolder / name, preview);
+    file.preview_png = PreviewPng(*map, kMapPreviewSidePx);
   });
+  return files;
+}
+
+void WriteTruthMapFiles(const std::vector<TruthMapFile>& files, const std::string& out_dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (ec) throw InputError(out_dir + ": cannot create the folder: " + ec.message());
+  const std::filesystem::path dir(out_dir);
+  for (const TruthMapFile& file : files) {
+    util::WriteFileAtomically(dir / file.name, file.png);
+    if (!file.preview_png.empty()) util::WriteFileAtomically(dir / kMapPreviewFolder / file.name, file.preview_png);
+  }
+}
+
+void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double max_slope_deg,
+                    double max_hazard_m) {
+  WriteTruthMapFiles(EncodeTruthMaps(dataset, max_slope_deg, max_hazard_m), out_dir);
 }
 
 }  // namespace hdabench::datasets::synth

@@ -76,4 +76,18 @@ SupportTruth ComputeSupportTruth(const Dataset& dataset, int frame, const std::v
 void WriteTruthMaps(const Dataset& dataset, const std::string& out_dir, double max_slope_deg = 10.0,
                     double max_hazard_m = 0.30);
 
+// WriteTruthMaps in two steps, so that the maps can be drawn while something
+// else is written: each map's PNG bytes and its preview's (empty when the map
+// is no larger than a preview), in the order elevation, slope, hazards,
+// safety. EncodeTruthMaps throws InputError when the dataset has no DEM in
+// memory; WriteTruthMapFiles when a file cannot be written.
+struct TruthMapFile {
+  std::string name;  // "slope.png"
+  std::string png;
+  std::string preview_png;
+};
+std::vector<TruthMapFile> EncodeTruthMaps(const Dataset& dataset, double max_slope_deg = 10.0,
+                                          double max_hazard_m = 0.30);
+void WriteTruthMapFiles(const std::vector<TruthMapFile>& files, const std::string& out_dir);
+
 }  // namespace hdabench::datasets::synth

@@ -435,7 +435,9 @@ TEST(ReportCommand, EveryFigureIsEmbeddedAtTheSizeThePageShowsIt) {
   const auto fits = [&](const EmbeddedFigure& figure) {
     // The landing decisions and the safety map beside them share the page's width.
     const bool beside = figure.id == "fig-decision" || figure.id == "map-safety-beside-decisions";
-    if (beside) EXPECT_LE(figure.size.first, static_cast<std::uint32_t>(hdabench::reference::kFigureHalfWidthPx));
+    if (beside) {
+      EXPECT_LE(figure.size.first, static_cast<std::uint32_t>(hdabench::reference::kFigureHalfWidthPx));
+    }
     const bool in_grid = !beside && (figure.id.rfind("fig-roi_", 0) == 0 || figure.id.rfind("map-", 0) == 0);
     EXPECT_GT(figure.size.first, 0u) << figure.id;
     EXPECT_LE(figure.size.first, static_cast<std::uint32_t>(kFigureShownWidthPx)) << figure.id;

@@ -3,10 +3,12 @@
 // generator.
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <functional>
 #include <limits>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -590,6 +592,30 @@ TEST(FractalNoise, FilteredOctavesFollowTheGaussianTransfer) {
               1e-12);
   // A wide filter leaves the mean (0) only.
   EXPECT_EQ(FractalNoise(9, 3.3, 1.2, 0.5, 64.0, 0.5, 1000.0), 0.0);
+}
+
+// ValueNoise keeps the lattice values of each layer's last cell per thread.
+// Whatever was called before, a value is the one a thread that never called
+// it gives: neighbouring points share cells, two seeds alternate on the same
+// cell, and layer 40 is past the layers kept.
+TEST(ValueNoise, AValueDoesNotDependOnTheCallsBeforeIt) {
+  struct Call {
+    std::uint64_t seed;
+    int layer;
+    double x, y;
+  };
+  std::vector<Call> calls;
+  for (int k = 0; k < 60; ++k) {
+    const double x = 0.37 * k, y = 2.0 - 0.11 * k;
+    calls.push_back({7, k % 3, x, y});
+    calls.push_back({8, k % 3, x, y});
+    calls.push_back({7, 40, x, y});
+  }
+  for (const Call& call : calls) {
+    double cold = 0.0;
+    std::thread([&] { cold = ValueNoise(call.seed, call.layer, call.x, call.y); }).join();
+    EXPECT_EQ(ValueNoise(call.seed, call.layer, call.x, call.y), cold) << call.seed << " " << call.layer << " " << call.x;
+  }
 }
 
 TEST(Heightfield, MeanNormalOfAPlaneIsItsNormal) {

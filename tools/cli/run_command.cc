@@ -55,11 +55,11 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   // parallel loops would otherwise use every core; results do not change).
   cv::setNumThreads(1);
   reference::FlightRun run;
-  try {
-    run = reference::RunFlight(dataset, frames.first, frames.second, hda_settings, options.rois_px);
-  } catch (const InputError& e) {
-    err << "hdabench run: " << e.what() << "\n";
-    return kExitInput;
+  if (const int code = WithExitCodes("hdabench run: ", err, [&] {
+        run = reference::RunFlight(dataset, frames.first, frames.second, hda_settings, options.rois_px);
+      });
+      code != kExitOk) {
+    return code;
   }
   for (const reference::DerivedParam& d : run.derived_options) {
     progress("from the geometry: " + d.key + " = " + util::ShortestText(d.value) + " (" + d.rule + ")");
@@ -67,14 +67,13 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
 
   progress("writing " + options.out_dir);
   std::vector<std::string> written;
-  try {
-    written = reference::WriteFlightOutputs(run, dataset.frames[static_cast<size_t>(frames.first)].image,
-                                            dataset.frames[static_cast<size_t>(frames.second)].image,
-                                            options.out_dir,
-                                            options.figures);
-  } catch (const InputError& e) {
-    err << "hdabench run: " << e.what() << "\n";
-    return kExitInput;
+  if (const int code = WithExitCodes("hdabench run: ", err, [&] {
+        written = reference::WriteFlightOutputs(run, dataset.frames[static_cast<size_t>(frames.first)].image,
+                                                dataset.frames[static_cast<size_t>(frames.second)].image,
+                                                options.out_dir, options.figures);
+      });
+      code != kExitOk) {
+    return code;
   }
   out << reference::FlightReport(run);
   out << "wrote " << written.size() << " files to " << options.out_dir
@@ -92,7 +91,7 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
   } else if (options.calibration_check_samples > 0) {
     progress("calibration check: " + std::to_string(options.calibration_check_samples) +
              " re-solves of " + run.calibration.model_file);
-    try {
+    check_code = WithExitCodes("hdabench run: --calibration-check: ", err, [&] {
       const reference::CalibrationCheck check = reference::CheckCalibrationTerm(
           dataset, run, options.calibration_check_samples, options.calibration_check_seed,
           [&](int done, int samples) {
@@ -100,13 +99,7 @@ int RunFlight(const RunFlightOptions& options, std::ostream& out, std::ostream& 
           });
       util::WriteFileAtomically(check_path, reference::CalibrationCheckJson(check));
       out << reference::CalibrationCheckLine(check) << "\n";
-    } catch (const InputError& e) {
-      err << "hdabench run: --calibration-check: " << e.what() << "\n";
-      check_code = kExitInput;
-    } catch (const ExternalError& e) {
-      err << "hdabench run: --calibration-check: " << e.what() << "\n";
-      check_code = kExitExternal;
-    }
+    });
   }
   // The report never changes the exit code: a problem is a warning line.
   if (options.report) {

@@ -4,7 +4,9 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <memory>
+#include <vector>
 
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
@@ -55,7 +57,71 @@ bool InConvexPolygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::V
   return true;
 }
 
+// Each row's highest value over the window of 2 * half + 1 cells centred on
+// each cell, the row's ends replicated outward: the van Herk / Gil-Werman
+// running maximum, three comparisons a cell whatever the window's length.
+// `padded`, `ahead` and `behind` are scratch rows of cols + 2 * half cells.
+void RowWindowMax(const float* row, int cols, int half, float* out, std::vector<float>* padded,
+                  std::vector<float>* ahead, std::vector<float>* behind) {
+  const int n = cols + 2 * half;
+  const int k = 2 * half + 1;
+  padded->resize(n);
+  ahead->resize(n);
+  behind->resize(n);
+  float* x = padded->data();
+  for (int i = 0; i < n; ++i) x[i] = row[std::clamp(i - half, 0, cols - 1)];
+  // ahead: the maximum from each block's start to the cell; behind: from the
+  // cell to its block's end (blocks of k cells from cell 0).
+  for (int i = 0; i < n; ++i) (*ahead)[i] = i % k == 0 ? x[i] : std::max((*ahead)[i - 1], x[i]);
+  for (int i = n - 1; i >= 0; --i) {
+    (*behind)[i] = (i % k == k - 1 || i == n - 1) ? x[i] : std::max((*behind)[i + 1], x[i]);
+  }
+  // The window [c, c + k - 1] of the padded row holds at most one block start
+  // past c: its maximum is behind[c]'s part and ahead[c + k - 1]'s.
+  for (int c = 0; c < cols; ++c) out[c] = std::max((*behind)[c], (*ahead)[c + k - 1]);
+}
+
 }  // namespace
+
+cv::Mat DiskMaximum(const cv::Mat& z, double radius_cells) {
+  if (z.type() != CV_32FC1 || z.empty() || !(radius_cells >= 0) || !std::isfinite(radius_cells)) {
+    throw InputError("DiskMaximum: expected a non-empty float grid and a finite radius >= 0");
+  }
+  const int reach = static_cast<int>(std::floor(radius_cells));
+  std::vector<int> half_width(reach + 1, 0);  // per |dr|
+  for (int dr = 0; dr <= reach; ++dr) {
+    int w = 0;
+    while (w + 1 <= reach &&
+           static_cast<double>(dr) * dr + static_cast<double>(w + 1) * (w + 1) <=
+               radius_cells * radius_cells + 1e-9) {
+      ++w;
+    }
+    half_width[dr] = w;
+  }
+  cv::Mat out = z.clone();
+  cv::Mat rows_max(z.rows, z.cols, CV_32FC1);
+  for (int dr = 0; dr <= reach; ++dr) {
+    const int w = half_width[dr];
+    if (dr > 0 && w == half_width[dr - 1]) continue;  // made already
+    // Every |dr'| whose half-width is w.
+    int last = dr;
+    while (last + 1 <= reach && half_width[last + 1] == w) ++last;
+    util::ParallelFor("lander pad rows", z.rows, util::WorkerThreads(0), [&](int r) {
+      thread_local std::vector<float> padded, ahead, behind;
+      RowWindowMax(z.ptr<float>(r), z.cols, w, rows_max.ptr<float>(r), &padded, &ahead, &behind);
+    });
+    util::ParallelFor("lander pad rows", z.rows, util::WorkerThreads(0), [&](int r) {
+      float* o = out.ptr<float>(r);
+      for (int d = dr; d <= last; ++d) {
+        for (const int from : {r - d, r + d}) {
+          const float* m = rows_max.ptr<float>(std::clamp(from, 0, z.rows - 1));
+          for (int c = 0; c < z.cols; ++c) o[c] = std::max(o[c], m[c]);
+        }
+      }
+    });
+  }
+  return out;
+}
 
 std::vector<std::string> LanderGeometry::Validate() const {
   std::vector<std::string> errors;
@@ -177,12 +243,15 @@ YawStencil MakeYawStencil(double spacing_m, double yaw_deg, const LanderGeometry
     return offset >= 0 ? offset / kBodyTileCells * kBodyTileCells
                        : -((-offset + kBodyTileCells - 1) / kBodyTileCells) * kBodyTileCells;
   };
+  // Each square's place in body_tiles, by its corner: a lookup, not a search
+  // of the squares so far (a fine DEM puts a million body cells in a hundred
+  // thousand squares).
+  std::map<std::pair<int, int>, size_t> tile_of_corner;
   for (const cv::Point& b : y.body) {
     const cv::Point corner(tile_corner(b.x), tile_corner(b.y));
-    auto tile = std::find_if(y.body_tiles.begin(), y.body_tiles.end(),
-                             [&](const BodyTile& t) { return t.corner == corner; });
-    if (tile == y.body_tiles.end()) tile = y.body_tiles.insert(y.body_tiles.end(), BodyTile{corner, {}});
-    tile->cells.push_back(b);
+    const auto [at, added] = tile_of_corner.emplace(std::make_pair(corner.x, corner.y), y.body_tiles.size());
+    if (added) y.body_tiles.push_back(BodyTile{corner, {}});
+    y.body_tiles[at->second].cells.push_back(b);
   }
   return y;
 }
@@ -225,14 +294,7 @@ LanderOnSurface::LanderOnSurface(const SurfaceGrid& surface, const LanderGeometr
   for (const double yaw : SweptYaws(lander)) p.yaws.push_back(MakeYawStencil(surface.spacing_m, yaw, lander));
   // A pad's disk: the cells within its radius of the pad's cell.
   const int pad_reach = static_cast<int>(std::floor(0.5 * lander.pad_diameter_m / surface.spacing_m));
-  cv::Mat disk(2 * pad_reach + 1, 2 * pad_reach + 1, CV_8UC1, cv::Scalar(0));
-  const double pad_cells = 0.5 * lander.pad_diameter_m / surface.spacing_m;
-  for (int r = -pad_reach; r <= pad_reach; ++r) {
-    for (int c = -pad_reach; c <= pad_reach; ++c) {
-      if (r * r + c * c <= pad_cells * pad_cells + 1e-9) disk.at<unsigned char>(r + pad_reach, c + pad_reach) = 1;
-    }
-  }
-  cv::dilate(surface.height_m, p.pad_max, disk, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+  p.pad_max = DiskMaximum(surface.height_m, 0.5 * lander.pad_diameter_m / surface.spacing_m);
   int body_reach = 0;
   for (const YawStencil& y : p.yaws) {
     for (const cv::Point& b : y.body) body_reach = std::max({body_reach, std::abs(b.x), std::abs(b.y)});

@@ -131,6 +131,14 @@ class LanderOnSurface {
 // every core); the map does not depend on it.
 cv::Mat SafetyMap(const SurfaceGrid& surface, const LanderGeometry& lander, int stride, int threads = 0);
 
+// The highest value of a float grid within `radius_cells` of each cell (the
+// cells (dr, dc) with dr^2 + dc^2 <= radius_cells^2), the grid's edge
+// replicated outward: cv::dilate's answer with that disk and BORDER_REPLICATE,
+// the same floats, in time that grows with the disk's diameter, not its area
+// (a lander's pads on a fine DEM). Throws InputError for an empty or non-float
+// grid or a radius that is negative or not finite.
+cv::Mat DiskMaximum(const cv::Mat& height, double radius_cells);
+
 // The safety map as a BGR image: no verdict grey, safe green, unsafe by
 // clearance orange, unsafe by slope red.
 cv::Mat SafetyMapImage(const cv::Mat& safety_map);

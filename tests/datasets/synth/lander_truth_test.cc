@@ -6,6 +6,9 @@
 #include <functional>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+
+#include "tools/util/error.h"
 
 namespace hdabench::datasets::synth {
 namespace {
@@ -214,6 +217,37 @@ TEST(LanderTruth, TheSafetyMapAgreesWithTheFullEvaluation) {
     for (int k = 0; k < 4; ++k) EXPECT_GT(counts[k], 0) << k;
   }
 }
+
+// The pads' highest ground is cv::dilate's with the pad's disk and the edge
+// replicated, to the float: random grids, radii from none to wider than the
+// grid, whole and fractional, on grids with fewer rows than columns and more.
+TEST(LanderTruth, TheDiskMaximumIsDilationByTheDisk) {
+  cv::RNG rng(7);
+  for (const cv::Size size : {cv::Size(37, 23), cv::Size(9, 41), cv::Size(1, 5)}) {
+    cv::Mat z(size, CV_32FC1);
+    rng.fill(z, cv::RNG::UNIFORM, -5.0, 5.0);
+    for (const double radius : {0.0, 0.7, 1.0, 2.5, 3.0, 6.49, 11.2, 30.0}) {
+      SCOPED_TRACE(std::to_string(size.width) + " x " + std::to_string(size.height) + ", radius " +
+                   std::to_string(radius));
+      const int reach = static_cast<int>(std::floor(radius));
+      cv::Mat disk(2 * reach + 1, 2 * reach + 1, CV_8UC1, cv::Scalar(0));
+      for (int r = -reach; r <= reach; ++r) {
+        for (int c = -reach; c <= reach; ++c) {
+          if (r * r + c * c <= radius * radius + 1e-9) disk.at<unsigned char>(r + reach, c + reach) = 1;
+        }
+      }
+      cv::Mat expected;
+      cv::dilate(z, expected, disk, cv::Point(-1, -1), 1, cv::BORDER_REPLICATE);
+      const cv::Mat got = DiskMaximum(z, radius);
+      ASSERT_EQ(got.type(), CV_32FC1);
+      EXPECT_EQ(cv::norm(got, expected, cv::NORM_INF), 0.0);
+    }
+  }
+  EXPECT_THROW(DiskMaximum(cv::Mat(), 1.0), InputError);
+  EXPECT_THROW(DiskMaximum(cv::Mat(3, 3, CV_32FC1, cv::Scalar(0)), -1.0), InputError);
+  EXPECT_THROW(DiskMaximum(cv::Mat(3, 3, CV_8UC1, cv::Scalar(0)), 1.0), InputError);
+}
+
 
 // A rock's sphere is drawn onto the DEM: its top where its centre is, even
 // when the rock is smaller than a cell.

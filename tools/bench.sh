@@ -4,8 +4,9 @@
 #   tools/bench.sh run     install what is missing, build the hdabench program, run the main job on
 #                          the built-in default dataset
 #   tools/bench.sh test    install what is missing, build, run the whole test suite
-#                          (the normal build, then the address + undefined-behaviour sanitizer build
-#                          without the tests labelled external), 30 s of each libFuzzer harness
+#                          (the normal build), then the unit tests (label fast) built with
+#                          clang's address + undefined-behaviour sanitizers into build-sanitize/,
+#                          30 s of each libFuzzer harness from the same tree
 #                          (tools/fuzz.sh), then the merge gate on the CI-sized suite
 #                          (gate/suite-ci.json), and the same gate with every site declared safe,
 #                          which must fail
@@ -20,6 +21,7 @@
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+source "$root/tools/sanitize-tree.sh"
 build_dir=${HDABENCH_BUILD_DIR:-$root/build}
 jobs=${HDABENCH_JOBS:-$(nproc)}
 
@@ -114,31 +116,29 @@ case $command in
     install_packages
     configure_and_build "$build_dir"
     run_tests "$build_dir"
+    # The unit tests (label fast) again under AddressSanitizer and
+    # UndefinedBehaviorSanitizer, in the clang tree that also holds the
+    # libFuzzer harnesses (tools/sanitize-tree.sh): one build of the modules
+    # serves both.
     if [[ ${HDABENCH_SKIP_SANITIZE:-0} != 1 ]]; then
-      # -O1, as the sanitizers' documentation advises: half the compile time
-      # of -O2 under ASan and UBSan, every check kept. A unity build (a
-      # target's sources compiled up to eight to a translation unit, so the
-      # headers they share are compiled once): a fifth less compile time, and
-      # since the normal build is not one, the tests run both ways, which
-      # catches code whose meaning changes when files share a unit.
-      configure_and_build "${build_dir}-sanitize" -DHDABENCH_SANITIZE=ON -DCMAKE_UNITY_BUILD=ON \
-        "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG"
-      # Not the tests whose time goes to programs the sanitizers do not see
-      # (label external: colmap, Python, Chromium, Slurm); the normal build ran them.
-      # The datasets the normal build's tests made are used as they are (the same
-      # bytes, made several times faster than under the sanitizers).
-      HDABENCH_TEST_DATASETS_FROM=$build_dir run_tests "${build_dir}-sanitize" -LE external
+      status=0
+      configure_sanitize_tree "$root" "${build_dir}-sanitize" || status=$?
+      ((status == 0)) || die "configuring ${build_dir}-sanitize failed" "$status"
+      configure_and_build "${build_dir}-sanitize"
+      # The datasets the normal build's tests made are used as they are (the
+      # same bytes, made several times faster than under the sanitizers).
+      HDABENCH_TEST_DATASETS_FROM=$build_dir run_tests "${build_dir}-sanitize" -L fast
     fi
     # Every parser of outside input under libFuzzer for 30 s (docs/fuzzing.md).
     if [[ ${HDABENCH_SKIP_FUZZ:-0} != 1 ]]; then
       say "Fuzzing (tools/fuzz.sh --seconds 30)"
-      HDABENCH_FUZZ_BUILD_DIR=${build_dir}-fuzz "$root/tools/fuzz.sh" --seconds 30 ||
+      HDABENCH_FUZZ_BUILD_DIR=${build_dir}-sanitize "$root/tools/fuzz.sh" --seconds 30 ||
         die "tools/fuzz.sh failed with exit $? (1: a harness failed or the harnesses did not build, 3: no clang or libFuzzer; its message above says which)"
     fi
     run_gate
     ;;
   -h | --help | help)
-    sed -n '2,19p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
+    sed -n '2,20p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'
     ;;
   *)
     die "usage: tools/bench.sh run|test|setup (see tools/bench.sh --help)" 2

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The libFuzzer harnesses of every parser of outside input (tests/fuzz/,
 # docs/fuzzing.md): builds them with clang, AddressSanitizer and
-# UndefinedBehaviorSanitizer into build-fuzz/, and runs each from its seed
+# UndefinedBehaviorSanitizer into build-sanitize/ (the tree of the sanitizer
+# tests too: tools/sanitize-tree.sh), and runs each from its seed
 # corpus (the repository's own files of its kind, and the valid files the
 # harness is built around) for a time or a number of runs.
 #
@@ -10,17 +11,17 @@
 # Default: 30 seconds each (the test command's run), up to HDABENCH_JOBS
 # harnesses at once, each on one core. Prints per harness the
 # executions, the time, the corpus size and the crashes; a crash's input is
-# kept in build-fuzz/fuzz-artifacts/ and the script exits 1. The corpus each
-# run grows is kept in build-fuzz/fuzz-corpus/NAME and the next run starts
-# from it. Environment: HDABENCH_FUZZ_BUILD_DIR (default build-fuzz),
+# kept in build-sanitize/fuzz-artifacts/ and the script exits 1. The corpus each
+# run grows is kept in build-sanitize/fuzz-corpus/NAME and the next run starts
+# from it. Environment: HDABENCH_FUZZ_BUILD_DIR (default build-sanitize),
 # HDABENCH_JOBS (default: number of cores). Each harness's scratch files go to
-# build-fuzz/fuzz-tmp/NAME (its TMPDIR), which it must leave empty. Exit codes:
+# build-sanitize/fuzz-tmp/NAME (its TMPDIR), which it must leave empty. Exit codes:
 # 0 no crash, 1 a harness crashed (or leaked memory or scratch files, or a
 # sanitizer reported), 2 bad usage, 3 no clang or libFuzzer.
 set -euo pipefail
 
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
-build_dir=${HDABENCH_FUZZ_BUILD_DIR:-$root/build-fuzz}
+build_dir=${HDABENCH_FUZZ_BUILD_DIR:-$root/build-sanitize}
 jobs=${HDABENCH_JOBS:-$(nproc)}
 all=(npy png cameramodel dataset field_log colmap_model gate_files external_output report_records)
 limit=(-max_total_time=30)
@@ -33,7 +34,7 @@ while (($#)); do
     --seconds) [[ ${2:-} =~ ^[0-9]+$ ]] || die "--seconds needs a whole number"; limit=(-max_total_time="$2"); shift 2 ;;
     --runs) [[ ${2:-} =~ ^[0-9]+$ ]] || die "--runs needs a whole number"; limit=(-runs="$2"); shift 2 ;;
     --only) IFS=, read -r -a only <<<"${2:-}"; shift 2 ;;
-    -h | --help) sed -n '2,19p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h | --help) sed -n '2,20p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) die "unknown argument '$1' (see tools/fuzz.sh --help)" ;;
   esac
 done
@@ -42,15 +43,10 @@ for name in "${only[@]}"; do
   [[ " ${all[*]} " == *" $name "* ]] || die "no harness '$name' (there are: ${all[*]})"
 done
 
-clang=$(command -v clang++-14 || command -v clang++ || true)
-[[ -n $clang ]] || die "clang++ not found (Debian package clang, in tools/debian-packages.txt)" 3
-if [[ ! -f $build_dir/CMakeCache.txt ]]; then
-  printf '== Configuring %s\n' "$build_dir"
-  cmake -S "$root" -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O1 -g1 -DNDEBUG" -DCMAKE_CXX_COMPILER="$clang" \
-    -DCMAKE_C_COMPILER="${clang%++*}${clang##*++}" -DHDABENCH_FUZZ=ON -DHDABENCH_BUILD_TESTS=OFF -DHDABENCH_PCH=OFF \
-    -DCMAKE_UNITY_BUILD=ON >/dev/null || die "configuring $build_dir failed (is libFuzzer there: libclang-rt-14-dev?)" 3
-fi
+source "$root/tools/sanitize-tree.sh"
+status=0
+configure_sanitize_tree "$root" "$build_dir" || status=$?
+((status == 0)) || die "the harnesses' tree $build_dir could not be configured" 3
 printf '== Building the harnesses in %s\n' "$build_dir"
 cmake --build "$build_dir" -j "$jobs" --target hdabench_fuzzers || die "building the harnesses failed" 1
 

@@ -16,9 +16,10 @@ using hdabench::testing_support::CommandResult;
 using hdabench::testing_support::FreshTestDir;
 using hdabench::testing_support::ReadText;
 
-// Runs `hdabench ARGS` in the test's folder; out holds stdout then stderr.
+// Runs `hdabench ARGS` in a scratch folder of its own (FreshTestDir would empty
+// the test's); out holds stdout then stderr.
 CommandResult RunHdabench(const std::vector<std::string>& args) {
-  const fs::path dir = FreshTestDir() / "run";
+  const fs::path dir = fs::path(HDABENCH_TEST_TMP) / (hdabench::testing_support::CurrentTestName() + ".run");
   fs::create_directories(dir);
   CommandResult result = hdabench::testing_support::RunHdabench(args, dir);
   result.out += result.err;

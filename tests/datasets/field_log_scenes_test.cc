@@ -24,7 +24,7 @@ using testing_support::RunHdabench;
 // and ingested back give the flight method the same ROIs, statuses and slopes
 // as the synthetic datasets themselves: the only differences are the rounding
 // of the image times to nanoseconds and of the geodetic round trip (1e-9 m).
-// Over 60 s (90 s in CI): two scenes with every frame rendered (the log holds
+// About 45 s on 2 cores: two scenes with every frame rendered (the log holds
 // every image, and the runs compare frame indices), exported, ingested and run
 // twice each.
 TEST(FieldLog, SyntheticScenesThroughAFieldLogGiveTheSameFlightResults) {

@@ -15,7 +15,7 @@ function(hdabench_set_warnings target)
   endif()
 endfunction()
 
-# hdabench_add_module(<name> [INTERFACE] USES ... SOURCES ... HEADERS ... PUBLIC_LIBS ... PRIVATE_LIBS ...)
+# hdabench_add_module(<name> [INTERFACE] USES ... SOURCES ... [FUZZED ...] HEADERS ... PUBLIC_LIBS ... PRIVATE_LIBS ...)
 # Declares library target hdabench_<name>, exported as hdabench::<name>, for
 # the folder of the calling CMakeLists.txt. Headers are included by their path
 # from the top of the tree ("reference/colmap/colmap_runner.h"), both from the
@@ -23,8 +23,14 @@ endfunction()
 # include and link (docs/architecture.md); each must have been declared before
 # it, so modules form layers. The test module_rules checks every module's
 # links and every #include of its folder against USES.
+# FUZZED names the sources that read outside input (files, other programs'
+# output), which the libFuzzer harnesses reach (tests/fuzz): in the fuzzing
+# tree (HDABENCH_FUZZ) they alone carry libFuzzer's coverage counters, which
+# guide the fuzzer and slow the code they are in ten- to twentyfold. The
+# numeric code runs under the sanitizers without them. A source with its own
+# compile options is compiled on its own, outside the unity batches.
 function(hdabench_add_module name)
-  cmake_parse_arguments(ARG "INTERFACE" "" "SOURCES;HEADERS;USES;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "INTERFACE" "" "SOURCES;FUZZED;HEADERS;USES;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
   set(target hdabench_${name})
   file(RELATIVE_PATH folder ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR})
   if(ARG_INTERFACE)
@@ -40,6 +46,9 @@ function(hdabench_add_module name)
     target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_LIBS} PRIVATE ${ARG_PRIVATE_LIBS})
     hdabench_set_warnings(${target})
     hdabench_use_precompiled_headers(${target} hdabench_pch_library)
+    if(HDABENCH_FUZZ AND ARG_FUZZED)
+      set_source_files_properties(${ARG_FUZZED} PROPERTIES COMPILE_OPTIONS -fsanitize=fuzzer-no-link)
+    endif()
   endif()
   add_library(hdabench::${name} ALIAS ${target})
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${name})

@@ -86,14 +86,14 @@ run_gate() {
     --thresholds "$root/gate/thresholds-ci.json" --out "$build_dir/gate-ci"
   # The gate must catch a method that calls unsafe sites safe: the same suite
   # with every site declared safe (the slope limit raised to 89 deg and the
-  # relief limit to 100 m) must fail,
-  # on the landing decision of the steep pool (docs/gate.md, "Catching an
-  # unsafe change").
-  say "Gate with every site declared safe (--set hda.max_slope_deg=89 hda.max_roughness_rms_m=100): must fail"
+  # relief limit to 100 m) must fail on the landing decision of the steep
+  # pool (docs/gate.md, "Catching an unsafe change"). Only that pool's entry
+  # runs (--entries flank-s1), with the thresholds of its pool.
+  say "Gate on flank-s1 with every site declared safe (--set hda.max_slope_deg=89 hda.max_roughness_rms_m=100): must fail"
   local log="$build_dir/gate-ci-every-site-safe.log" status=0
   "$build_dir/tools/hdabench" gate --suite "$root/gate/suite-ci.json" \
     --thresholds "$root/gate/thresholds-ci.json" --out "$build_dir/gate-ci-every-site-safe" \
-    --set hda.max_slope_deg=89 --set hda.max_roughness_rms_m=100 --quiet 2>"$log" || status=$?
+    --entries flank-s1 --set hda.max_slope_deg=89 --set hda.max_roughness_rms_m=100 --quiet 2>"$log" || status=$?
   cat "$log"
   [[ $status == 1 ]] || die "the gate with every site declared safe exited $status, expected 1 (a failed metric)"
   grep -q "FAILED flight on steep unsafe_caught_rate = 0.000" "$log" ||

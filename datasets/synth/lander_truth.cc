@@ -284,7 +284,7 @@ struct LanderOnSurface::Prepared {
 
 LanderOnSurface::LanderOnSurface(const SurfaceGrid& surface, const LanderGeometry& lander)
     : p_(std::make_shared<Prepared>()) {
-  ThrowIfInvalid("the lander: ", lander.Validate());
+  hdabench::ThrowIfInvalid("the lander: ", lander.Validate());
   if (!(surface.spacing_m > 0) || surface.height_m.empty() || surface.height_m.type() != CV_32FC1) {
     throw InputError("the lander's surface: expected a float height grid with a spacing > 0");
   }

@@ -81,11 +81,6 @@ const std::string& BuildOf(const GateRunOptions& o) {
   return o.build_identity.empty() ? util::BuildIdentity() : o.build_identity;
 }
 
-// The methods compared on an entry: its own, or the suite's.
-const std::vector<std::string>& EntryMethods(const GateEntry& e, const GateSuite& suite) {
-  return e.methods.empty() ? suite.methods : e.methods;
-}
-
 // The bytes of the external method's program (looked up in PATH when it is a
 // bare name); empty when it cannot be read, and the entry's run then fails
 // with the reason.

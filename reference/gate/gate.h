@@ -114,6 +114,17 @@ struct GateThresholds {
 };
 GateThresholds ReadGateThresholds(const std::string& path);
 
+// The suite's entries named in `names` (`gate --entries`), in the suite's
+// order, the rest of the suite as it is. Throws InputError for a name the
+// suite does not hold, naming the suite's entries.
+GateSuite SelectGateEntries(const GateSuite& suite, const std::vector<std::string>& names);
+
+// Whether an entry of `suite` gives the pool a threshold checks: a method of
+// an entry with the threshold's fault and pool (an observability entry's
+// metrics are the flight method's, on the main pool). A threshold of a pool no
+// entry gives is not checked when the suite is a selection of entries.
+bool SuiteGivesThresholdPool(const GateSuite& suite, const GateThreshold& threshold);
+
 // The metrics, per method (docs/gate.md):
 //   slope_error_median_deg, slope_error_p90_deg, slope_error_max_deg
 //       |slope - truth| over the suite's ROIs with a slope, truth and at least

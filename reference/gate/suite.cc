@@ -313,6 +313,38 @@ GateSuite ReadGateSuite(const std::string& path) {
   return suite;
 }
 
+GateSuite SelectGateEntries(const GateSuite& suite, const std::vector<std::string>& names) {
+  GateSuite selected = suite;
+  selected.entries.clear();
+  const std::set<std::string> wanted(names.begin(), names.end());
+  for (const GateEntry& e : suite.entries) {
+    if (wanted.count(e.name) > 0) selected.entries.push_back(e);
+  }
+  for (const std::string& name : wanted) {
+    const bool held = std::any_of(suite.entries.begin(), suite.entries.end(),
+                                  [&](const GateEntry& e) { return e.name == name; });
+    if (held) continue;
+    std::string known;
+    for (const GateEntry& e : suite.entries) known += (known.empty() ? "" : ", ") + e.name;
+    throw InputError(suite.file + ": no entry named '" + name + "' (its entries: " + known + ")");
+  }
+  return selected;
+}
+
+bool SuiteGivesThresholdPool(const GateSuite& suite, const GateThreshold& threshold) {
+  for (const GateEntry& e : suite.entries) {
+    if (e.observability) {
+      if (threshold.method == kMethodFlight && threshold.fault.empty() && threshold.pool.empty()) return true;
+      continue;
+    }
+    const std::string fault = e.fault ? datasets::FaultLabel(*e.fault) : "";
+    if (fault != threshold.fault || e.pool != threshold.pool) continue;
+    const std::vector<std::string>& methods = EntryMethods(e, suite);
+    if (std::find(methods.begin(), methods.end(), threshold.method) != methods.end()) return true;
+  }
+  return false;
+}
+
 GateThresholds ReadGateThresholds(const std::string& path) {
   const Json j = ReadJsonFile(path);
   CheckFormat(j, kGateThresholdsFormatName, path);

@@ -236,11 +236,14 @@ class CompareOnSyntheticScene : public ::testing::Test {
     delete dir_;
     dir_ = nullptr;
   }
-  static datasets::Dataset Load() {
+  // The scene, or with a 512 x 512 imager (small): for the checks whose
+  // claim does not depend on the image size, at a quarter of the pixels.
+  static datasets::Dataset Load(bool small = false) {
     datasets::LoadOptions load;
     load.keep_images = true;
     load.keep_truth = true;
-    datasets::DatasetLoadResult loaded = datasets::LoadDataset(dir_->string(), load);
+    const fs::path dir = small ? testing_support::CachedExactNavLateralScene(HDABENCH_TEST_TMP, 512) : *dir_;
+    datasets::DatasetLoadResult loaded = datasets::LoadDataset(dir.string(), load);
     if (!loaded.Ok()) throw std::runtime_error(loaded.Summary());
     return std::move(*loaded.dataset);
   }
@@ -486,7 +489,7 @@ TEST_F(CompareOnSyntheticScene, AMissingColmapFailsItsColumnsAndKeepsTheOthers) 
 // Over 60 s (120 s in CI): six comparisons of six methods, one clean and one
 // per family that throws; dense-nav and plane-nav take most of each.
 TEST_F(CompareOnSyntheticScene, AMethodThatThrowsFailsOnlyItsOwnColumn) {
-  const datasets::Dataset dataset = Load();
+  const datasets::Dataset dataset = Load(/*small=*/true);
   CompareOptions options;
   options.methods = {kMethodFlight, kMethodFlightRefined, kMethodColmapNav, "opengv-two-point",
                      kMethodDenseNav, kMethodPlaneNav};
@@ -772,7 +775,7 @@ TEST_F(CompareOnSyntheticScene, AnRoiTheExternalProgramLeavesOutIsFailedWithTheR
 // Over 60 s (160 s in CI beside another test): every method twice, COLMAP on
 // one thread; determinism is only shown by running the whole comparison again.
 TEST_F(CompareOnSyntheticScene, EveryMethodGivesTheSameBytesTwice) {
-  const datasets::Dataset dataset = Load();
+  const datasets::Dataset dataset = Load(/*small=*/true);
   const fs::path dir = FreshTestDir();
   CompareOptions options;
   options.methods = ParseMethodList("all");

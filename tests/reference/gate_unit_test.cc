@@ -251,6 +251,7 @@ TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
       EXPECT_NE(std::find(suite.methods.begin(), suite.methods.end(), threshold.method), suite.methods.end())
           << threshold.method << " " << threshold.metric;
       EXPECT_FALSE(threshold.why.empty()) << threshold.method << " " << threshold.metric;
+      EXPECT_TRUE(SuiteGivesThresholdPool(suite, threshold)) << threshold.method << " " << threshold.metric;
       // A named pool's threshold: an entry of the suite is in that pool.
       if (!threshold.pool.empty()) {
         EXPECT_TRUE(std::any_of(suite.entries.begin(), suite.entries.end(),
@@ -267,6 +268,42 @@ TEST(ReadGateSuite, TheCheckedInSuitesAndThresholdsRead) {
       EXPECT_TRUE(under_fault) << threshold.method << " under " << threshold.fault << " " << threshold.metric;
     }
   }
+}
+
+// `gate --entries`: the named entries in the suite's order, and the
+// thresholds of the pools they give; an unknown name lists the suite's.
+TEST(SelectGateEntries, KeepsTheNamedEntriesAndThePoolsTheyGive) {
+  const fs::path gate = fs::path(HDABENCH_SOURCE_DIR) / "gate";
+  const GateSuite suite = ReadGateSuite((gate / "suite-ci.json").string());
+  const GateThresholds thresholds = ReadGateThresholds((gate / "thresholds-ci.json").string());
+  const GateSuite steep = SelectGateEntries(suite, {"flank-s1"});
+  ASSERT_EQ(steep.entries.size(), 1u);
+  EXPECT_EQ(steep.entries[0].name, "flank-s1");
+  EXPECT_EQ(steep.methods, suite.methods);
+  size_t kept = 0;
+  for (const GateThreshold& t : thresholds.thresholds) {
+    const bool given = SuiteGivesThresholdPool(steep, t);
+    EXPECT_EQ(given, t.pool == "steep" && t.fault.empty()) << t.method << " " << t.metric;
+    kept += given ? 1 : 0;
+  }
+  EXPECT_GT(kept, 0u);
+  // The observability entry gives the flight method's main pool, no other.
+  const GateSuite study = SelectGateEntries(suite, {"observability-lateral", "lateral-cratered-s1-lrf-absent"});
+  ASSERT_EQ(study.entries.size(), 2u);
+  EXPECT_EQ(study.entries[0].name, "lateral-cratered-s1-lrf-absent");  // the suite's order
+  GateThreshold t;
+  t.method = "flight";
+  EXPECT_TRUE(SuiteGivesThresholdPool(study, t));
+  t.method = "colmap-nav";
+  EXPECT_FALSE(SuiteGivesThresholdPool(study, t));
+  t.method = "flight";
+  t.fault = "lrf-absent";
+  EXPECT_TRUE(SuiteGivesThresholdPool(study, t));
+  t.pool = "steep";
+  EXPECT_FALSE(SuiteGivesThresholdPool(study, t));
+  const std::string error = ErrorOf([&] { SelectGateEntries(suite, {"flank-s1", "flank-s9"}); });
+  EXPECT_NE(error.find("no entry named 'flank-s9'"), std::string::npos) << error;
+  EXPECT_NE(error.find("lateral-cratered-s3"), std::string::npos) << error;
 }
 
 // Two hand-written entries: the metrics pool their ROIs.

@@ -32,13 +32,18 @@ inline datasets::synth::TerrainOptions TerrainOf(const datasets::synth::SynthOpt
   return terrain;
 }
 
-// The default 1024 x 1024 novac-lateral scene with exact navigation over the
-// paper's 2.4 s window (frames 0..6, the pair 0-6 about 31 m apart, the only
-// frames rendered), made once into `folder` (a test binary's
-// HDABENCH_TEST_TMP) and shared (CachedDataset). Returns the dataset folder.
-inline std::filesystem::path CachedExactNavLateralScene(const std::filesystem::path& folder) {
-  return CachedDataset(folder, "ExactNavLateral", [](const std::filesystem::path& out) {
+// The default novac-lateral scene (1024 x 1024, or the imager given) with
+// exact navigation over the paper's 2.4 s window (frames 0..6, the pair 0-6
+// about 31 m apart, the only frames rendered), made once into `folder` (a
+// test binary's HDABENCH_TEST_TMP) and shared (CachedDataset). Returns the
+// dataset folder.
+inline std::filesystem::path CachedExactNavLateralScene(const std::filesystem::path& folder,
+                                                        int image_size_px = 1024) {
+  const std::string name =
+      image_size_px == 1024 ? "ExactNavLateral" : "ExactNavLateral" + std::to_string(image_size_px) + "px";
+  return CachedDataset(folder, name, [image_size_px](const std::filesystem::path& out) {
     datasets::synth::SynthOptions options = ExactNavLateralPreset();
+    options.image_size_px = image_size_px;
     options.collection_s = 2.4;
     options.frames_to_render = [](const datasets::Dataset&) { return std::vector<int>{0, 6}; };
     datasets::WriteDataset(datasets::synth::GenerateSynthDataset(options, TerrainOf(options), 1),

@@ -150,6 +150,9 @@ struct GateCommandOptions {
   // gate's own test sets hda.max_slope_deg=90, every site declared safe).
   std::vector<std::string> hda_sets;
   std::string shard = "1/1";          // K/N: run the entries shard K of N holds, for `gate merge`
+  // Empty: the whole suite. Else only these entries, and only the thresholds
+  // of the pools they give (reference::SuiteGivesThresholdPool).
+  std::vector<std::string> entries;
   bool quiet = false;
 };
 // hdabench gate: the suite through the comparison, the metrics against the

@@ -2,6 +2,7 @@
 // metrics per method, check them against the thresholds (and a baseline), and
 // print the table (reference/gate/gate.h, docs/gate.md); with --shard, one
 // slice of the suite; `hdabench gate merge`: the slices into the whole verdict.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
@@ -181,9 +182,36 @@ int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::os
     err << command << "--shard: " << e.what() << "\n";
     return kExitUsage;
   }
+  if (!options.entries.empty() && !shard.Whole()) {
+    err << command << "--entries and --shard " << options.shard
+        << " cannot be combined: `gate merge` gathers the shards of the whole suite\n";
+    return kExitUsage;
+  }
+  if (!options.entries.empty() && !options.write_baseline_file.empty()) {
+    err << command << "--entries and --write-baseline cannot be combined: a baseline holds the whole suite's metrics\n";
+    return kExitUsage;
+  }
   VerdictInputs verdict;
   reference::GateSuite suite;
   if (const int code = ReadInputs(options, &suite, &verdict, err, command); code != kExitOk) return code;
+  if (!options.entries.empty()) {
+    try {
+      suite = reference::SelectGateEntries(suite, options.entries);
+    } catch (const InputError& e) {
+      err << command << "--entries: " << e.what() << "\n";
+      return kExitUsage;
+    }
+    std::vector<reference::GateThreshold>& thresholds = verdict.thresholds.thresholds;
+    const size_t all = thresholds.size();
+    thresholds.erase(std::remove_if(thresholds.begin(), thresholds.end(),
+                                    [&](const reference::GateThreshold& t) {
+                                      return !reference::SuiteGivesThresholdPool(suite, t);
+                                    }),
+                     thresholds.end());
+    progress("--entries: " + std::to_string(suite.entries.size()) + " entries; " +
+             std::to_string(thresholds.size()) + " of " + std::to_string(all) +
+             " thresholds checked, the others' pools have no entry among them");
+  }
   // --set over every entry's own parameters, checked before anything runs.
   for (reference::GateEntry& entry : suite.entries) {
     if (const int code = BuildHdaSettings("", {}, options.hda_sets, "gate", err, &entry.hda); code != kExitOk) {
@@ -315,6 +343,10 @@ std::vector<Command> AddGateCommands(CLI::App& app) {
                    "Run shard K of N (K/N): entry i when i mod N = K - 1, into its own --out; no verdict\n"
                    "until `gate merge` over every shard's folder (tools/slurm/ submits them)")
       ->capture_default_str();
+  gate->add_option("--entries", options->entries,
+                   "Run only these entries of the suite (comma-separated names) and check only the thresholds "
+                   "of the pools they give")
+      ->delimiter(',');
   gate->add_flag("--quiet", options->quiet, "No progress lines");
 
   const auto merge = std::make_shared<GateMergeOptions>();

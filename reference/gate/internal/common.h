@@ -97,6 +97,11 @@ inline bool HigherIsBetter(const std::string& metric) {
 
 inline std::string FormatValue(double value) { return util::FixedCell(value, 3); }
 
+// The methods compared on an entry: its own, or the suite's.
+inline const std::vector<std::string>& EntryMethods(const GateEntry& e, const GateSuite& suite) {
+  return e.methods.empty() ? suite.methods : e.methods;
+}
+
 // A method's pool as a person reads it: "flight", "flight under lrf-absent".
 inline std::string MethodLabel(const std::string& method, const std::string& fault,
                                const std::string& pool = "") {

@@ -25,6 +25,12 @@ source "$root/tools/sanitize-tree.sh"
 build_dir=${HDABENCH_BUILD_DIR:-$root/build}
 jobs=${HDABENCH_JOBS:-$(nproc)}
 
+# glibc's malloc asks for transparent huge pages for its large blocks: the
+# scene generator and the methods touch hundreds of megabytes each, and a
+# 2 MB page takes one fault where 4 kB pages take 512. The same results, in
+# about a sixth less time for a scene. Added to any tunables already set.
+export GLIBC_TUNABLES=${GLIBC_TUNABLES:+$GLIBC_TUNABLES:}glibc.malloc.hugetlb=1
+
 say() { printf '== %s\n' "$*"; }
 die() { printf 'tools/bench.sh: error: %s\n' "$1" >&2; exit "${2:-1}"; }
 
@@ -51,7 +57,9 @@ install_packages() {
 # A new build folder is configured RelWithDebInfo with line tables only
 # (-g1: file, line and function in every backtrace and profile, no variable
 # locations), which compiles in two thirds of the time of -g and makes the
-# same code. Extra arguments come after, so they can change that.
+# same code, and as a unity build (a target's sources compiled in batches of
+# eight: a third less compile time, the same code). Extra arguments come
+# after, so they can change that.
 # configure_and_build DIR [CMAKE_ARGS...]: the whole build, or only the targets
 # named in $build_targets (space-separated) when it is set.
 configure_and_build() {
@@ -60,7 +68,7 @@ configure_and_build() {
   if [[ ! -f $dir/CMakeCache.txt ]]; then
     say "Configuring $dir"
     cmake -S "$root" -B "$dir" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-      "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" "$@" >/dev/null
+      "-DCMAKE_CXX_FLAGS_RELWITHDEBINFO=-O2 -g1 -DNDEBUG" -DCMAKE_UNITY_BUILD=ON "$@" >/dev/null
   fi
   local targets=()
   [[ -n ${build_targets:-} ]] && read -r -a targets <<<"--target $build_targets"
@@ -88,12 +96,17 @@ run_gate() {
   # with every site declared safe (the slope limit raised to 89 deg and the
   # relief limit to 100 m) must fail on the landing decision of the steep
   # pool (docs/gate.md, "Catching an unsafe change"). Only that pool's entry
-  # runs (--entries flank-s1), with the thresholds of its pool.
+  # and the flight method run (--entries flank-s1 --methods flight), with the
+  # flight method's thresholds of that pool; its scene is the gate's above
+  # (the same build and suite make the same dataset folder, linked here).
   say "Gate on flank-s1 with every site declared safe (--set hda.max_slope_deg=89 hda.max_roughness_rms_m=100): must fail"
-  local log="$build_dir/gate-ci-every-site-safe.log" status=0
+  local log="$build_dir/gate-ci-every-site-safe.log" status=0 what_if="$build_dir/gate-ci-every-site-safe"
+  rm -rf "$what_if/datasets"
+  mkdir -p "$what_if/datasets"
+  cp -al "$build_dir"/gate-ci/datasets/flank-s1-* "$what_if/datasets/" 2>/dev/null || true
   "$build_dir/tools/hdabench" gate --suite "$root/gate/suite-ci.json" \
-    --thresholds "$root/gate/thresholds-ci.json" --out "$build_dir/gate-ci-every-site-safe" \
-    --entries flank-s1 --set hda.max_slope_deg=89 --set hda.max_roughness_rms_m=100 --quiet 2>"$log" || status=$?
+    --thresholds "$root/gate/thresholds-ci.json" --out "$what_if" --entries flank-s1 --methods flight \
+    --set hda.max_slope_deg=89 --set hda.max_roughness_rms_m=100 --quiet 2>"$log" || status=$?
   cat "$log"
   [[ $status == 1 ]] || die "the gate with every site declared safe exited $status, expected 1 (a failed metric)"
   grep -q "FAILED flight on steep unsafe_caught_rate = 0.000" "$log" ||

@@ -6,10 +6,9 @@
 #
 # -O1, as the sanitizers' documentation advises (half the compile time of -O2
 # under them, every check kept). A unity build (a target's sources compiled up
-# to eight to a translation unit): a fifth less compile time, and since the
-# normal build is not one, the unit tests run both ways, which catches code
-# whose meaning changes when files share a unit. No precompiled headers, so
-# the files compiled here stand on their own #include lines.
+# to eight to a translation unit): a fifth less compile time, as in the
+# normal build (tools/bench.sh). No precompiled headers, so the batches
+# compiled here stand on their own #include lines.
 
 # sanitize_tree_clang: clang++ (14 first), or nothing.
 sanitize_tree_clang() {

@@ -181,6 +181,12 @@ namespace {
 // map: the highest ground of each square bounds its cells' clearance.
 constexpr int kBodyTileCells = 4;
 
+}  // namespace
+
+// The stencils are named outside the anonymous namespace: LanderOnSurface's
+// Prepared holds them, and a unity build compiles this file as an included one.
+namespace internal {
+
 // The body cells of one kBodyTileCells square of offsets, whose top-left
 // offset is `corner`.
 struct BodyTile {
@@ -200,6 +206,13 @@ struct YawStencil {
   // centre: the planes the lander may rest on, the same on every cell.
   std::vector<std::array<int, 3>> triangles;
 };
+
+}  // namespace internal
+
+namespace {
+
+using internal::BodyTile;
+using internal::YawStencil;
 
 // Most pads a lander has (LanderGeometry::Validate) and most triangles of them.
 constexpr int kMaxLegs = 12;

@@ -119,6 +119,12 @@ GateThresholds ReadGateThresholds(const std::string& path);
 // suite does not hold, naming the suite's entries.
 GateSuite SelectGateEntries(const GateSuite& suite, const std::vector<std::string>& names);
 
+// The suite with each entry's methods cut to those named in `methods` and the
+// flight method, which every comparison runs (`gate --methods`), in the
+// entry's order. Throws InputError for a name no entry compares, naming the
+// methods the suite compares.
+GateSuite SelectGateMethods(const GateSuite& suite, const std::vector<std::string>& methods);
+
 // Whether an entry of `suite` gives the pool a threshold checks: a method of
 // an entry with the threshold's fault and pool (an observability entry's
 // metrics are the flight method's, on the main pool). A threshold of a pool no

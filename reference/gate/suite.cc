@@ -331,6 +331,33 @@ GateSuite SelectGateEntries(const GateSuite& suite, const std::vector<std::strin
   return selected;
 }
 
+GateSuite SelectGateMethods(const GateSuite& suite, const std::vector<std::string>& methods) {
+  const std::set<std::string> wanted(methods.begin(), methods.end());
+  std::set<std::string> compared;
+  for (const GateEntry& e : suite.entries) {
+    if (!e.observability) compared.insert(EntryMethods(e, suite).begin(), EntryMethods(e, suite).end());
+  }
+  for (const std::string& name : wanted) {
+    if (compared.count(name) > 0) continue;
+    std::string known;
+    for (const std::string& m : compared) known += (known.empty() ? "" : ", ") + m;
+    throw InputError(suite.file + ": no entry compares a method named '" + name + "' (its methods: " + known + ")");
+  }
+  GateSuite selected = suite;
+  const auto cut = [&](const std::vector<std::string>& list) {
+    std::vector<std::string> kept;
+    for (const std::string& m : list) {
+      if (wanted.count(m) > 0 || m == kMethodFlight) kept.push_back(m);
+    }
+    return kept;
+  };
+  selected.methods = cut(suite.methods);
+  for (GateEntry& e : selected.entries) {
+    if (!e.methods.empty()) e.methods = cut(e.methods);
+  }
+  return selected;
+}
+
 bool SuiteGivesThresholdPool(const GateSuite& suite, const GateThreshold& threshold) {
   for (const GateEntry& e : suite.entries) {
     if (e.observability) {

@@ -306,6 +306,38 @@ TEST(SelectGateEntries, KeepsTheNamedEntriesAndThePoolsTheyGive) {
   EXPECT_NE(error.find("lateral-cratered-s3"), std::string::npos) << error;
 }
 
+// `gate --methods`: each entry keeps the named methods of its own and the
+// flight method, and only the thresholds of the methods left are checked; an
+// unknown name lists the suite's methods.
+TEST(SelectGateMethods, KeepsTheNamedMethodsOfEachEntryAndTheirThresholds) {
+  const fs::path gate = fs::path(HDABENCH_SOURCE_DIR) / "gate";
+  const GateSuite suite = ReadGateSuite((gate / "suite-ci.json").string());
+  const GateThresholds thresholds = ReadGateThresholds((gate / "thresholds-ci.json").string());
+  const GateSuite flight = SelectGateMethods(SelectGateEntries(suite, {"flank-s1"}), {"flight"});
+  ASSERT_EQ(flight.entries.size(), 1u);
+  EXPECT_EQ(flight.methods, std::vector<std::string>{"flight"});
+  size_t kept = 0;
+  for (const GateThreshold& t : thresholds.thresholds) {
+    const bool given = SuiteGivesThresholdPool(flight, t);
+    EXPECT_EQ(given, t.method == "flight" && t.pool == "steep" && t.fault.empty()) << t.method << " " << t.metric;
+    kept += given ? 1 : 0;
+  }
+  EXPECT_GT(kept, 0u);
+  // The fault entries compare the flight method alone and keep it; the
+  // others compare it and COLMAP, in the suite's order.
+  const GateSuite colmap = SelectGateMethods(suite, {"colmap-nav"});
+  for (const GateEntry& e : colmap.entries) {
+    if (e.observability) continue;
+    const std::vector<std::string>& methods = e.methods.empty() ? colmap.methods : e.methods;
+    const std::vector<std::string> expected =
+        e.fault ? std::vector<std::string>{"flight"} : std::vector<std::string>{"flight", "colmap-nav"};
+    EXPECT_EQ(methods, expected) << e.name;
+  }
+  const std::string error = ErrorOf([&] { SelectGateMethods(suite, {"flight", "colmap-free"}); });
+  EXPECT_NE(error.find("no entry compares a method named 'colmap-free'"), std::string::npos) << error;
+  EXPECT_NE(error.find("dense-nav"), std::string::npos) << error;
+}
+
 // Two hand-written entries: the metrics pool their ROIs.
 TEST(ComputeGateMetrics, PoolsTheRoisOfEveryEntry) {
   const fs::path dir = FreshTestDir();

@@ -153,6 +153,10 @@ struct GateCommandOptions {
   // Empty: the whole suite. Else only these entries, and only the thresholds
   // of the pools they give (reference::SuiteGivesThresholdPool).
   std::vector<std::string> entries;
+  // Empty: every entry's methods. Else only these of each entry's methods
+  // (the flight method always runs), and only the thresholds of the methods
+  // left (reference::SelectGateMethods).
+  std::vector<std::string> methods;
   bool quiet = false;
 };
 // hdabench gate: the suite through the comparison, the metrics against the

@@ -182,23 +182,30 @@ int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::os
     err << command << "--shard: " << e.what() << "\n";
     return kExitUsage;
   }
-  if (!options.entries.empty() && !shard.Whole()) {
-    err << command << "--entries and --shard " << options.shard
-        << " cannot be combined: `gate merge` gathers the shards of the whole suite\n";
-    return kExitUsage;
-  }
-  if (!options.entries.empty() && !options.write_baseline_file.empty()) {
-    err << command << "--entries and --write-baseline cannot be combined: a baseline holds the whole suite's metrics\n";
-    return kExitUsage;
+  for (const auto& [flag, names] : {std::pair<const char*, const std::vector<std::string>&>{"--entries", options.entries},
+                                     {"--methods", options.methods}}) {
+    if (names.empty()) continue;
+    if (!shard.Whole()) {
+      err << command << flag << " and --shard " << options.shard
+          << " cannot be combined: `gate merge` gathers the shards of the whole suite\n";
+      return kExitUsage;
+    }
+    if (!options.write_baseline_file.empty()) {
+      err << command << flag << " and --write-baseline cannot be combined: a baseline holds the whole suite's metrics\n";
+      return kExitUsage;
+    }
   }
   VerdictInputs verdict;
   reference::GateSuite suite;
   if (const int code = ReadInputs(options, &suite, &verdict, err, command); code != kExitOk) return code;
-  if (!options.entries.empty()) {
+  if (!options.entries.empty() || !options.methods.empty()) {
+    const char* flag = "--entries";
     try {
-      suite = reference::SelectGateEntries(suite, options.entries);
+      if (!options.entries.empty()) suite = reference::SelectGateEntries(suite, options.entries);
+      flag = "--methods";
+      if (!options.methods.empty()) suite = reference::SelectGateMethods(suite, options.methods);
     } catch (const InputError& e) {
-      err << command << "--entries: " << e.what() << "\n";
+      err << command << flag << ": " << e.what() << "\n";
       return kExitUsage;
     }
     std::vector<reference::GateThreshold>& thresholds = verdict.thresholds.thresholds;
@@ -208,9 +215,8 @@ int RunGateCommand(const GateCommandOptions& options, std::ostream& out, std::os
                                       return !reference::SuiteGivesThresholdPool(suite, t);
                                     }),
                      thresholds.end());
-    progress("--entries: " + std::to_string(suite.entries.size()) + " entries; " +
-             std::to_string(thresholds.size()) + " of " + std::to_string(all) +
-             " thresholds checked, the others' pools have no entry among them");
+    progress(std::to_string(suite.entries.size()) + " entries; " + std::to_string(thresholds.size()) + " of " +
+             std::to_string(all) + " thresholds checked, the others' pools have no entry or method among them");
   }
   // --set over every entry's own parameters, checked before anything runs.
   for (reference::GateEntry& entry : suite.entries) {
@@ -346,6 +352,10 @@ std::vector<Command> AddGateCommands(CLI::App& app) {
   gate->add_option("--entries", options->entries,
                    "Run only these entries of the suite (comma-separated names) and check only the thresholds "
                    "of the pools they give")
+      ->delimiter(',');
+  gate->add_option("--methods", options->methods,
+                   "Compare only these of each entry's methods (comma-separated; the flight method always runs) and "
+                   "check only their thresholds")
       ->delimiter(',');
   gate->add_flag("--quiet", options->quiet, "No progress lines");
 

@@ -15,7 +15,7 @@ function(hdabench_set_warnings target)
   endif()
 endfunction()
 
-# hdabench_add_module(<name> [INTERFACE] USES ... SOURCES ... [FUZZED ...] HEADERS ... PUBLIC_LIBS ... PRIVATE_LIBS ...)
+# hdabench_add_module(<name> [INTERFACE] USES ... SOURCES ... [FUZZED ...] [HOT ...] HEADERS ... PUBLIC_LIBS ... PRIVATE_LIBS ...)
 # Declares library target hdabench_<name>, exported as hdabench::<name>, for
 # the folder of the calling CMakeLists.txt. Headers are included by their path
 # from the top of the tree ("reference/colmap/colmap_runner.h"), both from the
@@ -27,10 +27,14 @@ endfunction()
 # output), which the libFuzzer harnesses reach (tests/fuzz): in the fuzzing
 # tree (HDABENCH_FUZZ) they alone carry libFuzzer's coverage counters, which
 # guide the fuzzer and slow the code they are in ten- to twentyfold. The
-# numeric code runs under the sanitizers without them. A source with its own
+# numeric code runs under the sanitizers without them. HOT names the
+# sources whose inner loops the unit tests spend minutes in (the renderers):
+# in a sanitizer tree (HDABENCH_SANITIZE, at -O1 for its compile time) they
+# compile at -O2, which inlines Eigen's small expressions that -O1 calls out
+# of line; every check of the sanitizers stays. A source with its own
 # compile options is compiled on its own, outside the unity batches.
 function(hdabench_add_module name)
-  cmake_parse_arguments(ARG "INTERFACE" "" "SOURCES;FUZZED;HEADERS;USES;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "INTERFACE" "" "SOURCES;FUZZED;HOT;HEADERS;USES;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
   set(target hdabench_${name})
   file(RELATIVE_PATH folder ${PROJECT_SOURCE_DIR} ${CMAKE_CURRENT_SOURCE_DIR})
   if(ARG_INTERFACE)
@@ -47,7 +51,12 @@ function(hdabench_add_module name)
     hdabench_set_warnings(${target})
     hdabench_use_precompiled_headers(${target} hdabench_pch_library)
     if(HDABENCH_FUZZ AND ARG_FUZZED)
-      set_source_files_properties(${ARG_FUZZED} PROPERTIES COMPILE_OPTIONS -fsanitize=fuzzer-no-link)
+      # clang refuses a precompiled header made without the counters.
+      set_source_files_properties(${ARG_FUZZED} PROPERTIES COMPILE_OPTIONS -fsanitize=fuzzer-no-link
+                                                           SKIP_PRECOMPILE_HEADERS ON)
+    endif()
+    if(HDABENCH_SANITIZE AND ARG_HOT)
+      set_property(SOURCE ${ARG_HOT} APPEND PROPERTY COMPILE_OPTIONS -O2)
     endif()
   endif()
   add_library(hdabench::${name} ALIAS ${target})

@@ -284,6 +284,14 @@ GateEntry ReadGateEntry(const Json& ej, const std::string& where, const GateSuit
   return e;
 }
 
+// "a, b, c": the names a selection's error offers.
+template <typename Names>
+std::string JoinNames(const Names& names) {
+  std::string joined;
+  for (const std::string& name : names) joined += (joined.empty() ? "" : ", ") + name;
+  return joined;
+}
+
 }  // namespace
 
 GateSuite ReadGateSuite(const std::string& path) {
@@ -324,9 +332,9 @@ GateSuite SelectGateEntries(const GateSuite& suite, const std::vector<std::strin
     const bool held = std::any_of(suite.entries.begin(), suite.entries.end(),
                                   [&](const GateEntry& e) { return e.name == name; });
     if (held) continue;
-    std::string known;
-    for (const GateEntry& e : suite.entries) known += (known.empty() ? "" : ", ") + e.name;
-    throw InputError(suite.file + ": no entry named '" + name + "' (its entries: " + known + ")");
+    std::vector<std::string> known;
+    for (const GateEntry& e : suite.entries) known.push_back(e.name);
+    throw InputError(suite.file + ": no entry named '" + name + "' (its entries: " + JoinNames(known) + ")");
   }
   return selected;
 }
@@ -339,9 +347,8 @@ GateSuite SelectGateMethods(const GateSuite& suite, const std::vector<std::strin
   }
   for (const std::string& name : wanted) {
     if (compared.count(name) > 0) continue;
-    std::string known;
-    for (const std::string& m : compared) known += (known.empty() ? "" : ", ") + m;
-    throw InputError(suite.file + ": no entry compares a method named '" + name + "' (its methods: " + known + ")");
+    throw InputError(suite.file + ": no entry compares a method named '" + name + "' (its methods: " +
+                     JoinNames(compared) + ")");
   }
   GateSuite selected = suite;
   const auto cut = [&](const std::vector<std::string>& list) {

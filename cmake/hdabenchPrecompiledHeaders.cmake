@@ -11,9 +11,10 @@
 # Measured from nothing on 2 cores: the normal build 591 s without them, 556 s
 # with; the outputs are the same bytes (most of a file's time is its own code,
 # not the headers it parses). The clang tree of the sanitizers and the fuzz
-# harnesses (tools/sanitize-tree.sh) uses them too: 880 CPU-s from nothing
-# against 1091 without. A folder configured with HDABENCH_PCH=OFF and without
-# CMAKE_UNITY_BUILD compiles each file on its own #include lines.
+# harnesses (tools/sanitize-tree.sh) uses them too. A folder configured with
+# HDABENCH_PCH=OFF and without CMAKE_UNITY_BUILD compiles each file on its own
+# #include lines.
+#
 # clang writes the time stamps of the headers into a precompiled header, so
 # the one a new clone makes differs from the last, and ccache finds nothing
 # compiled with it (ccache's manual, "Precompiled headers"). Without them it

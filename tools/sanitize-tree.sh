@@ -9,9 +9,8 @@
 # cmake/hdabenchTargets.cmake). A unity build (a target's sources compiled up
 # to eight to a translation unit): a fifth less compile time, as in the
 # normal build (tools/bench.sh). Precompiled headers, as in the normal build:
-# clang parses the standard library, Eigen, OpenCV's core and nlohmann/json in
-# about 2 s per unit, a fifth of this tree's compile time without them. The
-# parsers of outside input, which carry libFuzzer's counters, compile without
+# clang then parses the standard library, Eigen, OpenCV's core and
+# nlohmann/json once, not once per unit. The parsers of outside input, which carry libFuzzer's counters, compile without
 # (clang takes no precompiled header made without the counters).
 
 # sanitize_tree_clang: clang++ (14 first), or nothing.

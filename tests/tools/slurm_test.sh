@@ -23,7 +23,8 @@ mkdir -p "$work"
 cluster=$work/cluster
 trap '"$source_dir/tools/slurm/local-cluster.sh" stop "$cluster" || true' EXIT
 start=$(now_ms)
-eval "$("$source_dir/tools/slurm/local-cluster.sh" start "$cluster" 2)"
+cluster_env=$("$source_dir/tools/slurm/local-cluster.sh" start "$cluster" 2) || fail "the local cluster did not start"
+eval "$cluster_env"
 echo "cluster up in $(seconds_since "$start") s: $(sinfo -h -o '%P %D %c %T')"
 # Both daemons listen on loopback only.
 listening=$(ss -ltnp | grep -E 'slurm(ctld|d)' || true)

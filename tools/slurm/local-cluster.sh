@@ -43,6 +43,10 @@ case $command in
     for program in munged mungekey slurmctld slurmd sinfo; do
       command -v "$program" >/dev/null || die "$program not found: install slurmctld slurmd slurm-client munge" 4
     done
+    # Both daemons resolve the name localhost, and give up without it; a root
+    # made by debootstrap has no /etc/hosts.
+    getent hosts localhost >/dev/null ||
+      die "the name localhost does not resolve (no 'localhost' line in /etc/hosts?): slurmctld and slurmd need it" 4
     mkdir -p "$dir/state" "$dir/spool" "$dir/log"
     stop  # what an earlier start left behind
     munge=$(mktemp -d /tmp/hdabench-munge.XXXXXX) || die "cannot make a folder under /tmp for munged" 4
@@ -95,8 +99,11 @@ CONF
       { stop; die "slurmctld did not start (see $dir/log/slurmctld.log)" 4; }
     "${local_host[@]}" slurmd -f "$SLURM_CONF" -N localhost ||
       { stop; die "slurmd did not start (see $dir/log/slurmd.log)" 4; }
-    for _ in $(seq 100); do
-      if sinfo -h -o %T 2>/dev/null | grep -qx idle; then
+    # Each sinfo is bounded too: one that cannot reach slurmctld retries for
+    # its MessageTimeout.
+    deadline=$((SECONDS + 20))
+    while ((SECONDS < deadline)); do
+      if timeout 5 sinfo -h -o %T 2>/dev/null | grep -qx idle; then
         echo "export SLURM_CONF=$SLURM_CONF"
         exit 0
       fi

@@ -28,8 +28,8 @@ jobs=${HDABENCH_JOBS:-$(nproc)}
 # The bench's programs run with glibc's malloc asking for transparent huge
 # pages for its large blocks (huge_pages COMMAND...): the scene generator and
 # the methods touch hundreds of megabytes each, and a 2 MB page takes one
-# fault where 4 kB pages take 512. The same results, in about a sixth less
-# time for a scene. Not the compiler: GCC takes a tenth longer with them.
+# fault where 4 kB pages take 512. The same results. Not the compiler: GCC
+# takes a tenth longer with them.
 # Added to any tunables already set.
 huge_pages() {
   GLIBC_TUNABLES=${GLIBC_TUNABLES:+$GLIBC_TUNABLES:}glibc.malloc.hugetlb=1 "$@"

@@ -467,4 +467,13 @@ bool SceneRaycaster::Occluded(const Eigen::Vector3d& origin_in_local,
   return RockHit(ray, ray.t_max, true, &t, &rock_index) || TerrainHit(ray, &t, &row, &col);
 }
 
+bool SceneRaycaster::OccludedByRocks(const Eigen::Vector3d& origin_in_local,
+                                     const Eigen::Vector3d& unit_direction_in_local, double max_distance_m) const {
+  RayState ray;
+  if (!MakeRay(origin_in_local, unit_direction_in_local, max_distance_m, &ray)) return false;
+  double t;
+  int rock_index;
+  return RockHit(ray, ray.t_max, true, &t, &rock_index);
+}
+
 }  // namespace hdabench::datasets::synth

@@ -73,6 +73,10 @@ class SceneRaycaster {
   // leaves is not hit again through rounding ("shadow acne").
   bool Occluded(const Eigen::Vector3d& origin_in_local, const Eigen::Vector3d& unit_direction_in_local,
                 double max_distance_m) const;
+  // The same for the rocks alone (the renderer takes the terrain's part from
+  // TerrainShadows).
+  bool OccludedByRocks(const Eigen::Vector3d& origin_in_local, const Eigen::Vector3d& unit_direction_in_local,
+                       double max_distance_m) const;
 
   const Scene& GetScene() const { return scene_; }
 

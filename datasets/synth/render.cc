@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "tools/util/error.h"
 #include "datasets/dataset.h"
@@ -237,9 +238,7 @@ Sample Shade(const FrameContext& frame, const Eigen::Vector3d& bearing_in_cam, b
     bool blocked = shadow_mode == ShadowMode::kAssumeShadowed;
     if (shadow_mode == ShadowMode::kTrace) {
       ++*shadow_rays;
-      const Eigen::Vector3d start =
-          hit.point_in_local_m + SceneRaycaster::kShadowRayOffsetM * hit.normal_in_local;
-      blocked = frame.raycaster->Occluded(start, frame.sun_in_local, infinity);
+      blocked = SunBlocked(frame, hit);
     }
     if (blocked) {
       sample.shadow = 255;
@@ -252,11 +251,18 @@ Sample Shade(const FrameContext& frame, const Eigen::Vector3d& bearing_in_cam, b
   return sample;
 }
 
-FrameContext MakeFrameContext(const SceneRaycaster& raycaster, const Rigid3d& cam_from_local,
-                              const RenderOptions& options) {
+bool SunBlocked(const FrameContext& frame, const RayHit& hit) {
+  const Eigen::Vector3d start = hit.point_in_local_m + SceneRaycaster::kShadowRayOffsetM * hit.normal_in_local;
+  return frame.shadows->Hidden(start) ||
+         frame.raycaster->OccludedByRocks(start, frame.sun_in_local, std::numeric_limits<double>::infinity());
+}
+
+FrameContext MakeFrameContext(const SceneRaycaster& raycaster, const TerrainShadows& shadows,
+                              const Rigid3d& cam_from_local, const RenderOptions& options) {
   const Rigid3d local_from_cam = cam_from_local.Inverse();
   FrameContext context;
   context.raycaster = &raycaster;
+  context.shadows = &shadows;
   context.local_from_cam = local_from_cam.RotationMatrix();
   context.camera_in_local = local_from_cam.translation;
   context.sun_in_local = SunDirectionInLocal(options.sun_azimuth_deg, options.sun_elevation_deg);
@@ -511,14 +517,21 @@ RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, c
 
 RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, const CameraRays& rays,
                           const Rigid3d& cam_from_local, const RenderOptions& options,
-                          std::uint64_t noise_seed, const std::function<void(double fraction_done)>& progress) {
+                          std::uint64_t noise_seed, const std::function<void(double fraction_done)>& progress,
+                          const TerrainShadows* shadows) {
   ThrowIfInvalid(options);
   if (&scene != &raycaster.GetScene()) {
     throw InputError("RenderFrame: the scene is not the one the raycaster was built from");
   }
   if (rays.WidthPx() < 1 || rays.HeightPx() < 1) throw InputError("RenderFrame: the camera rays are empty");
+  const Eigen::Vector3d sun_in_local = SunDirectionInLocal(options.sun_azimuth_deg, options.sun_elevation_deg);
+  if (shadows != nullptr && (shadows->Sun() != sun_in_local || &shadows->Dem() != &scene.dem)) {
+    throw InputError("RenderFrame: the terrain shadows are for another sun or DEM than the options' and the scene's");
+  }
   const auto start = std::chrono::steady_clock::now();
-  const FrameContext context = MakeFrameContext(raycaster, cam_from_local, options);
+  std::optional<TerrainShadows> own_shadows;
+  if (shadows == nullptr) shadows = &own_shadows.emplace(scene.dem, sun_in_local);
+  const FrameContext context = MakeFrameContext(raycaster, *shadows, cam_from_local, options);
 
   RenderedFrame frame;
   frame.dn_per_reflectance =

@@ -16,6 +16,7 @@
 #include "calib/camera_model.h"
 #include "calib/rigid3.h"
 #include "datasets/synth/raycast.h"
+#include "datasets/synth/sun_shadows.h"
 #include "datasets/synth/scene.h"
 
 namespace hdabench::datasets::synth {
@@ -50,15 +51,14 @@ struct RenderOptions {
   // How a pixel is formed.
   //  kCamera (default): the camera model. Each pixel integrates the scene over
   //   its light-sensitive area (fill_factor), blurred by the optics' PSF
-  //   (PsfSigmaPx()). The scene is sampled on a lattice of
-  //   samples_per_pixel_axis^2 points per pixel (spacing 1 / n px, through the
-  //   pixel centres, so the centre ray is also the truth ray); each lattice
-  //   point stands for the scene averaged over its cell: the albedo texture
-  //   and the terrain normal are low-passed at the cell's ground footprint
-  //   (a Gaussian of the cell's variance), and where neighbouring points see a
-  //   different surface, shadow state, or radiances differing by more than
-  //   adaptive_contrast of the brighter, the cell is split into
-  //   adaptive_samples_per_cell_axis^2 rays with their own shadow rays. The
+  //   (PsfSigmaPx()). The scene is sampled on a lattice of 2 points per
+  //   pixel, 1/sqrt(2) px apart (the pixel centres, so the centre ray is also
+  //   the truth ray, and the pixel corners); each lattice point stands for the
+  //   scene averaged over its cell: the albedo texture and the terrain normal
+  //   are low-passed at the cell's ground footprint (a Gaussian of the cell's
+  //   variance), and where neighbouring points see a different surface or
+  //   shadow state, the cell is split into adaptive_samples_per_cell_axis^2
+  //   rays, each with its own shadow state (render_camera.cc). The
   //   pixel is the cells' sum weighted by the pixel response over each cell
   //   (optics.h), with the optics' Gaussian narrowed by the cell filter's
   //   variance so that the rendered blur is the configured one.
@@ -155,7 +155,7 @@ class CameraRays {
 
 struct RenderStats {
   std::int64_t camera_rays = 0;  // rays cast from the camera (pixel centres + sub-pixel samples)
-  std::int64_t shadow_rays = 0;  // rays cast toward the sun
+  std::int64_t shadow_rays = 0;  // sun queries: the terrain's shadow heights, then a shadow ray through the rocks
   std::int64_t split_cells = 0;  // kCamera: lattice cells split for discontinuities
   double wall_s = 0.0;          // wall-clock time of RenderFrame (incl. CameraRays if built there)
 };
@@ -179,8 +179,9 @@ struct RenderedFrame {
 // Renders one frame of `scene` (which `raycaster` must have been built from)
 // seen by `camera` at pose cam_from_local. The camera centre is
 // cam_from_local.Inverse().translation. Each pixel is the mean of its n x n
-// sub-pixel rays: reflectance LunarLambertReflectance (0 in cast shadow;
-// shadow rays start SceneRaycaster::kShadowRayOffsetM along the normal) plus
+// sub-pixel rays: reflectance LunarLambertReflectance (0 in cast shadow: the
+// terrain's by its shadow heights, TerrainShadows, the rocks' by a shadow ray;
+// both from SceneRaycaster::kShadowRayOffsetM along the normal) plus
 // the ambient term, times the exposure, then sensor noise seeded by
 // HashUniform(noise_seed, pixel index). Every pixel is a pure function of its
 // inputs, so the output is byte-identical for any options.threads. `progress`
@@ -193,11 +194,14 @@ RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, c
                           std::uint64_t noise_seed,
                           const std::function<void(double fraction_done)>& progress = {});
 
-// The same with bearings built beforehand (faster for a sequence of frames).
-// Throws InputError also when `rays` is empty (0 x 0).
+// The same with bearings built beforehand, and the terrain's shadows for the
+// options' sun (made here when null): faster for a sequence of frames, which
+// can share both. Throws InputError also when `rays` is empty (0 x 0), or
+// `shadows` is for another sun or DEM.
 RenderedFrame RenderFrame(const SceneRaycaster& raycaster, const Scene& scene, const CameraRays& rays,
                           const Rigid3d& cam_from_local, const RenderOptions& options,
                           std::uint64_t noise_seed,
-                          const std::function<void(double fraction_done)>& progress = {});
+                          const std::function<void(double fraction_done)>& progress = {},
+                          const TerrainShadows* shadows = nullptr);
 
 }  // namespace hdabench::datasets::synth

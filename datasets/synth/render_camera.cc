@@ -93,8 +93,7 @@ bool CastCameraRay(const FrameContext& frame, const Eigen::Vector3d& bearing_in_
 bool CastShadow(const FrameContext& frame, const RayHit& hit, ShadowMode shadow_mode, std::int64_t* shadow_rays) {
   if (shadow_mode != ShadowMode::kTrace) return shadow_mode == ShadowMode::kAssumeShadowed;
   ++*shadow_rays;
-  const Eigen::Vector3d start = hit.point_in_local_m + SceneRaycaster::kShadowRayOffsetM * hit.normal_in_local;
-  return frame.raycaster->Occluded(start, frame.sun_in_local, std::numeric_limits<double>::infinity());
+  return SunBlocked(frame, hit);
 }
 
 // Shades the hit of `sample` (cast by CastCameraRay along `bearing_in_cam`)
@@ -154,6 +153,37 @@ ShadowMode ShadowModeAt(const cv::Mat& shadow_mask, double x_px, double y_px) {
   const int col = static_cast<int>(std::floor(x_px));
   const int row = static_cast<int>(std::floor(y_px));
   return ShadowModeOfBox(shadow_mask, row - 1, row + 2, col - 1, col + 2);
+}
+
+// Where a ray from `origin` along unit `direction` meets the terrain near
+// hit->point_in_local_m, a point of the surface whose triangle's normal is
+// hit->normal_in_local: the ray meets that plane, the point found there is
+// brought onto the surface (straight up or down) with its own triangle's
+// plane, and so on, until the point lies on the plane it was found on: the
+// ray's intersection with that triangle. Without a surface in front of it
+// (as when the rays around it meet the same terrain), that is the ray's hit.
+// False when the steps do not settle in kSettleSteps, or the ray meets a
+// plane edge-on or from behind.
+constexpr int kSettleSteps = 4;
+bool SettleOnTerrain(const Heightfield& dem, const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
+                     RayHit* hit) {
+  for (int step = 0; step < kSettleSteps; ++step) {
+    const double approach = hit->normal_in_local.dot(direction);
+    const double offset = hit->normal_in_local.dot(hit->point_in_local_m - origin);
+    if (!(approach < 0.0) || !(offset < 0.0)) return false;
+    const Eigen::Vector3d point = origin + (offset / approach) * direction;
+    double ground_m;
+    Eigen::Vector3d normal;
+    if (!dem.HeightAt(point.x(), point.y(), &ground_m) || !dem.NormalAt(point.x(), point.y(), &normal)) return false;
+    const bool settled = normal == hit->normal_in_local && std::abs(point.z() - ground_m) <= 1e-9;
+    hit->point_in_local_m = Eigen::Vector3d(point.x(), point.y(), ground_m);
+    hit->normal_in_local = normal;
+    if (settled) {
+      hit->distance_m = offset / approach;
+      return true;
+    }
+  }
+  return false;
 }
 
 // Per-row counters, each written by the worker of that row only.
@@ -257,16 +287,22 @@ void TraceLattice(const FrameContext& context, const Scene& scene, const CameraR
       });
 }
 
-// Whether the cells of two neighbouring points may hold a discontinuity
-// between them: they see another surface (terrain, a rock, another rock,
-// nothing) or another cast-shadow state.
-bool Discontinuous(const SubLattice& a, size_t ia, const SubLattice& b, size_t ib) {
-  return a.surface[ia] != b.surface[ib] || a.blocked[ia] != b.blocked[ib];
+// How a cell's point and a neighbour's differ: kSurfaceEdge when they see
+// another surface (terrain, a rock, another rock, nothing), kShadowEdge when
+// they see terrain both and another cast-shadow state.
+constexpr unsigned char kNoEdge = 0;
+constexpr unsigned char kSurfaceEdge = 1;
+constexpr unsigned char kShadowEdge = 2;
+
+unsigned char EdgeBetween(const SubLattice& a, size_t ia, const SubLattice& b, size_t ib) {
+  if (a.surface[ia] != b.surface[ib]) return kSurfaceEdge;
+  if (a.blocked[ia] != b.blocked[ib]) return a.surface[ia] == kTerrain ? kShadowEdge : kSurfaceEdge;
+  return kNoEdge;
 }
 
 // Pass 3: marks the cells with a discontinuity toward one of their four
-// diagonal neighbours (reads pass 2's values only; row j writes the marks of
-// A row j and B row j).
+// diagonal neighbours, kSurfaceEdge over kShadowEdge (reads pass 2's values
+// only; row j writes the marks of A row j and B row j).
 void MarkSplitCells(const RenderOptions& options, Lattice* lattice) {
   SubLattice& a = lattice->centres;
   SubLattice& b = lattice->corners;
@@ -274,26 +310,25 @@ void MarkSplitCells(const RenderOptions& options, Lattice* lattice) {
     if (j < a.rows) {
       for (int i = 0; i < a.cols; ++i) {
         const size_t index = a.Index(i, j);
-        a.split[index] = Discontinuous(a, index, b, b.Index(i, j)) ||
-                                 Discontinuous(a, index, b, b.Index(i + 1, j)) ||
-                                 Discontinuous(a, index, b, b.Index(i, j + 1)) ||
-                                 Discontinuous(a, index, b, b.Index(i + 1, j + 1))
-                             ? 1
-                             : 0;
+        unsigned char edge = kNoEdge;
+        for (const size_t neighbour : {b.Index(i, j), b.Index(i + 1, j), b.Index(i, j + 1), b.Index(i + 1, j + 1)}) {
+          edge = std::max(edge, EdgeBetween(a, index, b, neighbour));
+        }
+        a.split[index] = edge;
       }
     }
     for (int i = 0; i < b.cols; ++i) {
       const size_t index = b.Index(i, j);
-      bool split = false;
-      for (int dj = -1; dj <= 0 && !split; ++dj) {
-        for (int di = -1; di <= 0 && !split; ++di) {
+      unsigned char edge = kNoEdge;
+      for (int dj = -1; dj <= 0; ++dj) {
+        for (int di = -1; di <= 0; ++di) {
           const int ai = i + di;
           const int aj = j + dj;
           if (ai < 0 || aj < 0 || ai >= a.cols || aj >= a.rows) continue;
-          split = Discontinuous(b, index, a, a.Index(ai, aj));
+          edge = std::max(edge, EdgeBetween(b, index, a, a.Index(ai, aj)));
         }
       }
-      b.split[index] = split ? 1 : 0;
+      b.split[index] = edge;
     }
   });
 }
@@ -303,6 +338,10 @@ void MarkSplitCells(const RenderOptions& options, Lattice* lattice) {
 // meets the terrain where the cell's own point did keeps the cell's
 // low-passed shading (its albedo and normal are the cell's average already)
 // with its own cast-shadow state; any other ray is shaded for its sub-cell.
+// A cell split for a shadow edge alone (it and its neighbours see terrain)
+// casts one camera ray, its own point's: each sub-ray is settled on the
+// terrain from that hit (SettleOnTerrain), cast only where it does not
+// settle, and asks the sun from its own point.
 void SplitCells(const FrameContext& context, const Scene& scene, const CameraRays& rays,
                 const RenderOptions& options, const cv::Mat& shadow_mask, const FrameProgress& progress,
                 Lattice* lattice, RowCounters* counters) {
@@ -314,26 +353,63 @@ void SplitCells(const FrameContext& context, const Scene& scene, const CameraRay
       const size_t index = sub->Index(i, j);
       if (!sub->split[index]) continue;
       ++*split_cells;
-      double sum = 0.0;
-      for (int k = 0; k < m * m; ++k) {
+      const double lit_direct = sub->lit_direct[index];
+      const double ambient = sub->ambient[index];
+      // Sub-ray k: its bearing and shadow mode; traced(k): its reflectance
+      // from its own camera ray.
+      const auto sub_ray = [&](int k, double* pixel_angle_rad, ShadowMode* shadow_mode) {
         const double u = (k % m + 0.5) / m - 0.5;  // along (1, 1) / 2
         const double v = (k / m + 0.5) / m - 0.5;  // along (1, -1) / 2
         const double x = sub->X(i) + 0.5 * (u + v);
         const double y = sub->Y(j) + 0.5 * (u - v);
+        *shadow_mode = ShadowModeAt(shadow_mask, x, y);
+        return rays.BearingAt(x, y, pixel_angle_rad);
+      };
+      const auto traced = [&](int k) {
         double pixel_angle_rad = 0.0;
-        const Eigen::Vector3d bearing = rays.BearingAt(x, y, &pixel_angle_rad);
-        const ShadowMode shadow_mode = ShadowModeAt(shadow_mask, x, y);
+        ShadowMode shadow_mode;
+        const Eigen::Vector3d bearing = sub_ray(k, &pixel_angle_rad, &shadow_mode);
         ++*camera_rays;
         CellSample sample;
-        if (!CastCameraRay(context, bearing, &sample)) continue;  // nothing: no light
+        if (!CastCameraRay(context, bearing, &sample)) return 0.0;  // nothing: no light
         if (sub->surface[index] == kTerrain && sample.ray_hit.rock_index < 0) {
-          const double lit_direct = sub->lit_direct[index];
           const bool cast = lit_direct > 0.0 && CastShadow(context, sample.ray_hit, shadow_mode, shadow_rays);
-          sum += (cast ? 0.0 : lit_direct) + double{sub->ambient[index]};
-          continue;
+          return (cast ? 0.0 : lit_direct) + ambient;
         }
         ShadeHit(context, scene, bearing, pixel_angle_rad, sub_cell_px, shadow_mode, shadow_rays, &sample);
-        sum += sample.reflectance;
+        return sample.reflectance;
+      };
+      // A shadow edge's sub-rays, each settled on the terrain from the cell's
+      // own point (SettleOnTerrain) instead of cast; false when that point's
+      // ray does not meet the terrain.
+      const auto on_facet = [&](double* sum) {
+        double pixel_angle_rad = 0.0;
+        CellSample own;
+        ++*camera_rays;
+        if (!CastCameraRay(context, rays.BearingAt(sub->X(i), sub->Y(j), &pixel_angle_rad), &own) ||
+            own.ray_hit.rock_index >= 0) {
+          return false;
+        }
+        for (int k = 0; k < m * m; ++k) {
+          ShadowMode shadow_mode;
+          const Eigen::Vector3d direction =
+              (context.local_from_cam * sub_ray(k, &pixel_angle_rad, &shadow_mode)).normalized();
+          RayHit hit = own.ray_hit;
+          if (!SettleOnTerrain(scene.dem, context.camera_in_local, direction, &hit)) {
+            *sum += traced(k);
+            continue;
+          }
+          const bool cast = CastShadow(context, hit, shadow_mode, shadow_rays);
+          *sum += (cast ? 0.0 : lit_direct) + ambient;
+        }
+        return true;
+      };
+      double sum = 0.0;
+      if (sub->split[index] == kShadowEdge && lit_direct <= 0.0) {
+        sum = m * m * ambient;  // no direct light to hide
+      } else if (sub->split[index] != kShadowEdge || !on_facet(&sum)) {
+        sum = 0.0;
+        for (int k = 0; k < m * m; ++k) sum += traced(k);
       }
       sub->radiance[index] = static_cast<float>(sum / (m * m));
     }

@@ -12,6 +12,7 @@
 #include "calib/rigid3.h"
 #include "datasets/synth/raycast.h"
 #include "datasets/synth/render.h"
+#include "datasets/synth/sun_shadows.h"
 
 namespace hdabench::datasets::synth::internal {
 
@@ -25,6 +26,7 @@ struct Sample {
 
 struct FrameContext {
   const SceneRaycaster* raycaster;
+  const TerrainShadows* shadows;  // for sun_in_local
   Eigen::Matrix3d local_from_cam;
   Eigen::Vector3d camera_in_local;
   Eigen::Vector3d sun_in_local;
@@ -40,6 +42,11 @@ enum class ShadowMode {
 
 using FrameProgress = std::function<void(double fraction_done)>;
 
+// Whether another surface hides the sun from `hit`: the terrain's shadow
+// height at the point just above the facet (kShadowRayOffsetM along its
+// normal), then a shadow ray toward the rocks.
+bool SunBlocked(const FrameContext& frame, const RayHit& hit);
+
 // Casts the camera ray of `bearing_in_cam`, then (by `shadow_mode`) its shadow
 // ray. Without `shade`, only the geometry and the shadow flag (no albedo, no
 // reflectance).
@@ -47,8 +54,9 @@ Sample Shade(const FrameContext& frame, const Eigen::Vector3d& bearing_in_cam, b
              ShadowMode shadow_mode, std::int64_t* shadow_rays);
 
 // The camera pose, sun and fill light of one frame, as Shade() reads them.
-FrameContext MakeFrameContext(const SceneRaycaster& raycaster, const Rigid3d& cam_from_local,
-                              const RenderOptions& options);
+// `shadows` must be for the options' sun.
+FrameContext MakeFrameContext(const SceneRaycaster& raycaster, const TerrainShadows& shadows,
+                              const Rigid3d& cam_from_local, const RenderOptions& options);
 
 // Allocates the image and the per-pixel truth of a width x height frame.
 void AllocateFrame(int width, int height, int bit_depth, RenderedFrame* frame);

@@ -53,39 +53,31 @@ bool Heightfield::NormalAt(double x_m, double y_m, Eigen::Vector3d* normal) cons
   return true;
 }
 
-namespace {
-
-// The triangulated surface's height at column coordinate u and row
-// coordinate v (in node units): the same surface as HeightAt, interpolated
-// within the cell's triangle (cheaper, equal to rounding). False outside.
-bool SurfaceHeight(const Heightfield& dem, double u, double v, double* z_m) {
-  if (!(u >= 0.0 && v >= 0.0 && u <= dem.width - 1 && v <= dem.height - 1)) return false;
-  const int c = std::min(static_cast<int>(u), dem.width - 2);
-  const int r = std::min(static_cast<int>(v), dem.height - 2);
+bool Heightfield::HeightAtGrid(double u, double v, double* z_m) const {
+  if (width < 2 || height < 2 || !(u >= 0.0 && v >= 0.0 && u <= width - 1 && v <= height - 1)) return false;
+  const int c = std::min(static_cast<int>(u), width - 2);
+  const int r = std::min(static_cast<int>(v), height - 2);
   const double fu = u - c;
   const double fv = v - r;
-  const double z00 = dem.At(r, c);
-  const double z11 = dem.At(r + 1, c + 1);
+  const double z00 = At(r, c);
+  const double z11 = At(r + 1, c + 1);
   if (fu >= fv) {
-    const double z01 = dem.At(r, c + 1);
+    const double z01 = At(r, c + 1);
     *z_m = z00 + fu * (z01 - z00) + fv * (z11 - z01);
   } else {
-    const double z10 = dem.At(r + 1, c);
+    const double z10 = At(r + 1, c);
     *z_m = z00 + fv * (z10 - z00) + fu * (z11 - z10);
   }
   return true;
 }
-
-}  // namespace
 
 bool Heightfield::MeanNormalAt(double x_m, double y_m, double half_width_m, Eigen::Vector3d* normal) const {
   double east = 0.0, west = 0.0, north = 0.0, south = 0.0;
   const double u = (x_m - origin_x_m) / spacing_m;
   const double v = (origin_y_m - y_m) / spacing_m;
   const double h = half_width_m / spacing_m;
-  if (width < 2 || height < 2 || !(h > 0.0) || !SurfaceHeight(*this, u + h, v, &east) ||
-      !SurfaceHeight(*this, u - h, v, &west) || !SurfaceHeight(*this, u, v - h, &north) ||
-      !SurfaceHeight(*this, u, v + h, &south)) {
+  if (!(h > 0.0) || !HeightAtGrid(u + h, v, &east) || !HeightAtGrid(u - h, v, &west) ||
+      !HeightAtGrid(u, v - h, &north) || !HeightAtGrid(u, v + h, &south)) {
     return NormalAt(x_m, y_m, normal);
   }
   const double dz_dx = (east - west) / (2.0 * half_width_m);

@@ -27,6 +27,9 @@ struct Heightfield {
   float At(int row, int col) const { return height_m[static_cast<size_t>(row) * width + col]; }
   // Height of the triangulated surface at (x, y); false outside the grid.
   bool HeightAt(double x_m, double y_m, double* z_m) const;
+  // The same at column coordinate u = (x - origin_x_m) / spacing_m and row
+  // coordinate v = (origin_y_m - y) / spacing_m (equal to rounding; cheaper).
+  bool HeightAtGrid(double u, double v, double* z_m) const;
   // Upward unit normal of the triangle under (x, y); false outside the grid.
   bool NormalAt(double x_m, double y_m, Eigen::Vector3d* normal) const;
   // Upward unit normal of the surface averaged over a square of side

@@ -614,12 +614,13 @@ double RenderFrames(const SceneRaycaster& raycaster, const Scene& scene, const c
   Report(progress, "render", 0.0);
   const auto t_render = std::chrono::steady_clock::now();
   const CameraRays rays(camera, threads);
+  const TerrainShadows shadows(scene.dem, SunDirectionInLocal(render.sun_azimuth_deg, render.sun_elevation_deg));
   for (int k = 0; k < num_chosen; ++k) {
     const int i = chosen[static_cast<size_t>(k)];
     const RenderedFrame rendered = RenderFrame(
         raycaster, scene, rays, frames.cams_from_local[static_cast<size_t>(i)], render,
         Mix64(seed ^ kRenderStream) + static_cast<std::uint64_t>(i),
-        [&](double fraction) { Report(progress, "render", (k + fraction) / num_chosen); });
+        [&](double fraction) { Report(progress, "render", (k + fraction) / num_chosen); }, &shadows);
     dataset->frames[static_cast<size_t>(i)].image = rendered.image;
     TruthPoints points;
     points.frame = i;

@@ -16,6 +16,7 @@
 #include "datasets/synth/raycast.h"
 #include "datasets/synth/render.h"
 #include "datasets/synth/scene.h"
+#include "datasets/synth/sun_shadows.h"
 #include "tools/util/angles.h"
 
 namespace hdabench::datasets::synth {
@@ -91,7 +92,8 @@ const BenchScene& GetBenchScene() {
   return *bench;
 }
 
-// One frame, bearings built beforehand (as for a sequence); Arg = threads.
+// One frame, bearings and the terrain's shadow heights built beforehand (as
+// for a sequence); Arg = threads.
 // The default pixel formation (the camera model), and point sampling
 // (quincunx) for comparison.
 void RenderFrame1024(benchmark::State& state, RenderOptions::AntiAliasing anti_aliasing) {
@@ -100,11 +102,13 @@ void RenderFrame1024(benchmark::State& state, RenderOptions::AntiAliasing anti_a
   options.anti_aliasing = anti_aliasing;
   options.threads = static_cast<int>(state.range(0));
   const CameraRays rays(*bench.camera, options.threads);
+  const TerrainShadows shadows(bench.scene.dem,
+                               SunDirectionInLocal(options.sun_azimuth_deg, options.sun_elevation_deg));
   std::uint64_t seed = 0;
   RenderStats stats;
   for (auto _ : state) {
     const RenderedFrame frame =
-        RenderFrame(*bench.raycaster, bench.scene, rays, bench.cam_from_local, options, ++seed);
+        RenderFrame(*bench.raycaster, bench.scene, rays, bench.cam_from_local, options, ++seed, {}, &shadows);
     stats = frame.stats;
     benchmark::DoNotOptimize(frame.image.data);
   }

@@ -380,8 +380,8 @@ void SplitCells(const FrameContext& context, const Scene& scene, const CameraRay
         return sample.reflectance;
       };
       // A shadow edge's sub-rays, each settled on the terrain from the cell's
-      // own point (SettleOnTerrain) instead of cast; false when that point's
-      // ray does not meet the terrain.
+      // own point (SettleOnTerrain) instead of cast; false, *sum untouched,
+      // when that point's ray does not meet the terrain.
       const auto on_facet = [&](double* sum) {
         double pixel_angle_rad = 0.0;
         CellSample own;
@@ -408,7 +408,6 @@ void SplitCells(const FrameContext& context, const Scene& scene, const CameraRay
       if (sub->split[index] == kShadowEdge && lit_direct <= 0.0) {
         sum = m * m * ambient;  // no direct light to hide
       } else if (sub->split[index] != kShadowEdge || !on_facet(&sum)) {
-        sum = 0.0;
         for (int k = 0; k < m * m; ++k) sum += traced(k);
       }
       sub->radiance[index] = static_cast<float>(sum / (m * m));

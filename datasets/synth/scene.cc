@@ -59,15 +59,7 @@ bool Heightfield::HeightAtGrid(double u, double v, double* z_m) const {
   const int r = std::min(static_cast<int>(v), height - 2);
   const double fu = u - c;
   const double fv = v - r;
-  const double z00 = At(r, c);
-  const double z11 = At(r + 1, c + 1);
-  if (fu >= fv) {
-    const double z01 = At(r, c + 1);
-    *z_m = z00 + fu * (z01 - z00) + fv * (z11 - z01);
-  } else {
-    const double z10 = At(r + 1, c);
-    *z_m = z00 + fv * (z10 - z00) + fu * (z11 - z10);
-  }
+  *z_m = CellSurfaceHeight(At(r, c), At(r, c + 1), At(r + 1, c), At(r + 1, c + 1), fu, fv);
   return true;
 }
 

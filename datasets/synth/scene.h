@@ -43,6 +43,14 @@ struct Heightfield {
   double MaxYM() const { return origin_y_m; }
 };
 
+// The height of a cell's two triangles (split along the diagonal from its
+// node (r, c) to (r+1, c+1)) at fractions fu along x and fv along -y of the
+// cell, from its corners z00 = (r, c), z01 = (r, c+1), z10 = (r+1, c) and
+// z11 = (r+1, c+1).
+inline double CellSurfaceHeight(double z00, double z01, double z10, double z11, double fu, double fv) {
+  return fu >= fv ? z00 + fu * (z01 - z00) + fv * (z11 - z01) : z00 + fv * (z10 - z00) + fu * (z11 - z10);
+}
+
 // A rock: a sphere partly buried in the terrain. What stands above the ground
 // is a spherical cap; it blocks light and rays like any other surface.
 struct Rock {

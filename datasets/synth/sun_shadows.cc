@@ -25,7 +25,6 @@ TerrainShadows::TerrainShadows(const Heightfield& dem, const Eigen::Vector3d& su
   const double sy = sun_in_local.y();
   const double sz = sun_in_local.z();
   if (!(std::hypot(sx, sy) > 1e-12) || !(sz > 0.0)) return;  // overhead, or not up: no cast shadow
-  casts_ = true;
   // Lines are columns (u) when the sun is nearer east or west, else rows (v,
   // which grows southward, against y); a step goes one line sunward and
   // drift_ positions along the line (|drift_| <= 1).
@@ -116,7 +115,7 @@ double TerrainShadows::SegmentTop(double u0, double v0, double u1, double v1, do
 }
 
 bool TerrainShadows::Hidden(const Eigen::Vector3d& point_in_local_m) const {
-  if (shadow_height_m_.empty() || !casts_) return false;
+  if (shadow_height_m_.empty()) return false;
   double u = (point_in_local_m.x() - dem_.origin_x_m) / dem_.spacing_m;
   double v = (dem_.origin_y_m - point_in_local_m.y()) / dem_.spacing_m;
   if (!(u >= 0.0 && v >= 0.0 && u <= dem_.width - 1 && v <= dem_.height - 1)) return false;
@@ -164,16 +163,10 @@ bool TerrainShadows::HiddenAlongGrid(double u, double v, double z) const {
     const double step_rise_m = std::abs(next - line) * rise_m_;
     // The surface over the cell is no higher than its corners.
     if (std::max(std::max(h00, h10), std::max(h01, h11)) - rise_m > z) {
-      // The cell's triangles in grid terms: u along columns, v along rows,
-      // split along u = v (Heightfield::HeightAtGrid); (line, position)
-      // are (u, v) or (v, u).
+      // (line, position) are (u, v) or (v, u); h10 is the node one line on.
       const auto surface = [&](double f_line) {
-        const double fu = along_columns_ ? f_line : f_position;
-        const double fv = along_columns_ ? f_position : f_line;
-        const double z00 = h00, z11 = h11;
-        const double z01 = along_columns_ ? h10 : h01;  // node (v0, u0 + 1)
-        const double z10 = along_columns_ ? h01 : h10;  // node (v0 + 1, u0)
-        return fu >= fv ? z00 + fu * (z01 - z00) + fv * (z11 - z01) : z00 + fv * (z10 - z00) + fu * (z11 - z10);
+        return along_columns_ ? CellSurfaceHeight(h00, h10, h01, h11, f_line, f_position)
+                              : CellSurfaceHeight(h00, h01, h10, h11, f_position, f_line);
       };
       const double f_start = line - l0;
       const double f_end = next - l0;

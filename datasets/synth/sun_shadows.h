@@ -72,12 +72,11 @@ class TerrainShadows {
 
   const Heightfield& dem_;
   Eigen::Vector3d sun_in_local_;
-  bool casts_ = false;          // the sun is up and not overhead, the DEM usable
   bool along_columns_ = true;   // lines are columns, positions rows; else the reverse
   int line_step_ = 1;           // +1 or -1 line per step sunward
   double drift_ = 0.0;          // positions per step
   double rise_m_ = 0.0;         // the sun ray's rise per step
-  std::vector<float> shadow_height_m_;  // as dem_.height_m; -1e30: nothing sunward
+  std::vector<float> shadow_height_m_;  // as dem_.height_m; -1e30: nothing sunward; empty: no cast shadow
 };
 
 }  // namespace hdabench::datasets::synth
